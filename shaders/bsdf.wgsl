@@ -1,0 +1,52 @@
+// Bevy StandardMaterial as a BSDF: Lambert diffuse, GGX specular (F0 = 0.16·reflectance² for
+// dielectrics, base colour for metals), and delta lobes below DELTA_ROUGHNESS.
+#define_import_path bevy_rppm::bsdf
+
+#import bevy_rppm::common::{Material, PI}
+
+// Below this perceptual roughness the specular lobe is a perfect mirror: it carries no light
+// from a point in a direction other than the mirror one, so evaluation gives zero.
+const DELTA_ROUGHNESS: f32 = 0.02;
+
+fn specular_f0(m: Material) -> vec3<f32> {
+    let dielectric = vec3<f32>(0.16 * m.reflectance * m.reflectance);
+    return mix(dielectric, m.base_color.rgb, m.metallic);
+}
+
+fn fresnel_schlick(f0: vec3<f32>, cos_theta: f32) -> vec3<f32> {
+    let f = pow(1.0 - clamp(cos_theta, 0.0, 1.0), 5.0);
+    return f0 + (vec3<f32>(1.0) - f0) * f;
+}
+
+fn ggx_d(n_dot_h: f32, a: f32) -> f32 {
+    let a2 = a * a;
+    let d = n_dot_h * n_dot_h * (a2 - 1.0) + 1.0;
+    return a2 / (PI * d * d);
+}
+
+// Height-correlated Smith visibility, V = G / (4 cosθi cosθo).
+fn smith_visibility(n_dot_v: f32, n_dot_l: f32, a: f32) -> f32 {
+    let a2 = a * a;
+    let gv = n_dot_l * sqrt(n_dot_v * n_dot_v * (1.0 - a2) + a2);
+    let gl = n_dot_v * sqrt(n_dot_l * n_dot_l * (1.0 - a2) + a2);
+    return 0.5 / max(gv + gl, 1e-8);
+}
+
+// f(wo, wi), without the cosine. wo and wi point away from the surface.
+fn bsdf_eval(m: Material, n: vec3<f32>, wo: vec3<f32>, wi: vec3<f32>) -> vec3<f32> {
+    let n_dot_l = dot(n, wi);
+    let n_dot_v = dot(n, wo);
+    if n_dot_l <= 0.0 || n_dot_v <= 0.0 {
+        return vec3<f32>(0.0);
+    }
+    let diffuse_weight = (1.0 - m.metallic) * (1.0 - m.specular_transmission);
+    var f = m.base_color.rgb * (diffuse_weight / PI);
+    if m.perceptual_roughness >= DELTA_ROUGHNESS {
+        let a = m.perceptual_roughness * m.perceptual_roughness;
+        let h = normalize(wi + wo);
+        let d = ggx_d(max(dot(n, h), 0.0), a);
+        let v = smith_visibility(n_dot_v, n_dot_l, a);
+        f += d * v * fresnel_schlick(specular_f0(m), dot(wo, h));
+    }
+    return f;
+}

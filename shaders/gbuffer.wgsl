@@ -1,0 +1,49 @@
+// Camera G-buffer: world position, shading normal, material and pixel footprint, rasterised
+// with this iteration's sub-pixel jitter (baked into clip_from_world).
+#import bevy_rppm::common::{Triangle, IterationParams, triangle_position, triangle_normal}
+
+@group(0) @binding(0) var<storage, read> triangles: array<Triangle>;
+@group(1) @binding(0) var<uniform> params: IterationParams;
+
+struct VertexOut {
+    @builtin(position) clip: vec4<f32>,
+    @location(0) world: vec3<f32>,
+    @location(1) normal: vec3<f32>,
+    @location(2) @interpolate(flat) material: u32,
+}
+
+@vertex
+fn vertex(@builtin(vertex_index) vertex: u32) -> VertexOut {
+    let t = triangles[vertex / 3u];
+    let corner = vertex % 3u;
+    var out: VertexOut;
+    out.world = triangle_position(t, corner);
+    out.normal = triangle_normal(t, corner);
+    out.material = t.material;
+    out.clip = params.clip_from_world * vec4<f32>(out.world, 1.0);
+    return out;
+}
+
+struct GBuffer {
+    // xyz: world position; w: ±(material + 1), negative when the back face is seen, 0 = miss.
+    @location(0) position: vec4<f32>,
+    // xyz: shading normal facing the camera; w: footprint, the world size of this pixel.
+    @location(1) normal: vec4<f32>,
+}
+
+@fragment
+fn fragment(in: VertexOut, @builtin(front_facing) front: bool) -> GBuffer {
+    var n = normalize(in.normal);
+    if !front {
+        n = -n;
+    }
+    var footprint = params.pixel_spread;
+    if params.orthographic == 0u {
+        footprint *= distance(in.world, params.camera_position.xyz);
+    }
+    let tag = f32(in.material + 1u);
+    var out: GBuffer;
+    out.position = vec4<f32>(in.world, select(-tag, tag, front));
+    out.normal = vec4<f32>(n, footprint);
+    return out;
+}

@@ -1,0 +1,12 @@
+// Shadow maps: depth of every scene triangle seen from one shadow view. The view index arrives
+// as the instance index, so one pipeline serves every light and face.
+#import bevy_rppm::common::{Triangle, ShadowView, triangle_position}
+
+@group(0) @binding(0) var<storage, read> triangles: array<Triangle>;
+@group(0) @binding(1) var<storage, read> shadow_views: array<ShadowView>;
+
+@vertex
+fn vertex(@builtin(vertex_index) vertex: u32, @builtin(instance_index) view: u32) -> @builtin(position) vec4<f32> {
+    let t = triangles[vertex / 3u];
+    return shadow_views[view].clip_from_world * vec4<f32>(triangle_position(t, vertex % 3u), 1.0);
+}

@@ -1,0 +1,234 @@
+//! `rppm`: render a glTF scene headless with progressive photon mapping.
+//!
+//! ```text
+//! rppm render SCENE.gltf [--width W] [--height H] [--iterations N | --time-budget SECONDS]
+//!                        [--out FILE.exr|FILE.png]... [--stats FILE.json]
+//! rppm                   renders assets/cornell_box.gltf to out/cornell_box.{exr,png,json}
+//! ```
+
+use std::io::Write;
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use bevy_rppm::PhotonMapping;
+use bevy_rppm::headless::{Budget, RenderRequest, RenderResult, render_gltf};
+use bevy_rppm::image_io::{bad_pixels, write_exr, write_png};
+
+const USAGE: &str = "usage: rppm render SCENE.gltf [--width W] [--height H] \
+[--iterations N | --time-budget SECONDS] [--out FILE.exr|FILE.png]... [--stats FILE.json]";
+
+const DEFAULT_SCENE: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/assets/cornell_box.gltf");
+
+struct Args {
+    request: RenderRequest,
+    outputs: Vec<PathBuf>,
+    stats: Option<PathBuf>,
+}
+
+fn main() -> ExitCode {
+    let argv: Vec<String> = std::env::args().skip(1).collect();
+    let parsed = match argv.first().map(String::as_str) {
+        None => Ok(default_args()),
+        Some("render") => parse_render(&argv[1..]),
+        Some("-h" | "--help" | "help") => {
+            println!("{USAGE}");
+            return ExitCode::SUCCESS;
+        }
+        Some(other) => Err(format!("unknown command '{other}'\n{USAGE}")),
+    };
+    let result = parsed.and_then(|args| run(&args));
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(message) => {
+            eprintln!("rppm: error: {message}");
+            ExitCode::from(2)
+        }
+    }
+}
+
+fn default_args() -> Args {
+    let out = PathBuf::from("out");
+    Args {
+        request: RenderRequest {
+            scene: PathBuf::from(DEFAULT_SCENE),
+            width: 512,
+            height: 512,
+            budget: Budget::Iterations(64),
+            settings: PhotonMapping::default(),
+        },
+        outputs: vec![out.join("cornell_box.exr"), out.join("cornell_box.png")],
+        stats: Some(out.join("cornell_box.json")),
+    }
+}
+
+fn value<'a>(args: &'a [String], i: usize, flag: &str) -> Result<&'a str, String> {
+    args.get(i + 1)
+        .map(String::as_str)
+        .ok_or_else(|| format!("{flag} needs a value\n{USAGE}"))
+}
+
+fn number<T: std::str::FromStr>(text: &str, flag: &str) -> Result<T, String> {
+    text.parse()
+        .map_err(|_| format!("{flag}: '{text}' is not a valid number"))
+}
+
+fn parse_render(args: &[String]) -> Result<Args, String> {
+    let mut scene = None;
+    let (mut width, mut height) = (512u32, 512u32);
+    let mut budget = None;
+    let mut outputs = Vec::new();
+    let mut stats = None;
+    let mut i = 0;
+    while i < args.len() {
+        let flag = args[i].as_str();
+        match flag {
+            "--width" => width = number(value(args, i, flag)?, flag)?,
+            "--height" => height = number(value(args, i, flag)?, flag)?,
+            "--iterations" => {
+                let n: u32 = number(value(args, i, flag)?, flag)?;
+                if n == 0 {
+                    return Err("--iterations must be at least 1".into());
+                }
+                budget = set_budget(budget, Budget::Iterations(n))?;
+            }
+            "--time-budget" => {
+                let s: f64 = number(value(args, i, flag)?, flag)?;
+                if !(s.is_finite() && s > 0.0) {
+                    return Err("--time-budget must be a positive number of seconds".into());
+                }
+                budget = set_budget(budget, Budget::Seconds(s))?;
+            }
+            "--out" => outputs.push(output_path(value(args, i, flag)?)?),
+            "--stats" => stats = Some(PathBuf::from(value(args, i, flag)?)),
+            _ if flag.starts_with("--") => return Err(format!("unknown option {flag}\n{USAGE}")),
+            _ if scene.is_none() => {
+                scene = Some(PathBuf::from(flag));
+                i += 1;
+                continue;
+            }
+            _ => return Err(format!("unexpected argument '{flag}'\n{USAGE}")),
+        }
+        i += 2;
+    }
+    let scene = scene.ok_or_else(|| format!("no scene given\n{USAGE}"))?;
+    Ok(Args {
+        request: RenderRequest {
+            scene,
+            width,
+            height,
+            budget: budget.unwrap_or(Budget::Iterations(16)),
+            settings: PhotonMapping::default(),
+        },
+        outputs,
+        stats,
+    })
+}
+
+fn set_budget(current: Option<Budget>, new: Budget) -> Result<Option<Budget>, String> {
+    match current {
+        None => Ok(Some(new)),
+        Some(_) => Err("give either --iterations or --time-budget, not both".into()),
+    }
+}
+
+fn output_path(text: &str) -> Result<PathBuf, String> {
+    let path = PathBuf::from(text);
+    match path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase)
+        .as_deref()
+    {
+        Some("exr" | "png") => Ok(path),
+        _ => Err(format!("--out {text}: the file must end in .exr or .png")),
+    }
+}
+
+fn run(args: &Args) -> Result<(), String> {
+    let started = std::time::Instant::now();
+    let result = render_gltf(&args.request, |iteration, budget| {
+        let line = match budget {
+            Budget::Iterations(n) => {
+                let filled = (iteration as usize * 30) / (*n as usize).max(1);
+                format!(
+                    "[{:<30}] {iteration}/{n} iterations",
+                    "#".repeat(filled.min(30))
+                )
+            }
+            Budget::Seconds(s) => format!("{iteration} iterations (budget {s} s)"),
+        };
+        eprint!("\r{line}");
+        let _ = std::io::stderr().flush();
+    })?;
+    eprintln!();
+    for path in &args.outputs {
+        if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+            std::fs::create_dir_all(dir)
+                .map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
+        }
+        match path
+            .extension()
+            .and_then(|e| e.to_str())
+            .map(str::to_ascii_lowercase)
+            .as_deref()
+        {
+            Some("png") => write_png(path, &result.image)?,
+            _ => write_exr(path, &result.image)?,
+        }
+        eprintln!("wrote {}", path.display());
+    }
+    if let Some(path) = &args.stats {
+        if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+            std::fs::create_dir_all(dir)
+                .map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
+        }
+        let json = stats_json(args, &result, started.elapsed().as_secs_f64());
+        std::fs::write(
+            path,
+            serde_json::to_string_pretty(&json).unwrap_or_default(),
+        )
+        .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+        eprintln!("wrote {}", path.display());
+    }
+    eprintln!(
+        "{} iterations in {:.2} s ({:.1} s in all) on {}",
+        result.iterations,
+        result.seconds,
+        started.elapsed().as_secs_f64(),
+        result.stats.adapter
+    );
+    Ok(())
+}
+
+fn stats_json(args: &Args, r: &RenderResult, total_seconds: f64) -> serde_json::Value {
+    serde_json::json!({
+        "scene": args.request.scene.display().to_string(),
+        "width": r.image.width,
+        "height": r.image.height,
+        "iterations": r.iterations,
+        "render_seconds": r.seconds,
+        "total_seconds": total_seconds,
+        "adapter": r.stats.adapter,
+        "gpu_timing": r.stats.gpu_timing,
+        "gpu_ms_last_frame": r.stats.stage_ms,
+        "iterations_last_frame": r.stats.iterations_this_frame,
+        "memory_bytes": r.stats.memory,
+        "camera_from_scene": r.camera_from_scene,
+        "triangles": r.triangles,
+        "lights": r.lights,
+        "emitters": r.emitters,
+        "bad_pixels": bad_pixels(&r.image),
+        "mean_rgb": mean_rgb(&r.image),
+    })
+}
+
+fn mean_rgb(image: &bevy_rppm::image_io::RgbImage) -> [f64; 3] {
+    let n = image.pixels.len().max(1) as f64;
+    let mut sum = [0.0f64; 3];
+    for p in &image.pixels {
+        for c in 0..3 {
+            sum[c] += p[c] as f64;
+        }
+    }
+    sum.map(|s| s / n)
+}

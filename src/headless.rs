@@ -1,0 +1,291 @@
+//! Headless rendering: a Bevy app with no window that loads a glTF scene, renders it with
+//! photon mapping into an offscreen target and hands back the raw radiance. The `rppm` CLI and
+//! the tests both run through here.
+
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+use bevy::asset::LoadState;
+use bevy::camera::RenderTarget;
+use bevy::core_pipeline::tonemapping::Tonemapping;
+use bevy::gltf::GltfAssetLabel;
+use bevy::prelude::*;
+use bevy::render::RenderPlugin;
+use bevy::render::render_resource::{TextureFormat, TextureUsages};
+use bevy::render::settings::RenderCreation;
+use bevy::window::ExitCondition;
+use bevy::world_serialization::{WorldAssetRoot, WorldInstanceReady};
+
+use crate::{
+    PhotonMapping, RppmPlugin, RppmRadiance, RppmReadback, RppmScene, RppmStats, ViewStats,
+};
+
+/// What to do when no GPU adapter is found.
+pub const INSTALL_HINT: &str = "no GPU adapter found. On a machine without a GPU, install Mesa's \
+     software Vulkan driver (Debian/Ubuntu: `sudo apt-get install mesa-vulkan-drivers`), then run \
+     again";
+
+/// Finds a GPU adapter the way Bevy will, before Bevy would panic without one; returns its name.
+pub fn check_gpu_adapter() -> Result<String, String> {
+    let instance = wgpu::Instance::new(wgpu::InstanceDescriptor {
+        backends: wgpu::Backends::from_env().unwrap_or(wgpu::Backends::all()),
+        ..wgpu::InstanceDescriptor::new_without_display_handle()
+    });
+    let adapter = bevy::tasks::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions {
+        power_preference: wgpu::PowerPreference::HighPerformance,
+        ..Default::default()
+    }))
+    .map_err(|e| format!("{INSTALL_HINT} ({e})"))?;
+    Ok(adapter.get_info().name)
+}
+
+/// A windowless Bevy app with the photon-mapping plugin; assets load relative to `asset_root`.
+pub fn headless_app(asset_root: &Path) -> App {
+    let mut app = App::new();
+    app.add_plugins(
+        DefaultPlugins
+            .set(AssetPlugin {
+                file_path: asset_root.display().to_string(),
+                ..default()
+            })
+            .set(WindowPlugin {
+                primary_window: None,
+                exit_condition: ExitCondition::DontExit,
+                ..default()
+            })
+            .set(RenderPlugin {
+                render_creation: RenderCreation::Automatic(Box::default()),
+                // Pipelines ready on the first frame: iteration counts are then exact.
+                synchronous_pipeline_compilation: true,
+                ..default()
+            })
+            .set(bevy::log::LogPlugin {
+                filter: "warn,wgpu=error,naga=warn,bevy_light=error,bevy_rppm=info".into(),
+                ..default()
+            }),
+    )
+    .add_plugins(RppmPlugin);
+    app.finish();
+    app.cleanup();
+    app
+}
+
+/// An offscreen colour target of the given size.
+pub fn offscreen_target(images: &mut Assets<Image>, width: u32, height: u32) -> RenderTarget {
+    let mut image = Image::new_target_texture(width, height, TextureFormat::Rgba8UnormSrgb, None);
+    image.texture_descriptor.usage |= TextureUsages::COPY_SRC;
+    RenderTarget::Image(images.add(image).into())
+}
+
+/// When a headless render stops.
+#[derive(Clone, Copy, Debug)]
+pub enum Budget {
+    Iterations(u32),
+    Seconds(f64),
+}
+
+/// A headless render of a glTF file.
+#[derive(Clone, Debug)]
+pub struct RenderRequest {
+    pub scene: PathBuf,
+    pub width: u32,
+    pub height: u32,
+    pub budget: Budget,
+    pub settings: PhotonMapping,
+}
+
+/// The result: raw radiance and what it cost.
+#[derive(Clone, Debug)]
+pub struct RenderResult {
+    pub image: crate::image_io::RgbImage,
+    pub iterations: u32,
+    /// Wall time from the first iteration to the last.
+    pub seconds: f64,
+    pub stats: ViewStats,
+    pub camera_from_scene: bool,
+    pub triangles: usize,
+    pub lights: usize,
+    pub emitters: usize,
+}
+
+/// The longest a render may go without progress before it is called stalled.
+const STALL: Duration = Duration::from_secs(120);
+
+/// Renders a glTF scene headless. Every failure is a one-line message.
+pub fn render_gltf(
+    request: &RenderRequest,
+    mut progress: impl FnMut(u32, &Budget),
+) -> Result<RenderResult, String> {
+    let scene = request.scene.as_path();
+    let meta =
+        std::fs::metadata(scene).map_err(|e| format!("cannot read {}: {e}", scene.display()))?;
+    if !meta.is_file() {
+        return Err(format!("{} is not a file", scene.display()));
+    }
+    if request.width == 0 || request.height == 0 || request.width > 16384 || request.height > 16384
+    {
+        return Err(format!(
+            "image size {}x{} is outside 1..=16384",
+            request.width, request.height
+        ));
+    }
+    check_gpu_adapter()?;
+    let absolute = std::fs::canonicalize(scene)
+        .map_err(|e| format!("cannot read {}: {e}", scene.display()))?;
+    let root = absolute.parent().unwrap_or(Path::new("/"));
+    let file = absolute
+        .file_name()
+        .map(|f| f.to_string_lossy().to_string())
+        .unwrap_or_default();
+    let mut app = headless_app(root);
+    let handle = app
+        .world()
+        .resource::<AssetServer>()
+        .load(GltfAssetLabel::Scene(0).from_asset(file));
+    let root_entity = app.world_mut().spawn(WorldAssetRoot(handle.clone())).id();
+    app.world_mut().entity_mut(root_entity).observe(
+        |_: On<WorldInstanceReady>, mut commands: Commands| {
+            commands.insert_resource(SceneReady);
+        },
+    );
+    let start = Instant::now();
+    // Load and spawn the scene.
+    while !app.world().contains_resource::<SceneReady>() {
+        app.update();
+        let state = app
+            .world()
+            .resource::<AssetServer>()
+            .get_load_state(&handle);
+        if let Some(LoadState::Failed(e)) = state {
+            return Err(format!("cannot load {}: {e}", scene.display()));
+        }
+        if start.elapsed() > STALL {
+            return Err(format!(
+                "{} did not load within {} s",
+                scene.display(),
+                STALL.as_secs()
+            ));
+        }
+    }
+    app.update(); // let extraction see the spawned meshes
+    let camera_from_scene = attach_camera(&mut app, request)?;
+    let mut query = app
+        .world_mut()
+        .query_filtered::<Entity, With<PhotonMapping>>();
+    let camera = query
+        .single(app.world())
+        .map_err(|e| format!("no camera to render from: {e}"))?;
+    run_until_done(&mut app, camera, request, &mut progress).map(|(image, stats, seconds)| {
+        let data = app.world().resource::<RppmScene>().data.clone();
+        RenderResult {
+            iterations: image.iteration,
+            image: crate::image_io::RgbImage::from_rgba(image.width, image.height, &image.pixels),
+            seconds,
+            stats,
+            camera_from_scene,
+            triangles: data.triangles.len(),
+            lights: data.lights.len(),
+            emitters: data.emitters.len(),
+        }
+    })
+}
+
+#[derive(Resource)]
+struct SceneReady;
+
+/// Renders from the scene's first camera, or from a default one: 45° vertical field of view,
+/// on the +Z side of the scene's bounds, looking down −Z at their centre. Returns whether the
+/// scene had a camera.
+fn attach_camera(app: &mut App, request: &RenderRequest) -> Result<bool, String> {
+    let world = app.world_mut();
+    let target = offscreen_target(
+        &mut world.resource_mut::<Assets<Image>>(),
+        request.width,
+        request.height,
+    );
+    let mut settings = request.settings.clone();
+    if let Budget::Iterations(n) = request.budget {
+        settings.max_iterations = Some(n);
+    }
+    let components = (target, settings, RppmReadback, Tonemapping::None, Msaa::Off);
+    let mut cameras = world.query_filtered::<Entity, With<Camera3d>>();
+    let found: Vec<Entity> = cameras.iter(world).collect();
+    if let Some(&first) = found.first() {
+        for &other in &found[1..] {
+            if let Some(mut camera) = world.get_mut::<Camera>(other) {
+                camera.is_active = false;
+            }
+        }
+        world.entity_mut(first).insert(components);
+        return Ok(true);
+    }
+    let (centre, radius) = world.resource::<RppmScene>().data.bounding_sphere();
+    let fov = std::f32::consts::FRAC_PI_4;
+    let distance = radius.max(1e-3) / (fov * 0.5).sin() * 1.05;
+    world.spawn((
+        Camera3d::default(),
+        Projection::Perspective(PerspectiveProjection { fov, ..default() }),
+        Transform::from_translation(centre + Vec3::Z * distance).looking_at(centre, Vec3::Y),
+        components,
+    ));
+    Ok(false)
+}
+
+fn run_until_done(
+    app: &mut App,
+    camera: Entity,
+    request: &RenderRequest,
+    progress: &mut impl FnMut(u32, &Budget),
+) -> Result<(crate::RadianceImage, ViewStats, f64), String> {
+    let mut first_iteration: Option<Instant> = None;
+    let mut last_progress = (0u32, Instant::now());
+    loop {
+        app.update();
+        let world = app.world();
+        let error = world
+            .resource::<RppmStats>()
+            .views
+            .get(&camera)
+            .and_then(|s| s.error.clone());
+        if let Some(error) = error {
+            return Err(error);
+        }
+        let Some(image) = world
+            .resource::<RppmRadiance>()
+            .images
+            .get(&camera)
+            .cloned()
+        else {
+            if last_progress.1.elapsed() > STALL {
+                return Err("rendering stalled: no image came back from the GPU".into());
+            }
+            continue;
+        };
+        let stats = world
+            .resource::<RppmStats>()
+            .views
+            .get(&camera)
+            .cloned()
+            .unwrap_or_default();
+        if image.iteration > 0 && first_iteration.is_none() {
+            first_iteration = Some(Instant::now());
+        }
+        if image.iteration != last_progress.0 {
+            last_progress = (image.iteration, Instant::now());
+            progress(image.iteration, &request.budget);
+        } else if last_progress.1.elapsed() > STALL {
+            return Err(format!(
+                "rendering stalled at iteration {}",
+                image.iteration
+            ));
+        }
+        let seconds = first_iteration.map_or(0.0, |t| t.elapsed().as_secs_f64());
+        let done = match request.budget {
+            Budget::Iterations(n) => image.iteration >= n,
+            Budget::Seconds(s) => image.iteration > 0 && seconds >= s,
+        };
+        if done {
+            return Ok((image, stats, seconds));
+        }
+    }
+}

@@ -1,0 +1,89 @@
+//! What the render world reports back to the main world: per-camera stats (iterations, epoch,
+//! GPU ms per stage, bytes held) and, on request, the raw radiance estimate.
+
+use std::collections::BTreeMap;
+
+use bevy::platform::collections::HashMap;
+use bevy::prelude::*;
+use crossbeam_channel::{Receiver, Sender};
+use serde::Serialize;
+
+/// Add to a `PhotonMapping` camera to receive its raw linear radiance (no exposure, no
+/// tonemapping) in [`RppmRadiance`] every frame. Each read-back waits for the GPU, so add it
+/// only when you need the pixels.
+#[derive(Component, Reflect, Clone, Copy, Debug, Default)]
+#[reflect(Component, Default)]
+pub struct RppmReadback;
+
+/// One camera's radiance estimate, row-major from the top-left, RGBA (A = 1).
+#[derive(Clone, Debug)]
+pub struct RadianceImage {
+    pub camera: Entity,
+    pub width: u32,
+    pub height: u32,
+    /// Iterations averaged into `pixels`.
+    pub iteration: u32,
+    pub epoch: u64,
+    pub pixels: Vec<[f32; 4]>,
+}
+
+/// One camera's progress and cost, as last reported by the render world.
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct ViewStats {
+    /// Changes seen so far (scene and view); a new epoch restarts accumulation.
+    pub epoch: u64,
+    /// Iterations accumulated since the last reset.
+    pub iteration: u32,
+    pub iterations_this_frame: u32,
+    /// Whether the GPU has timestamp queries; without them `stage_ms` stays zero.
+    pub gpu_timing: bool,
+    /// GPU milliseconds per stage, summed over the iterations of the last timed frame.
+    pub stage_ms: BTreeMap<String, f64>,
+    /// Bytes held per buffer or texture.
+    pub memory: BTreeMap<String, u64>,
+    pub adapter: String,
+    /// Why nothing renders, when something failed (e.g. a pipeline did not build).
+    pub error: Option<String>,
+}
+
+/// Stats of every photon-mapping camera, by camera entity.
+#[derive(Resource, Default, Debug)]
+pub struct RppmStats {
+    pub views: HashMap<Entity, ViewStats>,
+}
+
+/// Latest radiance read back per camera with [`RppmReadback`].
+#[derive(Resource, Default, Debug)]
+pub struct RppmRadiance {
+    pub images: HashMap<Entity, RadianceImage>,
+}
+
+pub(crate) enum RenderMessage {
+    Stats(Entity, ViewStats),
+    Radiance(RadianceImage),
+}
+
+#[derive(Resource, Deref)]
+pub(crate) struct RenderSender(pub Sender<RenderMessage>);
+
+#[derive(Resource, Deref)]
+pub(crate) struct MainReceiver(pub Receiver<RenderMessage>);
+
+pub(crate) fn receive_reports(
+    receiver: Res<MainReceiver>,
+    mut stats: ResMut<RppmStats>,
+    mut radiance: ResMut<RppmRadiance>,
+    cameras: Query<(), With<crate::PhotonMapping>>,
+) {
+    while let Ok(message) = receiver.try_recv() {
+        match message {
+            RenderMessage::Stats(entity, s) => {
+                stats.views.insert(entity, s);
+            }
+            RenderMessage::Radiance(image) => {
+                radiance.images.insert(image.camera, image);
+            }
+        }
+    }
+    stats.views.retain(|e, _| cameras.contains(*e));
+}

@@ -1,0 +1,161 @@
+//! Bevy's punctual lights to the radiometric light table.
+
+use std::f32::consts::PI;
+
+use bevy::ecs::system::SystemParam;
+use bevy::prelude::*;
+
+use super::{GpuLight, SceneData, luminance};
+
+/// Light kinds, as stored in [`GpuLight::kind`].
+#[repr(u32)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LightKind {
+    Point = 0,
+    Spot = 1,
+    Directional = 2,
+}
+
+impl LightKind {
+    /// Shadow views the light needs: a cube for point and spot, one map for directional.
+    pub fn shadow_views(self) -> u32 {
+        match self {
+            LightKind::Point | LightKind::Spot => 6,
+            LightKind::Directional => 1,
+        }
+    }
+
+    pub fn from_u32(kind: u32) -> Self {
+        match kind {
+            0 => LightKind::Point,
+            1 => LightKind::Spot,
+            _ => LightKind::Directional,
+        }
+    }
+}
+
+#[derive(SystemParam)]
+pub(crate) struct LightQueries<'w, 's> {
+    points: Query<
+        'w,
+        's,
+        (
+            &'static PointLight,
+            &'static GlobalTransform,
+            Option<&'static InheritedVisibility>,
+        ),
+    >,
+    spots: Query<
+        'w,
+        's,
+        (
+            &'static SpotLight,
+            &'static GlobalTransform,
+            Option<&'static InheritedVisibility>,
+        ),
+    >,
+    directionals: Query<
+        'w,
+        's,
+        (
+            &'static DirectionalLight,
+            &'static GlobalTransform,
+            Option<&'static InheritedVisibility>,
+        ),
+    >,
+}
+
+/// Solid-angle integral of Bevy's spot falloff a², a = saturate((cosθ − cos_o)/(cos_i − cos_o)).
+pub fn spot_cone_fraction(cos_inner: f32, cos_outer: f32) -> f32 {
+    2.0 * PI * ((1.0 - cos_inner) + (cos_inner - cos_outer).max(0.0) / 3.0)
+}
+
+fn visible(v: Option<&InheritedVisibility>) -> bool {
+    v.is_none_or(|v| v.get())
+}
+
+fn rgb(c: Color) -> [f32; 3] {
+    let l = c.to_linear();
+    [l.red, l.green, l.blue]
+}
+
+fn scaled(c: [f32; 3], s: f32) -> [f32; 4] {
+    [c[0] * s, c[1] * s, c[2] * s, 0.0]
+}
+
+fn finite(l: &GpuLight) -> bool {
+    l.position
+        .iter()
+        .chain(&l.direction)
+        .chain(&l.radiance)
+        .all(|v| v.is_finite())
+}
+
+pub(crate) fn collect_lights(q: &LightQueries, data: &mut SceneData) {
+    let mut layer = 0u32;
+    let (_, radius) = data.bounding_sphere();
+    let mut push = |mut light: GpuLight, power: f32, data: &mut SceneData| {
+        light.radiance[3] = power;
+        // Zero or non-finite lights emit nothing; leave them out of the table entirely.
+        if power.is_nan() || power <= 0.0 || !finite(&light) {
+            return;
+        }
+        light.shadow_layer = layer;
+        layer += LightKind::from_u32(light.kind).shadow_views();
+        data.lights.push(light);
+    };
+    for (p, t, _) in q.points.iter().filter(|(_, _, v)| visible(*v)) {
+        let c = rgb(p.color);
+        let intensity = p.intensity / (4.0 * PI);
+        let light = GpuLight {
+            kind: LightKind::Point as u32,
+            position: t.translation().extend(1.0).into(),
+            radiance: scaled(c, intensity),
+            ..default()
+        };
+        push(light, p.intensity * luminance(c), data);
+    }
+    for (s, t, _) in q.spots.iter().filter(|(_, _, v)| visible(*v)) {
+        let c = rgb(s.color);
+        let intensity = s.intensity / (4.0 * PI);
+        let (cos_inner, cos_outer) = (s.inner_angle.cos(), s.outer_angle.cos());
+        let light = GpuLight {
+            kind: LightKind::Spot as u32,
+            cos_inner,
+            cos_outer,
+            position: t.translation().extend(1.0).into(),
+            direction: t.forward().as_vec3().extend(0.0).into(),
+            radiance: scaled(c, intensity),
+            ..default()
+        };
+        let power = intensity * luminance(c) * spot_cone_fraction(cos_inner, cos_outer);
+        push(light, power, data);
+    }
+    for (d, t, _) in q.directionals.iter().filter(|(_, _, v)| visible(*v)) {
+        let c = rgb(d.color);
+        let light = GpuLight {
+            kind: LightKind::Directional as u32,
+            direction: t.forward().as_vec3().extend(0.0).into(),
+            radiance: scaled(c, d.illuminance),
+            ..default()
+        };
+        push(
+            light,
+            d.illuminance * luminance(c) * PI * radius * radius,
+            data,
+        );
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn hard_cone_fraction_is_its_solid_angle() {
+        let c = 0.5f32;
+        assert!((spot_cone_fraction(c, c) - 2.0 * PI * (1.0 - c)).abs() < 1e-5);
+        // A full falloff from the axis to 90°: 2π ∫₀¹ c² dc = 2π/3.
+        assert!((spot_cone_fraction(1.0, 0.0) - 2.0 * PI / 3.0).abs() < 1e-5);
+    }
+}

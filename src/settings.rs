@@ -1,0 +1,227 @@
+//! The camera component that turns photon mapping on, and the checks on its values.
+
+use bevy::ecs::query::QueryItem;
+use bevy::prelude::*;
+use bevy::render::extract_component::ExtractComponent;
+use bevy::render::sync_component::SyncComponent;
+
+use crate::output::RppmReadback;
+use crate::scene::ViewEpoch;
+use crate::view::ExtractedRppm;
+
+/// What the photon-mapped image does to the view.
+#[derive(Reflect, Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+#[reflect(Default, Clone, PartialEq, Hash)]
+pub enum RppmMode {
+    /// The progressive estimate (local illumination plus photon-mapped light) replaces the view.
+    #[default]
+    Full,
+    /// Bevy's own direct lighting plus our indirect light. Until indirect light lands, the
+    /// view is left as Bevy lit it.
+    Indirect,
+}
+
+/// Rasterisation-based progressive photon mapping on a 3D camera.
+///
+/// Add it to a `Camera3d`. Every value is checked each time it changes: an out-of-range value
+/// is **clamped** to its range with one warning (the image keeps rendering), never a panic.
+/// Changing any value restarts the progressive estimate.
+#[derive(Component, Reflect, Clone, Debug, PartialEq)]
+#[reflect(Component, Default, Clone, PartialEq)]
+#[require(ViewEpoch)]
+pub struct PhotonMapping {
+    /// Whether the effect runs at all. Default `true`.
+    pub enabled: bool,
+    /// Full replacement or hybrid. Default [`RppmMode::Full`].
+    pub mode: RppmMode,
+    /// Photons emitted per iteration, split between lights by power. Range 0..=2^24,
+    /// default 262 144.
+    pub photons_per_iteration: u32,
+    /// Bounces a photon may take. Range 1..=64, default 8.
+    pub max_photon_depth: u32,
+    /// Bounces an importon (camera path) may take; 1 means the camera G-buffer only.
+    /// Range 1..=64, default 3.
+    pub max_eye_depth: u32,
+    /// Knaus–Zwicker radius reduction, r²ᵢ₊₁ = r²ᵢ (i+α)/(i+1). Range (0, 1], default 0.7.
+    pub alpha: f32,
+    /// Initial gather radius, in pixels of the camera view. Range 0.25..=256, default 4.
+    pub initial_radius_pixels: f32,
+    /// Edge length in pixels of each face of the camera-centred deep cubemap.
+    /// Range 16..=4096, default 256.
+    pub cubemap_resolution: u32,
+    /// Depth bins per cubemap tile. Range 1..=64, default 12.
+    pub bins: u32,
+    /// PPM iterations run per rendered frame. Range 1..=1024, default 1.
+    pub iterations_per_frame: u32,
+    /// Stop accumulating after this many iterations (the image then stays as it is until
+    /// something changes). `None` (default) accumulates forever.
+    pub max_iterations: Option<u32>,
+    /// Russian roulette on splat fragments (p = 0.5, reweighted). Default `false`.
+    pub splat_russian_roulette: bool,
+    /// Edge length in texels of each face of a light's shadow cube (or a directional light's
+    /// shadow map). Range 16..=8192, default 512.
+    pub shadow_map_resolution: u32,
+}
+
+impl Default for PhotonMapping {
+    fn default() -> Self {
+        Self {
+            enabled: true,
+            mode: RppmMode::Full,
+            photons_per_iteration: 262_144,
+            max_photon_depth: 8,
+            max_eye_depth: 3,
+            alpha: 0.7,
+            initial_radius_pixels: 4.0,
+            cubemap_resolution: 256,
+            bins: 12,
+            iterations_per_frame: 1,
+            max_iterations: None,
+            splat_russian_roulette: false,
+            shadow_map_resolution: 512,
+        }
+    }
+}
+
+impl PhotonMapping {
+    /// Returns a copy with every value inside its documented range, and one message per value
+    /// that had to be clamped.
+    pub fn validated(&self) -> (Self, Vec<String>) {
+        let mut out = self.clone();
+        let mut notes = Vec::new();
+        clamp_u32(
+            &mut out.photons_per_iteration,
+            0,
+            1 << 24,
+            "photons_per_iteration",
+            &mut notes,
+        );
+        clamp_u32(
+            &mut out.max_photon_depth,
+            1,
+            64,
+            "max_photon_depth",
+            &mut notes,
+        );
+        clamp_u32(&mut out.max_eye_depth, 1, 64, "max_eye_depth", &mut notes);
+        clamp_f32(&mut out.alpha, 1e-4, 1.0, "alpha", &mut notes);
+        clamp_f32(
+            &mut out.initial_radius_pixels,
+            0.25,
+            256.0,
+            "initial_radius_pixels",
+            &mut notes,
+        );
+        clamp_u32(
+            &mut out.cubemap_resolution,
+            16,
+            4096,
+            "cubemap_resolution",
+            &mut notes,
+        );
+        clamp_u32(&mut out.bins, 1, 64, "bins", &mut notes);
+        clamp_u32(
+            &mut out.iterations_per_frame,
+            1,
+            1024,
+            "iterations_per_frame",
+            &mut notes,
+        );
+        clamp_u32(
+            &mut out.shadow_map_resolution,
+            16,
+            8192,
+            "shadow_map_resolution",
+            &mut notes,
+        );
+        (out, notes)
+    }
+}
+
+fn clamp_u32(v: &mut u32, lo: u32, hi: u32, name: &str, notes: &mut Vec<String>) {
+    let c = (*v).clamp(lo, hi);
+    if c != *v {
+        notes.push(format!(
+            "PhotonMapping::{name} = {v} is outside {lo}..={hi}; using {c}"
+        ));
+        *v = c;
+    }
+}
+
+fn clamp_f32(v: &mut f32, lo: f32, hi: f32, name: &str, notes: &mut Vec<String>) {
+    // NaN fails every comparison: map it to the low end rather than let it through.
+    let c = if v.is_nan() { lo } else { v.clamp(lo, hi) };
+    if c != *v || v.is_nan() {
+        notes.push(format!(
+            "PhotonMapping::{name} = {v} is outside {lo}..={hi}; using {c}"
+        ));
+        *v = c;
+    }
+}
+
+impl SyncComponent for PhotonMapping {
+    type Target = ExtractedRppm;
+}
+
+impl ExtractComponent for PhotonMapping {
+    type QueryData = (
+        &'static PhotonMapping,
+        &'static ViewEpoch,
+        Has<RppmReadback>,
+    );
+    type QueryFilter = ();
+    type Out = ExtractedRppm;
+
+    fn extract_component(
+        (settings, epoch, readback): QueryItem<'_, '_, Self::QueryData>,
+    ) -> Option<ExtractedRppm> {
+        settings.enabled.then(|| ExtractedRppm {
+            settings: settings.clone(),
+            view_epoch: epoch.epoch,
+            readback,
+        })
+    }
+}
+
+/// Clamps changed settings in place and warns once per change.
+pub(crate) fn validate_settings(mut cameras: Query<&mut PhotonMapping, Changed<PhotonMapping>>) {
+    for mut settings in &mut cameras {
+        let (valid, notes) = settings.validated();
+        if notes.is_empty() {
+            continue;
+        }
+        for note in notes {
+            warn!("bevy_rppm: {note}");
+        }
+        *settings = valid;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn defaults_are_in_range() {
+        let (v, notes) = PhotonMapping::default().validated();
+        assert!(notes.is_empty(), "{notes:?}");
+        assert_eq!(v, PhotonMapping::default());
+    }
+
+    #[test]
+    fn extremes_are_clamped_with_a_message() {
+        let s = PhotonMapping {
+            alpha: f32::NAN,
+            bins: 0,
+            cubemap_resolution: 1 << 20,
+            iterations_per_frame: 0,
+            ..default()
+        };
+        let (v, notes) = s.validated();
+        assert_eq!(notes.len(), 4, "{notes:?}");
+        assert!(v.alpha > 0.0 && v.alpha <= 1.0);
+        assert_eq!(v.bins, 1);
+        assert_eq!(v.cubemap_resolution, 4096);
+        assert_eq!(v.iterations_per_frame, 1);
+    }
+}

@@ -1,0 +1,209 @@
+//! GPU time per pipeline stage from timestamp queries, read back without stalling the frame.
+
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+
+use bevy::render::render_resource::*;
+use bevy::render::renderer::{RenderDevice, RenderQueue};
+use wgpu::{
+    ComputePassTimestampWrites, QuerySet, QuerySetDescriptor, QueryType, RenderPassTimestampWrites,
+};
+
+/// The stages of one PPM iteration that report GPU time.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Stage {
+    ShadowMaps,
+    GBuffer,
+    LocalIllumination,
+    Output,
+}
+
+impl Stage {
+    pub const ALL: [Stage; 4] = [
+        Stage::ShadowMaps,
+        Stage::GBuffer,
+        Stage::LocalIllumination,
+        Stage::Output,
+    ];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Stage::ShadowMaps => "shadow_maps",
+            Stage::GBuffer => "gbuffer",
+            Stage::LocalIllumination => "local_illumination",
+            Stage::Output => "output",
+        }
+    }
+}
+
+/// Timestamp pairs around each pass of a frame, summed per stage once the GPU is done.
+pub struct StageTimer {
+    query_set: Option<QuerySet>,
+    capacity: u32,
+    used: u32,
+    spans: Vec<Stage>,
+    resolve: Option<Buffer>,
+    readback: Option<Buffer>,
+    /// Spans of the frame whose timestamps are being mapped, and whether the map completed.
+    in_flight: Option<(Vec<Stage>, Arc<AtomicBool>)>,
+    copied: bool,
+    period_ns: f32,
+    /// GPU ms per stage of the last frame read back.
+    pub last_ms: [f64; 4],
+}
+
+impl StageTimer {
+    /// A timer with room for `capacity / 2` passes a frame; inert when the device lacks
+    /// timestamp queries.
+    pub fn new(device: &RenderDevice, queue: &RenderQueue, capacity: u32) -> Self {
+        let supported = device.features().contains(WgpuFeatures::TIMESTAMP_QUERY);
+        let capacity = capacity.clamp(2, 4096) & !1;
+        let (query_set, resolve, readback) = if supported {
+            let bytes = capacity as u64 * 8;
+            (
+                Some(device.wgpu_device().create_query_set(&QuerySetDescriptor {
+                    label: Some("rppm_timestamps"),
+                    ty: QueryType::Timestamp,
+                    count: capacity,
+                })),
+                Some(device.create_buffer(&BufferDescriptor {
+                    label: Some("rppm_timestamps_resolve"),
+                    size: bytes,
+                    usage: BufferUsages::QUERY_RESOLVE | BufferUsages::COPY_SRC,
+                    mapped_at_creation: false,
+                })),
+                Some(device.create_buffer(&BufferDescriptor {
+                    label: Some("rppm_timestamps_readback"),
+                    size: bytes,
+                    usage: BufferUsages::MAP_READ | BufferUsages::COPY_DST,
+                    mapped_at_creation: false,
+                })),
+            )
+        } else {
+            (None, None, None)
+        };
+        Self {
+            query_set,
+            capacity,
+            used: 0,
+            spans: Vec::new(),
+            resolve,
+            readback,
+            in_flight: None,
+            copied: false,
+            period_ns: queue.get_timestamp_period(),
+            last_ms: [0.0; 4],
+        }
+    }
+
+    pub fn supported(&self) -> bool {
+        self.query_set.is_some()
+    }
+
+    /// Starts a frame; timing is skipped while the previous read-back is still mapped.
+    pub fn begin_frame(&mut self) {
+        self.used = 0;
+        self.spans.clear();
+        self.copied = false;
+    }
+
+    /// A begin/end query pair for one pass of `stage`, or `None` when timing is off or full.
+    fn allocate(&mut self, stage: Stage) -> Option<(&QuerySet, u32)> {
+        let query_set = self.query_set.as_ref()?;
+        if self.in_flight.is_some() || self.used + 2 > self.capacity {
+            return None;
+        }
+        let begin = self.used;
+        self.used += 2;
+        self.spans.push(stage);
+        Some((query_set, begin))
+    }
+
+    /// Timestamp writes around one render pass of `stage`.
+    pub fn render_pass(&mut self, stage: Stage) -> Option<RenderPassTimestampWrites<'_>> {
+        self.allocate(stage)
+            .map(|(query_set, begin)| RenderPassTimestampWrites {
+                query_set,
+                beginning_of_pass_write_index: Some(begin),
+                end_of_pass_write_index: Some(begin + 1),
+            })
+    }
+
+    /// Timestamp writes around one compute pass of `stage`.
+    pub fn compute_pass(&mut self, stage: Stage) -> Option<ComputePassTimestampWrites<'_>> {
+        self.allocate(stage)
+            .map(|(query_set, begin)| ComputePassTimestampWrites {
+                query_set,
+                beginning_of_pass_write_index: Some(begin),
+                end_of_pass_write_index: Some(begin + 1),
+            })
+    }
+
+    /// Resolves this frame's timestamps into the read-back buffer.
+    pub fn end_frame(&mut self, encoder: &mut CommandEncoder) {
+        let (Some(query_set), Some(resolve), Some(readback)) =
+            (&self.query_set, &self.resolve, &self.readback)
+        else {
+            return;
+        };
+        if self.used == 0 || self.in_flight.is_some() {
+            return;
+        }
+        encoder.resolve_query_set(query_set, 0..self.used, resolve, 0);
+        encoder.copy_buffer_to_buffer(resolve, 0, readback, 0, self.used as u64 * 8);
+        self.copied = true;
+    }
+
+    /// After the frame's commands are submitted: start mapping what `end_frame` copied.
+    pub fn start_readback(&mut self) {
+        let Some(readback) = &self.readback else {
+            return;
+        };
+        if !self.copied || self.in_flight.is_some() {
+            return;
+        }
+        let done = Arc::new(AtomicBool::new(false));
+        let flag = done.clone();
+        readback
+            .slice(..self.used as u64 * 8)
+            .map_async(MapMode::Read, move |r| {
+                flag.store(r.is_ok(), Ordering::Release);
+            });
+        self.in_flight = Some((std::mem::take(&mut self.spans), done));
+        self.copied = false;
+    }
+
+    /// Collects a completed read-back into `last_ms`; returns whether new numbers arrived.
+    pub fn collect(&mut self, device: &RenderDevice, wait: bool) -> bool {
+        let Some(readback) = &self.readback else {
+            return false;
+        };
+        let Some((spans, done)) = &self.in_flight else {
+            return false;
+        };
+        let poll = if wait {
+            PollType::wait_indefinitely()
+        } else {
+            PollType::Poll
+        };
+        let _ = device.poll(poll);
+        if !done.load(Ordering::Acquire) {
+            return false;
+        }
+        let bytes = spans.len() as u64 * 16;
+        let mut ms = [0.0f64; 4];
+        {
+            let view = readback.slice(..bytes).get_mapped_range();
+            let ticks: &[u64] = bytemuck::cast_slice(&view);
+            for (i, stage) in spans.iter().enumerate() {
+                let dt = ticks[2 * i + 1].saturating_sub(ticks[2 * i]);
+                let slot = Stage::ALL.iter().position(|s| s == stage).unwrap_or(0);
+                ms[slot] += dt as f64 * self.period_ns as f64 * 1e-6;
+            }
+        }
+        readback.unmap();
+        self.last_ms = ms;
+        self.in_flight = None;
+        true
+    }
+}

@@ -1,0 +1,638 @@
+//! Per-camera PPM state in the render world: targets, the iteration counter that a scene or
+//! view change resets, the per-iteration constants, and the render-graph node that runs the
+//! iterations of a frame.
+
+use bevy::platform::collections::HashMap;
+use bevy::prelude::*;
+use bevy::render::camera::ExtractedCamera;
+use bevy::render::render_resource::*;
+use bevy::render::renderer::{
+    RenderAdapterInfo, RenderContext, RenderDevice, RenderQueue, ViewQuery,
+};
+use bevy::render::sync_world::MainEntity;
+use bevy::render::view::{ExtractedView, ViewTarget};
+use bytemuck::{Pod, Zeroable};
+
+use crate::output::{RadianceImage, RenderMessage, RenderSender, ViewStats};
+use crate::pipelines::{DEPTH_FORMAT, GBUFFER_FORMAT, RppmPipelines};
+use crate::scene::gpu::SceneBuffers;
+use crate::scene::{GpuTriangle, SceneData};
+use crate::settings::{PhotonMapping, RppmMode};
+use crate::shadows::{self, ShadowMaps};
+use crate::timing::{Stage, StageTimer};
+
+/// Byte stride between per-iteration slots of the params buffer (dynamic-offset alignment).
+const PARAMS_STRIDE: u64 = 256;
+
+/// Per-iteration constants (`IterationParams` in common.wgsl, 176 bytes).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct IterationParams {
+    pub clip_from_world: [[f32; 4]; 4],
+    pub camera_position: [f32; 4],
+    pub area_position: [f32; 4],
+    pub area_normal: [f32; 4],
+    pub area_weight: [f32; 4],
+    pub size: [u32; 2],
+    pub iteration: u32,
+    pub light_count: u32,
+    pub pixel_spread: f32,
+    pub orthographic: u32,
+    pub area_view: u32,
+    pub area_layer: u32,
+    pub shadow_resolution: u32,
+    pub exposure: f32,
+    pub tonemap: u32,
+    pub _pad: u32,
+}
+
+/// The camera's settings and change counter, in the render world.
+#[derive(Component, Clone)]
+pub struct ExtractedRppm {
+    pub settings: PhotonMapping,
+    pub view_epoch: u64,
+    pub readback: bool,
+}
+
+/// What forces the view's GPU resources to be made anew.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+struct ResourceKey {
+    size: UVec2,
+    slots: u32,
+    shadow_resolution: u32,
+    scene_epoch: u64,
+}
+
+pub struct ViewState {
+    key: ResourceKey,
+    view_epoch: u64,
+    /// Iterations accumulated since the last reset.
+    pub iteration: u32,
+    /// First iteration and count run this frame.
+    frame: (u32, u32),
+    mode: RppmMode,
+    output_pipeline: Option<CachedRenderPipelineId>,
+    gbuffer_position: TextureView,
+    gbuffer_normal: TextureView,
+    gbuffer_depth: TextureView,
+    radiance: Buffer,
+    params: Buffer,
+    shadows: ShadowMaps,
+    scene_group: BindGroup,
+    params_group: BindGroup,
+    local_group: BindGroup,
+    output_group: BindGroup,
+    timer: StageTimer,
+    staging: Option<Buffer>,
+    readback_pending: bool,
+    memory: Vec<(String, u64)>,
+    error: Option<String>,
+}
+
+/// Every PPM view, by main-world camera entity. A camera that loses its `PhotonMapping` (or
+/// disables it) drops its entry, which frees its GPU memory.
+#[derive(Resource, Default)]
+pub struct RppmViews(HashMap<Entity, ViewState>);
+
+fn target(
+    device: &RenderDevice,
+    label: &'static str,
+    size: UVec2,
+    format: TextureFormat,
+) -> TextureView {
+    device
+        .create_texture(&TextureDescriptor {
+            label: Some(label),
+            size: Extent3d {
+                width: size.x,
+                height: size.y,
+                depth_or_array_layers: 1,
+            },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: TextureDimension::D2,
+            format,
+            usage: TextureUsages::RENDER_ATTACHMENT | TextureUsages::TEXTURE_BINDING,
+            view_formats: &[],
+        })
+        .create_view(&TextureViewDescriptor::default())
+}
+
+fn params_binding(params: &Buffer) -> BufferBinding<'_> {
+    BufferBinding {
+        buffer: params,
+        offset: 0,
+        size: BufferSize::new(std::mem::size_of::<IterationParams>() as u64),
+    }
+}
+
+impl ViewState {
+    fn new(
+        key: ResourceKey,
+        device: &RenderDevice,
+        queue: &RenderQueue,
+        cache: &PipelineCache,
+        pipelines: &RppmPipelines,
+        scene: &SceneBuffers,
+    ) -> Self {
+        let size = key.size;
+        let gbuffer_position = target(device, "rppm_gbuffer_position", size, GBUFFER_FORMAT);
+        let gbuffer_normal = target(device, "rppm_gbuffer_normal", size, GBUFFER_FORMAT);
+        let gbuffer_depth = target(device, "rppm_gbuffer_depth", size, DEPTH_FORMAT);
+        let pixels = size.x as u64 * size.y as u64;
+        let radiance = device.create_buffer(&BufferDescriptor {
+            label: Some("rppm_radiance"),
+            size: pixels * 16,
+            usage: BufferUsages::STORAGE | BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        });
+        let params = device.create_buffer(&BufferDescriptor {
+            label: Some("rppm_iteration_params"),
+            size: key.slots as u64 * PARAMS_STRIDE,
+            usage: BufferUsages::UNIFORM | BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let shadows = ShadowMaps::new(device, &scene.data, key.shadow_resolution, key.slots);
+        shadows.write_light_views(queue, &scene.data);
+        let scene_group = device.create_bind_group(
+            "rppm_scene_group",
+            &cache.get_bind_group_layout(&pipelines.scene_layout),
+            &BindGroupEntries::sequential((
+                scene.triangles.as_entire_binding(),
+                shadows.views.as_entire_binding(),
+                scene.materials.as_entire_binding(),
+                scene.lights.as_entire_binding(),
+                scene.emitters.as_entire_binding(),
+            )),
+        );
+        let params_group = device.create_bind_group(
+            "rppm_params_group",
+            &cache.get_bind_group_layout(&pipelines.params_layout),
+            &BindGroupEntries::single(params_binding(&params)),
+        );
+        let local_group = device.create_bind_group(
+            "rppm_local_group",
+            &cache.get_bind_group_layout(&pipelines.local_layout),
+            &BindGroupEntries::sequential((
+                &gbuffer_position,
+                &gbuffer_normal,
+                &shadows.array_view,
+                radiance.as_entire_binding(),
+            )),
+        );
+        let output_group = device.create_bind_group(
+            "rppm_output_group",
+            &cache.get_bind_group_layout(&pipelines.output_layout),
+            &BindGroupEntries::sequential((params_binding(&params), radiance.as_entire_binding())),
+        );
+        let gbuffer_bytes = pixels * (16 + 16 + 4);
+        let memory = vec![
+            ("gbuffer".to_string(), gbuffer_bytes),
+            ("radiance".to_string(), radiance.size()),
+            ("iteration_params".to_string(), params.size()),
+            ("shadow_maps".to_string(), shadows.bytes()),
+            ("timestamps".to_string(), 4096 * 8 * 2),
+        ];
+        Self {
+            key,
+            view_epoch: u64::MAX,
+            iteration: 0,
+            frame: (0, 0),
+            mode: RppmMode::Full,
+            output_pipeline: None,
+            gbuffer_position,
+            gbuffer_normal,
+            gbuffer_depth,
+            radiance,
+            params,
+            shadows,
+            scene_group,
+            params_group,
+            local_group,
+            output_group,
+            timer: StageTimer::new(device, queue, 4096),
+            staging: None,
+            readback_pending: false,
+            memory,
+            error: None,
+        }
+    }
+}
+
+/// A deterministic hash of the iteration, the source of this iteration's random numbers.
+fn pcg(v: u32) -> u32 {
+    let state = v.wrapping_mul(747_796_405).wrapping_add(2_891_336_453);
+    let word = ((state >> ((state >> 28) + 4)) ^ state).wrapping_mul(277_803_737);
+    (word >> 22) ^ word
+}
+
+fn unit_random(seed: &mut u32) -> f32 {
+    *seed = pcg(*seed);
+    (*seed >> 8) as f32 / (1u32 << 24) as f32
+}
+
+/// Radical inverse in `base`: a low-discrepancy sub-pixel jitter sequence.
+fn halton(mut i: u32, base: u32) -> f32 {
+    let (mut f, mut r) = (1.0f32, 0.0f32);
+    while i > 0 {
+        f /= base as f32;
+        r += f * (i % base) as f32;
+        i /= base;
+    }
+    r
+}
+
+/// A point on the emissive surfaces chosen by power, with radiance divided by its area pdf.
+fn area_sample(data: &SceneData, iteration: u32) -> Option<(Vec3, Vec3, Vec3)> {
+    let mut seed = pcg(iteration ^ 0x9e37_79b9);
+    let u = unit_random(&mut seed);
+    let index = data
+        .emitters
+        .partition_point(|e| e.cdf < u)
+        .min(data.emitters.len().checked_sub(1)?);
+    let emitter = data.emitters[index];
+    let previous = if index == 0 {
+        0.0
+    } else {
+        data.emitters[index - 1].cdf
+    };
+    let probability = (emitter.cdf - previous).max(1e-12);
+    let triangle: &GpuTriangle = &data.triangles[emitter.triangle as usize];
+    let [a, b, c] = triangle.positions();
+    let (r1, r2) = (unit_random(&mut seed).sqrt(), unit_random(&mut seed));
+    let point = a * (1.0 - r1) + b * (r1 * (1.0 - r2)) + c * (r1 * r2);
+    let normal = (b - a).cross(c - a).normalize();
+    let emissive = Vec4::from(data.materials[triangle.material as usize].emissive).truncate();
+    let weight = emissive * (emitter.area / probability);
+    Some((point, normal, weight))
+}
+
+#[allow(clippy::too_many_arguments)]
+fn iteration_params(
+    view: &ExtractedView,
+    camera: &ExtractedCamera,
+    state: &ViewState,
+    data: &SceneData,
+    iteration: u32,
+    slot: u32,
+) -> IterationParams {
+    let size = state.key.size;
+    let jitter = Vec2::new(halton(iteration + 1, 2), halton(iteration + 1, 3)) - 0.5;
+    let offset = Vec3::new(
+        2.0 * jitter.x / size.x as f32,
+        -2.0 * jitter.y / size.y as f32,
+        0.0,
+    );
+    let view_from_world = view.world_from_view.to_matrix().inverse();
+    let clip_from_world = Mat4::from_translation(offset) * view.clip_from_view * view_from_world;
+    let orthographic = view.clip_from_view.w_axis.w == 1.0;
+    let pixel_spread = 2.0 / (view.clip_from_view.y_axis.y * size.y as f32);
+    let area = area_sample(data, iteration);
+    let (area_position, area_normal, area_weight) = match area {
+        Some((p, n, w)) => (p.extend(1.0), n.extend(0.0), w.extend(0.0)),
+        None => (Vec4::ZERO, Vec4::ZERO, Vec4::ZERO),
+    };
+    IterationParams {
+        clip_from_world: clip_from_world.to_cols_array_2d(),
+        camera_position: view.world_from_view.translation().extend(1.0).into(),
+        area_position: area_position.into(),
+        area_normal: area_normal.into(),
+        area_weight: area_weight.into(),
+        size: size.into(),
+        iteration,
+        light_count: data.lights.len() as u32,
+        pixel_spread,
+        orthographic: orthographic as u32,
+        area_view: state.shadows.area_view_base(slot),
+        area_layer: state.shadows.light_layers,
+        shadow_resolution: state.shadows.resolution,
+        exposure: camera.exposure,
+        tonemap: (!camera.hdr) as u32,
+        _pad: 0,
+    }
+}
+
+/// Whether every pipeline of an iteration is ready, or the first one that failed to build.
+fn pipelines_ready(pipelines: &RppmPipelines, cache: &PipelineCache) -> Result<bool, String> {
+    let states = [
+        cache.get_render_pipeline_state(pipelines.shadow),
+        cache.get_render_pipeline_state(pipelines.gbuffer),
+        cache.get_compute_pipeline_state(pipelines.local_illumination),
+    ];
+    for state in states {
+        if let CachedPipelineState::Err(e) = state {
+            return Err(format!("a bevy_rppm pipeline failed to build: {e}"));
+        }
+    }
+    Ok(states
+        .iter()
+        .all(|s| matches!(s, CachedPipelineState::Ok(_))))
+}
+
+/// Makes or keeps each view's resources, resets accumulation on change, and writes the
+/// constants of this frame's iterations.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn prepare_views(
+    views: Query<(
+        &MainEntity,
+        &ExtractedView,
+        &ExtractedCamera,
+        &ExtractedRppm,
+        &ViewTarget,
+    )>,
+    scene: Option<Res<SceneBuffers>>,
+    device: Res<RenderDevice>,
+    queue: Res<RenderQueue>,
+    cache: Res<PipelineCache>,
+    mut pipelines: ResMut<RppmPipelines>,
+    mut states: ResMut<RppmViews>,
+) {
+    let mut alive = Vec::new();
+    let (ready, error) = match pipelines_ready(&pipelines, &cache) {
+        Ok(ready) => (ready, None),
+        Err(e) => (false, Some(e)),
+    };
+    for (main, view, camera, rppm, view_target) in &views {
+        let Some(scene) = scene.as_deref() else {
+            continue;
+        };
+        let Some(size) = camera.physical_viewport_size.filter(|s| s.x > 0 && s.y > 0) else {
+            continue; // a zero-sized target renders nothing; keep the state for when it returns
+        };
+        alive.push(main.id());
+        let settings = &rppm.settings;
+        let key = ResourceKey {
+            size,
+            slots: settings.iterations_per_frame,
+            shadow_resolution: settings.shadow_map_resolution,
+            scene_epoch: scene.epoch,
+        };
+        let state = states
+            .0
+            .entry(main.id())
+            .or_insert_with(|| ViewState::new(key, &device, &queue, &cache, &pipelines, scene));
+        if state.key != key {
+            *state = ViewState::new(key, &device, &queue, &cache, &pipelines, scene);
+        }
+        if state.view_epoch != rppm.view_epoch {
+            state.view_epoch = rppm.view_epoch;
+            state.iteration = 0;
+        }
+        state.mode = settings.mode;
+        state.error = error.clone();
+        state.output_pipeline =
+            Some(pipelines.output_pipeline(&cache, view_target.main_texture_format()));
+        let base = state.iteration;
+        let budget = settings
+            .max_iterations
+            .map_or(u32::MAX, |m| m.saturating_sub(base));
+        let count = if ready {
+            settings.iterations_per_frame.min(budget)
+        } else {
+            0
+        };
+        for slot in 0..count.max(1) {
+            let params = iteration_params(view, camera, state, &scene.data, base + slot, slot);
+            queue.write_buffer(
+                &state.params,
+                slot as u64 * PARAMS_STRIDE,
+                bytemuck::bytes_of(&params),
+            );
+            if slot < count && state.shadows.has_area {
+                let eye = Vec4::from(params.area_position).truncate()
+                    + Vec4::from(params.area_normal).truncate()
+                        * scene.data.bounding_sphere().1
+                        * 1e-4;
+                let views = shadows::cube_views(eye, &scene.data, state.shadows.resolution);
+                state.shadows.write_area_views(&queue, slot, &views);
+            }
+        }
+        state.frame = (base, count);
+        state.iteration += count;
+        state.readback_pending = rppm.readback;
+        if rppm.readback && state.staging.is_none() {
+            state.staging = Some(device.create_buffer(&BufferDescriptor {
+                label: Some("rppm_radiance_readback"),
+                size: state.radiance.size(),
+                usage: BufferUsages::MAP_READ | BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            }));
+        }
+    }
+    states.0.retain(|entity, _| alive.contains(entity));
+}
+
+/// The render-graph node: this frame's PPM iterations, then the view output.
+pub(crate) fn rppm_node(
+    view: ViewQuery<(&MainEntity, &ViewTarget)>,
+    scene: Option<Res<SceneBuffers>>,
+    mut states: ResMut<RppmViews>,
+    pipelines: Res<RppmPipelines>,
+    cache: Res<PipelineCache>,
+    mut ctx: RenderContext,
+) {
+    let (main, view_target) = view.into_inner();
+    let (Some(scene), Some(state)) = (scene, states.0.get_mut(&main.id())) else {
+        return;
+    };
+    let (Some(shadow), Some(gbuffer), Some(local)) = (
+        cache.get_render_pipeline(pipelines.shadow),
+        cache.get_render_pipeline(pipelines.gbuffer),
+        cache.get_compute_pipeline(pipelines.local_illumination),
+    ) else {
+        return;
+    };
+    let triangles = scene.triangle_count();
+    let encoder = ctx.command_encoder();
+    state.timer.begin_frame();
+    let (base, count) = state.frame;
+    if count > 0 && state.shadows.rendered_epoch != Some(scene.epoch) {
+        let layers = state.shadows.light_layers;
+        shadows::render_layers(
+            encoder,
+            shadow,
+            &state.scene_group,
+            &state.shadows,
+            triangles,
+            (0..layers).map(|l| (l, l)),
+            &mut state.timer,
+        );
+        state.shadows.rendered_epoch = Some(scene.epoch);
+    }
+    for slot in 0..count {
+        let offset = (slot as u64 * PARAMS_STRIDE) as u32;
+        if state.shadows.has_area {
+            let (views, layer) = (
+                state.shadows.area_view_base(slot),
+                state.shadows.light_layers,
+            );
+            shadows::render_layers(
+                encoder,
+                shadow,
+                &state.scene_group,
+                &state.shadows,
+                triangles,
+                (0..6).map(|f| (views + f, layer + f)),
+                &mut state.timer,
+            );
+        }
+        encode_gbuffer(encoder, gbuffer, state, triangles, offset);
+        let size = state.key.size;
+        let mut pass = encoder.begin_compute_pass(&ComputePassDescriptor {
+            label: Some("rppm_local_illumination"),
+            timestamp_writes: state.timer.compute_pass(Stage::LocalIllumination),
+        });
+        pass.set_pipeline(local);
+        pass.set_bind_group(0, &state.scene_group, &[]);
+        pass.set_bind_group(1, &state.params_group, &[offset]);
+        pass.set_bind_group(2, &state.local_group, &[]);
+        pass.dispatch_workgroups(size.x.div_ceil(8), size.y.div_ceil(8), 1);
+    }
+    let _ = base;
+    let output = state
+        .output_pipeline
+        .and_then(|id| cache.get_render_pipeline(id));
+    if let (RppmMode::Full, Some(output)) = (state.mode, output) {
+        let mut pass = encoder.begin_render_pass(&RenderPassDescriptor {
+            label: Some("rppm_output"),
+            color_attachments: &[Some(RenderPassColorAttachment {
+                view: view_target.main_texture_view(),
+                depth_slice: None,
+                resolve_target: None,
+                ops: Operations {
+                    load: LoadOp::Load,
+                    store: StoreOp::Store,
+                },
+            })],
+            depth_stencil_attachment: None,
+            timestamp_writes: state.timer.render_pass(Stage::Output),
+            occlusion_query_set: None,
+            multiview_mask: None,
+        });
+        pass.set_pipeline(output);
+        pass.set_bind_group(0, &state.output_group, &[0]);
+        pass.draw(0..3, 0..1);
+    }
+    if let (true, Some(staging)) = (state.readback_pending, &state.staging) {
+        encoder.copy_buffer_to_buffer(&state.radiance, 0, staging, 0, state.radiance.size());
+    }
+    state.timer.end_frame(encoder);
+}
+
+fn encode_gbuffer(
+    encoder: &mut CommandEncoder,
+    pipeline: &RenderPipeline,
+    state: &mut ViewState,
+    triangles: u32,
+    offset: u32,
+) {
+    let clear = Operations {
+        load: LoadOp::Clear(LinearRgba::NONE.into()),
+        store: StoreOp::Store,
+    };
+    let mut pass = encoder.begin_render_pass(&RenderPassDescriptor {
+        label: Some("rppm_gbuffer"),
+        color_attachments: &[
+            Some(RenderPassColorAttachment {
+                view: &state.gbuffer_position,
+                depth_slice: None,
+                resolve_target: None,
+                ops: clear,
+            }),
+            Some(RenderPassColorAttachment {
+                view: &state.gbuffer_normal,
+                depth_slice: None,
+                resolve_target: None,
+                ops: clear,
+            }),
+        ],
+        depth_stencil_attachment: Some(RenderPassDepthStencilAttachment {
+            view: &state.gbuffer_depth,
+            depth_ops: Some(Operations {
+                load: LoadOp::Clear(0.0),
+                store: StoreOp::Discard,
+            }),
+            stencil_ops: None,
+        }),
+        timestamp_writes: state.timer.render_pass(Stage::GBuffer),
+        occlusion_query_set: None,
+        multiview_mask: None,
+    });
+    pass.set_pipeline(pipeline);
+    pass.set_bind_group(0, &state.scene_group, &[]);
+    pass.set_bind_group(1, &state.params_group, &[offset]);
+    pass.draw(0..triangles * 3, 0..1);
+}
+
+/// After submission: read back what was asked for and report each view to the main world.
+pub(crate) fn report_views(
+    mut states: ResMut<RppmViews>,
+    scene: Option<Res<SceneBuffers>>,
+    device: Res<RenderDevice>,
+    adapter: Res<RenderAdapterInfo>,
+    sender: Res<RenderSender>,
+) {
+    let scene_epoch = scene.as_ref().map_or(0, |s| s.epoch);
+    let scene_memory: Vec<(String, u64)> = scene
+        .as_ref()
+        .map(|s| {
+            s.memory()
+                .iter()
+                .map(|(n, b)| (n.to_string(), *b))
+                .collect()
+        })
+        .unwrap_or_default();
+    for (entity, state) in states.0.iter_mut() {
+        state.timer.start_readback();
+        // A read-back frame waits for the GPU anyway; others only look.
+        let waiting = state.readback_pending;
+        state.timer.collect(&device, waiting);
+        if let (true, Some(staging)) = (state.readback_pending, &state.staging)
+            && let Some(pixels) = read_buffer(&device, staging)
+        {
+            let _ = sender.send(RenderMessage::Radiance(RadianceImage {
+                camera: *entity,
+                width: state.key.size.x,
+                height: state.key.size.y,
+                iteration: state.iteration,
+                epoch: scene_epoch.wrapping_add(state.view_epoch),
+                pixels,
+            }));
+        }
+        let mut memory = scene_memory.clone();
+        memory.extend(state.memory.iter().cloned());
+        let _ = sender.send(RenderMessage::Stats(
+            *entity,
+            ViewStats {
+                epoch: scene_epoch.wrapping_add(state.view_epoch),
+                iteration: state.iteration,
+                iterations_this_frame: state.frame.1,
+                gpu_timing: state.timer.supported(),
+                stage_ms: Stage::ALL
+                    .iter()
+                    .map(|s| s.name().to_string())
+                    .zip(state.timer.last_ms)
+                    .collect(),
+                memory: memory.into_iter().collect(),
+                adapter: adapter.name.clone(),
+                error: state.error.clone(),
+            },
+        ));
+    }
+}
+
+/// Maps a read-back buffer and copies it out, waiting for the GPU.
+fn read_buffer(device: &RenderDevice, buffer: &Buffer) -> Option<Vec<[f32; 4]>> {
+    let slice = buffer.slice(..);
+    let (tx, rx) = crossbeam_channel::bounded(1);
+    slice.map_async(MapMode::Read, move |r| {
+        let _ = tx.send(r.is_ok());
+    });
+    device.poll(PollType::wait_indefinitely()).ok()?;
+    if !rx.recv().ok()? {
+        return None;
+    }
+    let pixels = bytemuck::cast_slice(&slice.get_mapped_range()).to_vec();
+    buffer.unmap();
+    Some(pixels)
+}

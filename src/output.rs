@@ -39,6 +39,10 @@ pub struct ViewStats {
     pub gpu_timing: bool,
     /// GPU milliseconds per stage, summed over the iterations of the last timed frame.
     pub stage_ms: BTreeMap<String, f64>,
+    /// GPU milliseconds per stage summed over every timed frame since the last reset of
+    /// resources, and the iterations those frames ran.
+    pub stage_ms_total: BTreeMap<String, f64>,
+    pub timed_iterations: u64,
     /// Bytes held per buffer or texture.
     pub memory: BTreeMap<String, u64>,
     pub adapter: String,

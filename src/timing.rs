@@ -1,7 +1,7 @@
 //! GPU time per pipeline stage from timestamp queries, read back without stalling the frame.
 
 use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicU8, Ordering};
 
 use bevy::render::render_resource::*;
 use bevy::render::renderer::{RenderDevice, RenderQueue};
@@ -44,13 +44,24 @@ pub struct StageTimer {
     spans: Vec<Stage>,
     resolve: Option<Buffer>,
     readback: Option<Buffer>,
-    /// Spans of the frame whose timestamps are being mapped, and whether the map completed.
-    in_flight: Option<(Vec<Stage>, Arc<AtomicBool>)>,
+    /// Spans of the frame whose timestamps are being mapped, its iteration count, and the
+    /// map's state (`PENDING`, `MAPPED` or `FAILED`).
+    in_flight: Option<(Vec<Stage>, u32, Arc<AtomicU8>)>,
+    /// Iterations of the frame being recorded.
+    frame_iterations: u32,
     copied: bool,
     period_ns: f32,
     /// GPU ms per stage of the last frame read back.
     pub last_ms: [f64; 4],
+    /// GPU ms per stage summed over every frame read back since the timer was made.
+    pub total_ms: [f64; 4],
+    /// Iterations in the frames summed into `total_ms`.
+    pub timed_iterations: u64,
 }
+
+const PENDING: u8 = 0;
+const MAPPED: u8 = 1;
+const FAILED: u8 = 2;
 
 impl StageTimer {
     /// A timer with room for `capacity / 2` passes a frame; inert when the device lacks
@@ -93,6 +104,9 @@ impl StageTimer {
             copied: false,
             period_ns: queue.get_timestamp_period(),
             last_ms: [0.0; 4],
+            total_ms: [0.0; 4],
+            timed_iterations: 0,
+            frame_iterations: 0,
         }
     }
 
@@ -100,8 +114,10 @@ impl StageTimer {
         self.query_set.is_some()
     }
 
-    /// Starts a frame; timing is skipped while the previous read-back is still mapped.
-    pub fn begin_frame(&mut self) {
+    /// Starts a frame of `iterations`; timing is skipped while the previous read-back is
+    /// still mapped.
+    pub fn begin_frame(&mut self, iterations: u32) {
+        self.frame_iterations = iterations;
         self.used = 0;
         self.spans.clear();
         self.copied = false;
@@ -162,14 +178,18 @@ impl StageTimer {
         if !self.copied || self.in_flight.is_some() {
             return;
         }
-        let done = Arc::new(AtomicBool::new(false));
-        let flag = done.clone();
+        let state = Arc::new(AtomicU8::new(PENDING));
+        let flag = state.clone();
         readback
             .slice(..self.used as u64 * 8)
             .map_async(MapMode::Read, move |r| {
-                flag.store(r.is_ok(), Ordering::Release);
+                flag.store(if r.is_ok() { MAPPED } else { FAILED }, Ordering::Release);
             });
-        self.in_flight = Some((std::mem::take(&mut self.spans), done));
+        self.in_flight = Some((
+            std::mem::take(&mut self.spans),
+            self.frame_iterations,
+            state,
+        ));
         self.copied = false;
     }
 
@@ -178,7 +198,7 @@ impl StageTimer {
         let Some(readback) = &self.readback else {
             return false;
         };
-        let Some((spans, done)) = &self.in_flight else {
+        let Some((spans, iterations, state)) = &self.in_flight else {
             return false;
         };
         let poll = if wait {
@@ -187,13 +207,17 @@ impl StageTimer {
             PollType::Poll
         };
         let _ = device.poll(poll);
-        if !done.load(Ordering::Acquire) {
-            return false;
+        match state.load(Ordering::Acquire) {
+            PENDING => return false,
+            FAILED => {
+                self.in_flight = None;
+                return false;
+            }
+            _ => {}
         }
-        let bytes = spans.len() as u64 * 16;
         let mut ms = [0.0f64; 4];
         {
-            let view = readback.slice(..bytes).get_mapped_range();
+            let view = readback.slice(..spans.len() as u64 * 16).get_mapped_range();
             let ticks: &[u64] = bytemuck::cast_slice(&view);
             for (i, stage) in spans.iter().enumerate() {
                 let dt = ticks[2 * i + 1].saturating_sub(ticks[2 * i]);
@@ -203,6 +227,10 @@ impl StageTimer {
         }
         readback.unmap();
         self.last_ms = ms;
+        for (total, frame) in self.total_ms.iter_mut().zip(ms) {
+            *total += frame;
+        }
+        self.timed_iterations += *iterations as u64;
         self.in_flight = None;
         true
     }

@@ -444,7 +444,7 @@ pub(crate) fn rppm_node(
     };
     let triangles = scene.triangle_count();
     let encoder = ctx.command_encoder();
-    state.timer.begin_frame();
+    state.timer.begin_frame(state.frame.1);
     let (base, count) = state.frame;
     if count > 0 && state.shadows.rendered_epoch != Some(scene.epoch) {
         let layers = state.shadows.light_layers;
@@ -613,6 +613,12 @@ pub(crate) fn report_views(
                     .map(|s| s.name().to_string())
                     .zip(state.timer.last_ms)
                     .collect(),
+                stage_ms_total: Stage::ALL
+                    .iter()
+                    .map(|s| s.name().to_string())
+                    .zip(state.timer.total_ms)
+                    .collect(),
+                timed_iterations: state.timer.timed_iterations,
                 memory: memory.into_iter().collect(),
                 adapter: adapter.name.clone(),
                 error: state.error.clone(),

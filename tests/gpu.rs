@@ -270,6 +270,7 @@ fn direct_light_on_a_plane_matches_the_analytic_radiance() {
             worst = worst.max((got - expected).abs() / expected);
         }
     }
+    eprintln!("direct lighting: worst relative error {worst:.5} over {size}x{size} pixels");
     assert!(worst < 0.01, "worst relative error {worst}");
 }
 
@@ -377,4 +378,50 @@ fn cli_renders_a_scene_and_its_stats() {
         );
     }
     assert!(json["memory_bytes"]["radiance"].as_u64().unwrap() >= 48 * 40 * 16);
+}
+
+#[test]
+fn cli_uses_a_default_camera_when_the_scene_has_none() {
+    check_gpu_adapter().unwrap_or_else(|hint| panic!("{hint}"));
+    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/cornell_box.gltf");
+    let mut gltf: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(scene).unwrap()).unwrap();
+    gltf.as_object_mut().unwrap().remove("cameras");
+    for node in gltf["nodes"].as_array_mut().unwrap() {
+        node.as_object_mut().unwrap().remove("camera");
+    }
+    let no_camera = temp("no_camera.gltf");
+    std::fs::write(&no_camera, serde_json::to_vec(&gltf).unwrap()).unwrap();
+    let (exr, stats) = (temp("no_camera.exr"), temp("no_camera.json"));
+    let out = rppm()
+        .arg("render")
+        .arg(&no_camera)
+        .args([
+            "--width",
+            "32",
+            "--height",
+            "32",
+            "--iterations",
+            "2",
+            "--out",
+        ])
+        .arg(&exr)
+        .arg("--stats")
+        .arg(&stats)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let json: serde_json::Value = serde_json::from_slice(&std::fs::read(&stats).unwrap()).unwrap();
+    assert_eq!(json["camera_from_scene"], false);
+    let image = read_exr(&exr).unwrap();
+    assert_eq!(bad_pixels(&image), 0);
+    assert!(
+        image.mean() > 0.01,
+        "the default camera sees the lit box, mean {}",
+        image.mean()
+    );
 }

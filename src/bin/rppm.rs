@@ -212,6 +212,8 @@ fn stats_json(args: &Args, r: &RenderResult, total_seconds: f64) -> serde_json::
         "gpu_timing": r.stats.gpu_timing,
         "gpu_ms_last_frame": r.stats.stage_ms,
         "iterations_last_frame": r.stats.iterations_this_frame,
+        "gpu_ms_per_iteration": per_iteration(&r.stats),
+        "timed_iterations": r.stats.timed_iterations,
         "memory_bytes": r.stats.memory,
         "camera_from_scene": r.camera_from_scene,
         "triangles": r.triangles,
@@ -220,6 +222,17 @@ fn stats_json(args: &Args, r: &RenderResult, total_seconds: f64) -> serde_json::
         "bad_pixels": bad_pixels(&r.image),
         "mean_rgb": mean_rgb(&r.image),
     })
+}
+
+/// Mean GPU ms per iteration and stage, over every timed frame.
+fn per_iteration(stats: &bevy_rppm::ViewStats) -> serde_json::Value {
+    let n = stats.timed_iterations.max(1) as f64;
+    stats
+        .stage_ms_total
+        .iter()
+        .map(|(stage, ms)| (stage.clone(), serde_json::json!(ms / n)))
+        .collect::<serde_json::Map<_, _>>()
+        .into()
 }
 
 fn mean_rgb(image: &bevy_rppm::image_io::RgbImage) -> [f64; 3] {

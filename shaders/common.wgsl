@@ -111,3 +111,37 @@ fn triangle_normal(t: Triangle, corner: u32) -> vec3<f32> {
 fn luminance(c: vec3<f32>) -> f32 {
     return dot(c, vec3<f32>(0.2126, 0.7152, 0.0722));
 }
+
+// The deep cubemap (DIRT): a camera-centred cube of `grid`² tiles per face, each holding
+// `bins` depth-binned linked lists of triangle ids, and a min/max depth hierarchy.
+struct DirtParams {
+    centre: vec4<f32>,
+    grid: u32,
+    bins: u32,
+    node_capacity: u32,
+    levels: u32,
+    // Depth below which geometry is not recorded (avoids the projection singularity).
+    near: f32,
+    triangle_count: u32,
+    pad_a: u32,
+    pad_b: u32,
+    // First cell of each hierarchy level in `hierarchy` (level l at [l / 4][l % 4]).
+    level_offsets: array<vec4<u32>, 4>,
+}
+
+// Axes of cube face f (order +X −X +Y −Y +Z −Z): columns U, V (screen right, up) and A (axis).
+fn face_basis(f: u32) -> mat3x3<f32> {
+    switch f {
+        case 0u: { return mat3x3<f32>(vec3(0.0, 0.0, -1.0), vec3(0.0, 1.0, 0.0), vec3(1.0, 0.0, 0.0)); }
+        case 1u: { return mat3x3<f32>(vec3(0.0, 0.0, 1.0), vec3(0.0, 1.0, 0.0), vec3(-1.0, 0.0, 0.0)); }
+        case 2u: { return mat3x3<f32>(vec3(1.0, 0.0, 0.0), vec3(0.0, 0.0, -1.0), vec3(0.0, 1.0, 0.0)); }
+        case 3u: { return mat3x3<f32>(vec3(1.0, 0.0, 0.0), vec3(0.0, 0.0, 1.0), vec3(0.0, -1.0, 0.0)); }
+        case 4u: { return mat3x3<f32>(vec3(1.0, 0.0, 0.0), vec3(0.0, 1.0, 0.0), vec3(0.0, 0.0, 1.0)); }
+        default: { return mat3x3<f32>(vec3(-1.0, 0.0, 0.0), vec3(0.0, 1.0, 0.0), vec3(0.0, 0.0, -1.0)); }
+    }
+}
+
+// Offset of hierarchy level l.
+fn level_offset(d: DirtParams, l: u32) -> u32 {
+    return d.level_offsets[l / 4u][l % 4u];
+}

@@ -1,8 +1,8 @@
 // Camera G-buffer: world position, shading normal, material and pixel footprint, rasterised
 // with this iteration's sub-pixel jitter (baked into clip_from_world).
-#import bevy_rppm::common::{Triangle, IterationParams, triangle_position, triangle_normal}
+#import bevy_rppm::common::{IterationParams, triangle_position, triangle_normal}
+#import bevy_rppm::scene::triangles
 
-@group(0) @binding(0) var<storage, read> triangles: array<Triangle>;
 @group(1) @binding(0) var<uniform> params: IterationParams;
 
 struct VertexOut {

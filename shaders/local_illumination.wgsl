@@ -1,12 +1,8 @@
 // Local illumination: emission seen by the camera plus direct light from every light with
 // shadows from our shadow maps, averaged over iterations into the radiance estimate.
-#import bevy_rppm::common::{Triangle, Material, Light, ShadowView, IterationParams, PI, LIGHT_POINT, LIGHT_SPOT, LIGHT_DIRECTIONAL}
+#import bevy_rppm::common::{Material, Light, IterationParams, LIGHT_SPOT, LIGHT_DIRECTIONAL}
 #import bevy_rppm::bsdf::bsdf_eval
-
-@group(0) @binding(0) var<storage, read> triangles: array<Triangle>;
-@group(0) @binding(1) var<storage, read> shadow_views: array<ShadowView>;
-@group(0) @binding(2) var<storage, read> materials: array<Material>;
-@group(0) @binding(3) var<storage, read> lights: array<Light>;
+#import bevy_rppm::scene::{shadow_views, materials, lights}
 
 @group(1) @binding(0) var<uniform> params: IterationParams;
 

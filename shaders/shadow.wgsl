@@ -1,9 +1,7 @@
 // Shadow maps: depth of every scene triangle seen from one shadow view. The view index arrives
 // as the instance index, so one pipeline serves every light and face.
-#import bevy_rppm::common::{Triangle, ShadowView, triangle_position}
-
-@group(0) @binding(0) var<storage, read> triangles: array<Triangle>;
-@group(0) @binding(1) var<storage, read> shadow_views: array<ShadowView>;
+#import bevy_rppm::common::triangle_position
+#import bevy_rppm::scene::{triangles, shadow_views}
 
 @vertex
 fn vertex(@builtin(vertex_index) vertex: u32, @builtin(instance_index) view: u32) -> @builtin(position) vec4<f32> {

@@ -3,6 +3,7 @@
 //! the tests both run through here.
 
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use bevy::asset::LoadState;
@@ -16,6 +17,8 @@ use bevy::render::settings::RenderCreation;
 use bevy::window::ExitCondition;
 use bevy::world_serialization::{WorldAssetRoot, WorldInstanceReady};
 
+use crate::cubemap::CubemapConfig;
+use crate::cubemap::bench::{DirtBenchRequest, DirtBenchResults, DirtBenchRow, bench_rays};
 use crate::{
     PhotonMapping, RppmPlugin, RppmRadiance, RppmReadback, RppmScene, RppmStats, ViewStats,
 };
@@ -111,23 +114,13 @@ pub struct RenderResult {
 /// The longest a render may go without progress before it is called stalled.
 const STALL: Duration = Duration::from_secs(120);
 
-/// Renders a glTF scene headless. Every failure is a one-line message.
-pub fn render_gltf(
-    request: &RenderRequest,
-    mut progress: impl FnMut(u32, &Budget),
-) -> Result<RenderResult, String> {
-    let scene = request.scene.as_path();
+/// Loads a glTF file into a fresh headless app and runs it until the scene is spawned and
+/// extracted. Every failure is a one-line message.
+pub fn load_gltf(scene: &Path) -> Result<App, String> {
     let meta =
         std::fs::metadata(scene).map_err(|e| format!("cannot read {}: {e}", scene.display()))?;
     if !meta.is_file() {
         return Err(format!("{} is not a file", scene.display()));
-    }
-    if request.width == 0 || request.height == 0 || request.width > 16384 || request.height > 16384
-    {
-        return Err(format!(
-            "image size {}x{} is outside 1..=16384",
-            request.width, request.height
-        ));
     }
     check_gpu_adapter()?;
     let absolute = std::fs::canonicalize(scene)
@@ -149,7 +142,6 @@ pub fn render_gltf(
         },
     );
     let start = Instant::now();
-    // Load and spawn the scene.
     while !app.world().contains_resource::<SceneReady>() {
         app.update();
         let state = app
@@ -168,6 +160,22 @@ pub fn render_gltf(
         }
     }
     app.update(); // let extraction see the spawned meshes
+    Ok(app)
+}
+
+/// Renders a glTF scene headless. Every failure is a one-line message.
+pub fn render_gltf(
+    request: &RenderRequest,
+    mut progress: impl FnMut(u32, &Budget),
+) -> Result<RenderResult, String> {
+    if request.width == 0 || request.height == 0 || request.width > 16384 || request.height > 16384
+    {
+        return Err(format!(
+            "image size {}x{} is outside 1..=16384",
+            request.width, request.height
+        ));
+    }
+    let mut app = load_gltf(&request.scene)?;
     let camera_from_scene = attach_camera(&mut app, request)?;
     let mut query = app
         .world_mut()
@@ -189,6 +197,55 @@ pub fn render_gltf(
         }
     })
 }
+
+/// Runs the DIRT harness on a glTF scene: the cubemap centred at the scene's camera (or the
+/// default camera), `rays` compared with brute force, `timing_rays` timed, per configuration.
+pub fn bench_dirt(
+    scene: &Path,
+    configs: Vec<CubemapConfig>,
+    rays: u32,
+    timing_rays: u32,
+) -> Result<(Vec<DirtBenchRow>, Vec3), String> {
+    let mut app = load_gltf(scene)?;
+    let data = app.world().resource::<RppmScene>().data.clone();
+    if data.triangles.is_empty() {
+        return Err(format!("{} has no triangles to trace", scene.display()));
+    }
+    let mut cameras = app
+        .world_mut()
+        .query_filtered::<&GlobalTransform, With<Camera3d>>();
+    let centre = cameras
+        .iter(app.world())
+        .next()
+        .map(|t| t.translation())
+        .unwrap_or_else(|| default_camera(&data).translation);
+    app.insert_resource(DirtBenchRequest {
+        configs,
+        rays: Arc::new(bench_rays(&data, centre, rays)),
+        timing_rays,
+        centre,
+    });
+    let start = Instant::now();
+    loop {
+        app.update();
+        if let Some(result) = app.world_mut().resource_mut::<DirtBenchResults>().0.take() {
+            return result.map(|rows| (rows, centre));
+        }
+        if start.elapsed() > Duration::from_secs(3600) {
+            return Err("the DIRT harness did not finish within an hour".into());
+        }
+    }
+}
+
+/// The documented default camera: 45° vertical field of view, on the +Z side of the scene's
+/// bounds, looking down −Z at their centre, far enough to see the bounding sphere.
+pub fn default_camera(data: &crate::SceneData) -> Transform {
+    let (centre, radius) = data.bounding_sphere();
+    let distance = radius.max(1e-3) / (DEFAULT_FOV * 0.5).sin() * 1.05;
+    Transform::from_translation(centre + Vec3::Z * distance).looking_at(centre, Vec3::Y)
+}
+
+const DEFAULT_FOV: f32 = std::f32::consts::FRAC_PI_4;
 
 #[derive(Resource)]
 struct SceneReady;
@@ -219,13 +276,14 @@ fn attach_camera(app: &mut App, request: &RenderRequest) -> Result<bool, String>
         world.entity_mut(first).insert(components);
         return Ok(true);
     }
-    let (centre, radius) = world.resource::<RppmScene>().data.bounding_sphere();
-    let fov = std::f32::consts::FRAC_PI_4;
-    let distance = radius.max(1e-3) / (fov * 0.5).sin() * 1.05;
+    let transform = default_camera(&world.resource::<RppmScene>().data);
     world.spawn((
         Camera3d::default(),
-        Projection::Perspective(PerspectiveProjection { fov, ..default() }),
-        Transform::from_translation(centre + Vec3::Z * distance).looking_at(centre, Vec3::Y),
+        Projection::Perspective(PerspectiveProjection {
+            fov: DEFAULT_FOV,
+            ..default()
+        }),
+        transform,
         components,
     ));
     Ok(false)

@@ -15,6 +15,7 @@
 //!     .run();
 //! ```
 
+pub mod cubemap;
 pub mod headless;
 pub mod image_io;
 mod output;
@@ -55,7 +56,9 @@ impl Plugin for RppmPlugin {
                 scene::SceneExtractionPlugin,
                 ExtractComponentPlugin::<PhotonMapping>::default(),
                 ExtractResourcePlugin::<RppmScene>::default(),
+                ExtractResourcePlugin::<cubemap::bench::DirtBenchRequest>::default(),
             ))
+            .init_resource::<cubemap::bench::DirtBenchResults>()
             .init_resource::<RppmStats>()
             .init_resource::<RppmRadiance>()
             .insert_resource(output::MainReceiver(receiver))
@@ -68,7 +71,15 @@ impl Plugin for RppmPlugin {
             .insert_resource(shaders)
             .insert_resource(output::RenderSender(sender))
             .init_resource::<view::RppmViews>()
-            .add_systems(RenderStartup, pipelines::init_pipelines)
+            .add_systems(
+                RenderStartup,
+                (
+                    pipelines::init_pipelines,
+                    cubemap::init_cubemap_pipelines,
+                    cubemap::bench::init_bench_pipelines,
+                )
+                    .chain(),
+            )
             .add_systems(
                 Render,
                 (scene::gpu::upload_scene, view::prepare_views)
@@ -76,6 +87,12 @@ impl Plugin for RppmPlugin {
                     .in_set(RenderSystems::PrepareResources),
             )
             .add_systems(Render, view::report_views.after(RenderSystems::Render))
+            .add_systems(
+                Render,
+                cubemap::bench::run_dirt_bench
+                    .after(RenderSystems::PrepareResources)
+                    .before(RenderSystems::Render),
+            )
             .add_systems(
                 Core3d,
                 view::rppm_node

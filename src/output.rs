@@ -5,8 +5,14 @@ use std::collections::BTreeMap;
 
 use bevy::platform::collections::HashMap;
 use bevy::prelude::*;
+use bevy::render::render_resource::{
+    Buffer, BufferDescriptor, BufferUsages, CommandEncoderDescriptor, MapMode, PollType,
+};
+use bevy::render::renderer::{RenderDevice, RenderQueue};
 use crossbeam_channel::{Receiver, Sender};
 use serde::Serialize;
+
+use crate::cubemap::bench::{DirtBenchResults, DirtBenchRow};
 
 /// Add to a `PhotonMapping` camera to receive its raw linear radiance (no exposure, no
 /// tonemapping) in [`RppmRadiance`] every frame. Each read-back waits for the GPU, so add it
@@ -65,6 +71,36 @@ pub struct RppmRadiance {
 pub(crate) enum RenderMessage {
     Stats(Entity, ViewStats),
     Radiance(RadianceImage),
+    DirtBench(Vec<DirtBenchRow>),
+}
+
+/// Copies a GPU buffer (with `COPY_SRC`) back to the CPU, waiting for the GPU.
+pub(crate) fn read_back(
+    device: &RenderDevice,
+    queue: &RenderQueue,
+    source: &Buffer,
+) -> Option<Vec<u8>> {
+    let staging = device.create_buffer(&BufferDescriptor {
+        label: Some("rppm_read_back"),
+        size: source.size(),
+        usage: BufferUsages::MAP_READ | BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    });
+    let mut encoder = device.create_command_encoder(&CommandEncoderDescriptor::default());
+    encoder.copy_buffer_to_buffer(source, 0, &staging, 0, source.size());
+    queue.submit([encoder.finish()]);
+    let slice = staging.slice(..);
+    let (tx, rx) = crossbeam_channel::bounded(1);
+    slice.map_async(MapMode::Read, move |r| {
+        let _ = tx.send(r.is_ok());
+    });
+    device.poll(PollType::wait_indefinitely()).ok()?;
+    if !rx.recv().ok()? {
+        return None;
+    }
+    let bytes = slice.get_mapped_range().to_vec();
+    staging.unmap();
+    Some(bytes)
 }
 
 #[derive(Resource, Deref)]
@@ -77,6 +113,7 @@ pub(crate) fn receive_reports(
     receiver: Res<MainReceiver>,
     mut stats: ResMut<RppmStats>,
     mut radiance: ResMut<RppmRadiance>,
+    mut bench: ResMut<DirtBenchResults>,
     cameras: Query<(), With<crate::PhotonMapping>>,
 ) {
     while let Ok(message) = receiver.try_recv() {
@@ -87,6 +124,7 @@ pub(crate) fn receive_reports(
             RenderMessage::Radiance(image) => {
                 radiance.images.insert(image.camera, image);
             }
+            RenderMessage::DirtBench(rows) => bench.0 = Some(Ok(rows)),
         }
     }
     stats.views.retain(|e, _| cameras.contains(*e));

@@ -26,6 +26,8 @@ pub struct RppmShaders {
     pub gbuffer: Handle<Shader>,
     pub local_illumination: Handle<Shader>,
     pub output: Handle<Shader>,
+    pub dirt_build: Handle<Shader>,
+    pub dirt_bench: Handle<Shader>,
 }
 
 macro_rules! wgsl {
@@ -40,7 +42,14 @@ macro_rules! wgsl {
 impl RppmShaders {
     pub fn load(shaders: &mut Assets<Shader>) -> Self {
         Self {
-            _libraries: vec![wgsl!(shaders, "common.wgsl"), wgsl!(shaders, "bsdf.wgsl")],
+            _libraries: vec![
+                wgsl!(shaders, "common.wgsl"),
+                wgsl!(shaders, "scene.wgsl"),
+                wgsl!(shaders, "bsdf.wgsl"),
+                wgsl!(shaders, "dirt.wgsl"),
+            ],
+            dirt_build: wgsl!(shaders, "dirt_build.wgsl"),
+            dirt_bench: wgsl!(shaders, "dirt_bench.wgsl"),
             shadow: wgsl!(shaders, "shadow.wgsl"),
             gbuffer: wgsl!(shaders, "gbuffer.wgsl"),
             local_illumination: wgsl!(shaders, "local_illumination.wgsl"),

@@ -10,20 +10,26 @@ use wgpu::{
 };
 
 /// The stages of one PPM iteration that report GPU time.
+pub const STAGES: usize = 6;
+
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Stage {
     ShadowMaps,
     GBuffer,
     LocalIllumination,
     Output,
+    CubemapBuild,
+    CubemapTrace,
 }
 
 impl Stage {
-    pub const ALL: [Stage; 4] = [
+    pub const ALL: [Stage; STAGES] = [
         Stage::ShadowMaps,
         Stage::GBuffer,
         Stage::LocalIllumination,
         Stage::Output,
+        Stage::CubemapBuild,
+        Stage::CubemapTrace,
     ];
 
     pub fn name(self) -> &'static str {
@@ -32,6 +38,8 @@ impl Stage {
             Stage::GBuffer => "gbuffer",
             Stage::LocalIllumination => "local_illumination",
             Stage::Output => "output",
+            Stage::CubemapBuild => "cubemap_build",
+            Stage::CubemapTrace => "cubemap_trace",
         }
     }
 }
@@ -52,9 +60,9 @@ pub struct StageTimer {
     copied: bool,
     period_ns: f32,
     /// GPU ms per stage of the last frame read back.
-    pub last_ms: [f64; 4],
+    pub last_ms: [f64; STAGES],
     /// GPU ms per stage summed over every frame read back since the timer was made.
-    pub total_ms: [f64; 4],
+    pub total_ms: [f64; STAGES],
     /// Iterations in the frames summed into `total_ms`.
     pub timed_iterations: u64,
 }
@@ -103,8 +111,8 @@ impl StageTimer {
             in_flight: None,
             copied: false,
             period_ns: queue.get_timestamp_period(),
-            last_ms: [0.0; 4],
-            total_ms: [0.0; 4],
+            last_ms: [0.0; STAGES],
+            total_ms: [0.0; STAGES],
             timed_iterations: 0,
             frame_iterations: 0,
         }
@@ -215,7 +223,7 @@ impl StageTimer {
             }
             _ => {}
         }
-        let mut ms = [0.0f64; 4];
+        let mut ms = [0.0f64; STAGES];
         {
             let view = readback.slice(..spans.len() as u64 * 16).get_mapped_range();
             let ticks: &[u64] = bytemuck::cast_slice(&view);

@@ -13,7 +13,7 @@ use bevy::render::sync_world::MainEntity;
 use bevy::render::view::{ExtractedView, ViewTarget};
 use bytemuck::{Pod, Zeroable};
 
-use crate::output::{RadianceImage, RenderMessage, RenderSender, ViewStats};
+use crate::output::{RadianceImage, RenderMessage, RenderSender, ViewStats, read_back};
 use crate::pipelines::{DEPTH_FORMAT, GBUFFER_FORMAT, RppmPipelines};
 use crate::scene::gpu::SceneBuffers;
 use crate::scene::{GpuTriangle, SceneData};
@@ -83,7 +83,6 @@ pub struct ViewState {
     local_group: BindGroup,
     output_group: BindGroup,
     timer: StageTimer,
-    staging: Option<Buffer>,
     readback_pending: bool,
     memory: Vec<(String, u64)>,
     error: Option<String>,
@@ -211,7 +210,6 @@ impl ViewState {
             local_group,
             output_group,
             timer: StageTimer::new(device, queue, 4096),
-            staging: None,
             readback_pending: false,
             memory,
             error: None,
@@ -410,14 +408,6 @@ pub(crate) fn prepare_views(
         state.frame = (base, count);
         state.iteration += count;
         state.readback_pending = rppm.readback;
-        if rppm.readback && state.staging.is_none() {
-            state.staging = Some(device.create_buffer(&BufferDescriptor {
-                label: Some("rppm_radiance_readback"),
-                size: state.radiance.size(),
-                usage: BufferUsages::MAP_READ | BufferUsages::COPY_DST,
-                mapped_at_creation: false,
-            }));
-        }
     }
     states.0.retain(|entity, _| alive.contains(entity));
 }
@@ -513,9 +503,6 @@ pub(crate) fn rppm_node(
         pass.set_bind_group(0, &state.output_group, &[0]);
         pass.draw(0..3, 0..1);
     }
-    if let (true, Some(staging)) = (state.readback_pending, &state.staging) {
-        encoder.copy_buffer_to_buffer(&state.radiance, 0, staging, 0, state.radiance.size());
-    }
     state.timer.end_frame(encoder);
 }
 
@@ -569,6 +556,7 @@ pub(crate) fn report_views(
     mut states: ResMut<RppmViews>,
     scene: Option<Res<SceneBuffers>>,
     device: Res<RenderDevice>,
+    queue: Res<RenderQueue>,
     adapter: Res<RenderAdapterInfo>,
     sender: Res<RenderSender>,
 ) {
@@ -587,9 +575,10 @@ pub(crate) fn report_views(
         // A read-back frame waits for the GPU anyway; others only look.
         let waiting = state.readback_pending;
         state.timer.collect(&device, waiting);
-        if let (true, Some(staging)) = (state.readback_pending, &state.staging)
-            && let Some(pixels) = read_buffer(&device, staging)
+        if state.readback_pending
+            && let Some(bytes) = read_back(&device, &queue, &state.radiance)
         {
+            let pixels = bytemuck::cast_slice(&bytes).to_vec();
             let _ = sender.send(RenderMessage::Radiance(RadianceImage {
                 camera: *entity,
                 width: state.key.size.x,
@@ -625,20 +614,4 @@ pub(crate) fn report_views(
             },
         ));
     }
-}
-
-/// Maps a read-back buffer and copies it out, waiting for the GPU.
-fn read_buffer(device: &RenderDevice, buffer: &Buffer) -> Option<Vec<[f32; 4]>> {
-    let slice = buffer.slice(..);
-    let (tx, rx) = crossbeam_channel::bounded(1);
-    slice.map_async(MapMode::Read, move |r| {
-        let _ = tx.send(r.is_ok());
-    });
-    device.poll(PollType::wait_indefinitely()).ok()?;
-    if !rx.recv().ok()? {
-        return None;
-    }
-    let pixels = bytemuck::cast_slice(&slice.get_mapped_range()).to_vec();
-    buffer.unmap();
-    Some(pixels)
 }

@@ -11,11 +11,15 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use bevy_rppm::PhotonMapping;
-use bevy_rppm::headless::{Budget, RenderRequest, RenderResult, render_gltf};
+use bevy_rppm::cubemap::CubemapConfig;
+use bevy_rppm::cubemap::bench::DirtBenchRow;
+use bevy_rppm::headless::{Budget, RenderRequest, RenderResult, bench_dirt, render_gltf};
 use bevy_rppm::image_io::{bad_pixels, write_exr, write_png};
 
 const USAGE: &str = "usage: rppm render SCENE.gltf [--width W] [--height H] \
-[--iterations N | --time-budget SECONDS] [--out FILE.exr|FILE.png]... [--stats FILE.json]";
+[--iterations N | --time-budget SECONDS] [--out FILE.exr|FILE.png]... [--stats FILE.json]
+       rppm bench dirt SCENE.gltf [--json] [--rays N] [--timing-rays N] \
+[--resolutions 64,128,256,512] [--bins 4,8,16,32] [--tile 1|2|4]";
 
 const DEFAULT_SCENE: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/assets/cornell_box.gltf");
 
@@ -30,6 +34,15 @@ fn main() -> ExitCode {
     let parsed = match argv.first().map(String::as_str) {
         None => Ok(default_args()),
         Some("render") => parse_render(&argv[1..]),
+        Some("bench") if argv.get(1).map(String::as_str) == Some("dirt") => {
+            return match parse_bench(&argv[2..]).and_then(|b| bench(&b)) {
+                Ok(()) => ExitCode::SUCCESS,
+                Err(message) => {
+                    eprintln!("rppm: error: {message}");
+                    ExitCode::from(2)
+                }
+            };
+        }
         Some("-h" | "--help" | "help") => {
             println!("{USAGE}");
             return ExitCode::SUCCESS;
@@ -244,4 +257,141 @@ fn mean_rgb(image: &bevy_rppm::image_io::RgbImage) -> [f64; 3] {
         }
     }
     sum.map(|s| s / n)
+}
+
+struct BenchArgs {
+    scene: PathBuf,
+    json: bool,
+    rays: u32,
+    timing_rays: u32,
+    resolutions: Vec<u32>,
+    bins: Vec<u32>,
+    tile: u32,
+}
+
+fn list(text: &str, flag: &str) -> Result<Vec<u32>, String> {
+    text.split(',').map(|v| number(v.trim(), flag)).collect()
+}
+
+fn parse_bench(args: &[String]) -> Result<BenchArgs, String> {
+    let mut b = BenchArgs {
+        scene: PathBuf::new(),
+        json: false,
+        rays: 1 << 16,
+        timing_rays: 1 << 20,
+        resolutions: vec![64, 128, 256, 512],
+        bins: vec![4, 8, 16, 32],
+        tile: 1,
+    };
+    let mut scene = None;
+    let mut i = 0;
+    while i < args.len() {
+        let flag = args[i].as_str();
+        let mut step = 2;
+        match flag {
+            "--json" => {
+                b.json = true;
+                step = 1;
+            }
+            "--rays" => b.rays = number(value(args, i, flag)?, flag)?,
+            "--timing-rays" => b.timing_rays = number(value(args, i, flag)?, flag)?,
+            "--resolutions" => b.resolutions = list(value(args, i, flag)?, flag)?,
+            "--bins" => b.bins = list(value(args, i, flag)?, flag)?,
+            "--tile" => b.tile = number(value(args, i, flag)?, flag)?,
+            _ if flag.starts_with("--") => return Err(format!("unknown option {flag}\n{USAGE}")),
+            _ if scene.is_none() => {
+                scene = Some(PathBuf::from(flag));
+                step = 1;
+            }
+            _ => return Err(format!("unexpected argument '{flag}'\n{USAGE}")),
+        }
+        i += step;
+    }
+    b.scene = scene.ok_or_else(|| format!("no scene given\n{USAGE}"))?;
+    if !(1..=1 << 24).contains(&b.rays) || !(1..=1 << 26).contains(&b.timing_rays) {
+        return Err("--rays must be in 1..=16777216 and --timing-rays in 1..=67108864".into());
+    }
+    if ![1, 2, 4].contains(&b.tile) {
+        return Err("--tile must be 1, 2 or 4".into());
+    }
+    if b.resolutions.iter().any(|r| !(16..=4096).contains(r))
+        || b.bins.iter().any(|n| !(1..=64).contains(n))
+    {
+        return Err("resolutions must be in 16..=4096 and bins in 1..=64".into());
+    }
+    Ok(b)
+}
+
+fn bench(b: &BenchArgs) -> Result<(), String> {
+    let defaults = PhotonMapping::default();
+    let default = CubemapConfig {
+        resolution: defaults.cubemap_resolution,
+        tile_size: b.tile,
+        bins: defaults.bins,
+    };
+    let mut configs = vec![default];
+    for &resolution in &b.resolutions {
+        for &bins in &b.bins {
+            let config = CubemapConfig {
+                resolution,
+                tile_size: b.tile,
+                bins,
+            };
+            if !configs.contains(&config) {
+                configs.push(config);
+            }
+        }
+    }
+    eprintln!(
+        "rppm: tracing {} rays per setting through {} settings...",
+        b.rays,
+        configs.len()
+    );
+    let (rows, centre) = bench_dirt(&b.scene, configs, b.rays, b.timing_rays)?;
+    if b.json {
+        let json = serde_json::json!({
+            "scene": b.scene.display().to_string(),
+            "centre": centre.to_array(),
+            "default": rows.first(),
+            "settings": rows,
+        });
+        println!(
+            "{}",
+            serde_json::to_string_pretty(&json).unwrap_or_default()
+        );
+    } else {
+        print_table(&rows);
+    }
+    Ok(())
+}
+
+fn print_table(rows: &[DirtBenchRow]) {
+    println!(
+        "{:>5} {:>4} {:>4} {:>9} {:>6} {:>6} {:>6} {:>10} {:>12} {:>10}",
+        "res",
+        "tile",
+        "bins",
+        "agreement",
+        "f.miss",
+        "f.hit",
+        "wrong",
+        "build ms",
+        "trace ms/1M",
+        "MiB"
+    );
+    for r in rows {
+        println!(
+            "{:>5} {:>4} {:>4} {:>9.5} {:>6} {:>6} {:>6} {:>10.2} {:>12.1} {:>10.1}",
+            r.resolution,
+            r.tile_size,
+            r.bins,
+            r.agreement,
+            r.false_misses,
+            r.false_hits,
+            r.wrong_hits,
+            r.build_ms,
+            r.trace_ms * (1 << 20) as f64 / r.timing_rays.max(1) as f64,
+            r.bytes as f64 / (1 << 20) as f64
+        );
+    }
 }

@@ -1,0 +1,10 @@
+// The scene tables, bound at group 0 by every stage (src/pipelines.rs scene_layout).
+#define_import_path bevy_rppm::scene
+
+#import bevy_rppm::common::{Triangle, Material, Light, Emitter, ShadowView}
+
+@group(0) @binding(0) var<storage, read> triangles: array<Triangle>;
+@group(0) @binding(1) var<storage, read> shadow_views: array<ShadowView>;
+@group(0) @binding(2) var<storage, read> materials: array<Material>;
+@group(0) @binding(3) var<storage, read> lights: array<Light>;
+@group(0) @binding(4) var<storage, read> emitters: array<Emitter>;

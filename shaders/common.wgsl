@@ -72,6 +72,8 @@ struct ShadowView {
 // Per-iteration constants (uniform, one 256-byte slot per iteration of a frame).
 struct IterationParams {
     clip_from_world: mat4x4<f32>,
+    // Inverse of the (jittered) clip_from_world: camera rays through any pixel position.
+    world_from_clip: mat4x4<f32>,
     camera_position: vec4<f32>,
     // Area-light sample for this iteration: position (w = 1 if any), normal, radiance / pdf.
     area_position: vec4<f32>,

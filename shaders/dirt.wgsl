@@ -8,10 +8,10 @@
 #import bevy_rppm::common::{DirtParams, face_basis, level_offset}
 #import bevy_rppm::scene::triangles
 
-@group(1) @binding(0) var<uniform> dirt: DirtParams;
-@group(1) @binding(1) var<storage, read> hierarchy: array<vec2<f32>>;
-@group(1) @binding(2) var<storage, read> heads: array<u32>;
-@group(1) @binding(3) var<storage, read> nodes: array<vec2<u32>>;
+@group(3) @binding(0) var<uniform> dirt: DirtParams;
+@group(3) @binding(1) var<storage, read> hierarchy: array<vec2<f32>>;
+@group(3) @binding(2) var<storage, read> heads: array<u32>;
+@group(3) @binding(3) var<storage, read> nodes: array<vec2<u32>>;
 
 const NO_HIT: u32 = 0xffffffffu;
 const FAR: f32 = 1.0e30;

@@ -16,6 +16,7 @@
 //! ```
 
 pub mod cubemap;
+mod debug_view;
 pub mod headless;
 pub mod image_io;
 mod output;
@@ -35,7 +36,7 @@ use bevy::shader::Shader;
 
 pub use output::{RadianceImage, RppmRadiance, RppmReadback, RppmStats, ViewStats};
 pub use scene::{RppmScene, SceneData};
-pub use settings::{PhotonMapping, RppmMode};
+pub use settings::{PhotonMapping, RppmDebugView, RppmMode};
 
 /// Adds photon mapping to every camera that has a [`PhotonMapping`] component.
 pub struct RppmPlugin;
@@ -77,6 +78,7 @@ impl Plugin for RppmPlugin {
                     pipelines::init_pipelines,
                     cubemap::init_cubemap_pipelines,
                     cubemap::bench::init_bench_pipelines,
+                    debug_view::init_debug_view_pipelines,
                 )
                     .chain(),
             )

@@ -54,6 +54,10 @@ pub struct ViewStats {
     pub adapter: String,
     /// Why nothing renders, when something failed (e.g. a pipeline did not build).
     pub error: Option<String>,
+    /// Deep-cubemap list entries used by the last build read back, and entries that did not
+    /// fit (the lists then grow for the next build).
+    pub cubemap_nodes: u32,
+    pub cubemap_overflow: u32,
 }
 
 /// Stats of every photon-mapping camera, by camera entity.

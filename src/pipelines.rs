@@ -28,6 +28,7 @@ pub struct RppmShaders {
     pub output: Handle<Shader>,
     pub dirt_build: Handle<Shader>,
     pub dirt_bench: Handle<Shader>,
+    pub debug_view: Handle<Shader>,
 }
 
 macro_rules! wgsl {
@@ -50,6 +51,7 @@ impl RppmShaders {
             ],
             dirt_build: wgsl!(shaders, "dirt_build.wgsl"),
             dirt_bench: wgsl!(shaders, "dirt_bench.wgsl"),
+            debug_view: wgsl!(shaders, "debug_view.wgsl"),
             shadow: wgsl!(shaders, "shadow.wgsl"),
             gbuffer: wgsl!(shaders, "gbuffer.wgsl"),
             local_illumination: wgsl!(shaders, "local_illumination.wgsl"),

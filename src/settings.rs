@@ -21,6 +21,19 @@ pub enum RppmMode {
     Indirect,
 }
 
+/// Images for checking the pipeline by eye; `None` renders the estimate.
+#[derive(Reflect, Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+#[reflect(Default, Clone, PartialEq, Hash)]
+pub enum RppmDebugView {
+    #[default]
+    None,
+    /// Shading normals (n·0.5 + 0.5) of the rasterised camera G-buffer.
+    GBufferNormals,
+    /// Shading normals of primary rays traced through the deep cubemap, with the G-buffer's
+    /// jitter: it should match `GBufferNormals`.
+    CubemapNormals,
+}
+
 /// Rasterisation-based progressive photon mapping on a 3D camera.
 ///
 /// Add it to a `Camera3d`. Every value is checked each time it changes: an out-of-range value
@@ -49,6 +62,9 @@ pub struct PhotonMapping {
     /// Edge length in pixels of each face of the camera-centred deep cubemap.
     /// Range 16..=4096, default 256.
     pub cubemap_resolution: u32,
+    /// Edge length in pixels of a cubemap tile, the unit that holds a set of depth-binned
+    /// lists: 1, 2 or 4 (others are rounded to the nearest of these). Default 1.
+    pub cubemap_tile_size: u32,
     /// Depth bins per cubemap tile. Range 1..=64, default 12.
     pub bins: u32,
     /// PPM iterations run per rendered frame. Range 1..=1024, default 1.
@@ -61,6 +77,8 @@ pub struct PhotonMapping {
     /// Edge length in texels of each face of a light's shadow cube (or a directional light's
     /// shadow map). Range 16..=8192, default 512.
     pub shadow_map_resolution: u32,
+    /// A debug image instead of the estimate. Default [`RppmDebugView::None`].
+    pub debug_view: RppmDebugView,
 }
 
 impl Default for PhotonMapping {
@@ -74,11 +92,13 @@ impl Default for PhotonMapping {
             alpha: 0.7,
             initial_radius_pixels: 4.0,
             cubemap_resolution: 256,
+            cubemap_tile_size: 1,
             bins: 12,
             iterations_per_frame: 1,
             max_iterations: None,
             splat_russian_roulette: false,
             shadow_map_resolution: 512,
+            debug_view: RppmDebugView::None,
         }
     }
 }
@@ -120,6 +140,18 @@ impl PhotonMapping {
             &mut notes,
         );
         clamp_u32(&mut out.bins, 1, 64, "bins", &mut notes);
+        let tile = match out.cubemap_tile_size {
+            0..=1 => 1,
+            2 | 3 => 2,
+            _ => 4,
+        };
+        if tile != out.cubemap_tile_size {
+            notes.push(format!(
+                "PhotonMapping::cubemap_tile_size = {} is not 1, 2 or 4; using {tile}",
+                out.cubemap_tile_size
+            ));
+            out.cubemap_tile_size = tile;
+        }
         clamp_u32(
             &mut out.iterations_per_frame,
             1,

@@ -13,22 +13,25 @@ use bevy::render::sync_world::MainEntity;
 use bevy::render::view::{ExtractedView, ViewTarget};
 use bytemuck::{Pod, Zeroable};
 
+use crate::cubemap::{CubemapConfig, CubemapPipelines, DeepCubemap};
+use crate::debug_view::DebugViewPipelines;
 use crate::output::{RadianceImage, RenderMessage, RenderSender, ViewStats, read_back};
 use crate::pipelines::{DEPTH_FORMAT, GBUFFER_FORMAT, RppmPipelines};
 use crate::scene::gpu::SceneBuffers;
 use crate::scene::{GpuTriangle, SceneData};
-use crate::settings::{PhotonMapping, RppmMode};
+use crate::settings::{PhotonMapping, RppmDebugView, RppmMode};
 use crate::shadows::{self, ShadowMaps};
 use crate::timing::{Stage, StageTimer};
 
 /// Byte stride between per-iteration slots of the params buffer (dynamic-offset alignment).
 const PARAMS_STRIDE: u64 = 256;
 
-/// Per-iteration constants (`IterationParams` in common.wgsl, 176 bytes).
+/// Per-iteration constants (`IterationParams` in common.wgsl, 240 bytes).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
 pub struct IterationParams {
     pub clip_from_world: [[f32; 4]; 4],
+    pub world_from_clip: [[f32; 4]; 4],
     pub camera_position: [f32; 4],
     pub area_position: [f32; 4],
     pub area_normal: [f32; 4],
@@ -71,6 +74,13 @@ pub struct ViewState {
     /// First iteration and count run this frame.
     frame: (u32, u32),
     mode: RppmMode,
+    debug_view: RppmDebugView,
+    /// The deep cubemap, while a stage that traces rays needs one.
+    cubemap: Option<DeepCubemap>,
+    /// List capacity for the next cubemap made, raised when a build overflowed.
+    cubemap_capacity: u32,
+    /// (nodes used, nodes lost) of the last build read back.
+    cubemap_nodes: (u32, u32),
     output_pipeline: Option<CachedRenderPipelineId>,
     gbuffer_position: TextureView,
     gbuffer_normal: TextureView,
@@ -198,6 +208,10 @@ impl ViewState {
             iteration: 0,
             frame: (0, 0),
             mode: RppmMode::Full,
+            debug_view: RppmDebugView::None,
+            cubemap: None,
+            cubemap_capacity: 0,
+            cubemap_nodes: (0, 0),
             output_pipeline: None,
             gbuffer_position,
             gbuffer_normal,
@@ -292,6 +306,7 @@ fn iteration_params(
     };
     IterationParams {
         clip_from_world: clip_from_world.to_cols_array_2d(),
+        world_from_clip: clip_from_world.inverse().to_cols_array_2d(),
         camera_position: view.world_from_view.translation().extend(1.0).into(),
         area_position: area_position.into(),
         area_normal: area_normal.into(),
@@ -343,6 +358,7 @@ pub(crate) fn prepare_views(
     queue: Res<RenderQueue>,
     cache: Res<PipelineCache>,
     mut pipelines: ResMut<RppmPipelines>,
+    cubemap_pipelines: Res<CubemapPipelines>,
     mut states: ResMut<RppmViews>,
 ) {
     let mut alive = Vec::new();
@@ -377,7 +393,27 @@ pub(crate) fn prepare_views(
             state.iteration = 0;
         }
         state.mode = settings.mode;
+        state.debug_view = settings.debug_view;
         state.error = error.clone();
+        let cubemap =
+            (settings.debug_view == RppmDebugView::CubemapNormals).then_some(CubemapConfig {
+                resolution: settings.cubemap_resolution,
+                tile_size: settings.cubemap_tile_size,
+                bins: settings.bins,
+            });
+        let centre = view.world_from_view.translation();
+        if let Err(e) = prepare_cubemap(
+            state,
+            cubemap,
+            centre,
+            &device,
+            &queue,
+            &cache,
+            &cubemap_pipelines,
+            scene,
+        ) {
+            state.error = Some(e);
+        }
         state.output_pipeline =
             Some(pipelines.output_pipeline(&cache, view_target.main_texture_format()));
         let base = state.iteration;
@@ -412,12 +448,59 @@ pub(crate) fn prepare_views(
     states.0.retain(|entity, _| alive.contains(entity));
 }
 
+/// Makes, keeps or drops the view's deep cubemap, and centres it on the camera.
+#[allow(clippy::too_many_arguments)]
+fn prepare_cubemap(
+    state: &mut ViewState,
+    config: Option<CubemapConfig>,
+    centre: Vec3,
+    device: &RenderDevice,
+    queue: &RenderQueue,
+    cache: &PipelineCache,
+    pipelines: &CubemapPipelines,
+    scene: &SceneBuffers,
+) -> Result<(), String> {
+    let Some(config) = config else {
+        state.cubemap = None;
+        return Ok(());
+    };
+    let capacity = state.cubemap_capacity.max(DeepCubemap::initial_capacity(
+        config,
+        scene.triangle_count(),
+    ));
+    let stale = state
+        .cubemap
+        .as_ref()
+        .is_none_or(|c| c.config != config || c.params.node_capacity < capacity);
+    if stale {
+        state.cubemap = None;
+        state.cubemap = Some(DeepCubemap::new(
+            device, queue, cache, pipelines, scene, config, centre, capacity,
+        )?);
+    }
+    if let Some(cubemap) = &mut state.cubemap {
+        cubemap.set_centre(queue, centre);
+    }
+    Ok(())
+}
+
+/// Pipelines the node records with, all compiled.
+struct NodePipelines<'a> {
+    shadow: &'a RenderPipeline,
+    gbuffer: &'a RenderPipeline,
+    local: &'a ComputePipeline,
+    debug: Option<&'a ComputePipeline>,
+}
+
 /// The render-graph node: this frame's PPM iterations, then the view output.
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn rppm_node(
     view: ViewQuery<(&MainEntity, &ViewTarget)>,
     scene: Option<Res<SceneBuffers>>,
     mut states: ResMut<RppmViews>,
     pipelines: Res<RppmPipelines>,
+    cubemap_pipelines: Res<CubemapPipelines>,
+    debug_pipelines: Res<DebugViewPipelines>,
     cache: Res<PipelineCache>,
     mut ctx: RenderContext,
 ) {
@@ -432,53 +515,31 @@ pub(crate) fn rppm_node(
     ) else {
         return;
     };
-    let triangles = scene.triangle_count();
+    let node = NodePipelines {
+        shadow,
+        gbuffer,
+        local,
+        debug: debug_pipelines.get(&cache, state.debug_view),
+    };
     let encoder = ctx.command_encoder();
     state.timer.begin_frame(state.frame.1);
-    let (base, count) = state.frame;
-    if count > 0 && state.shadows.rendered_epoch != Some(scene.epoch) {
-        let layers = state.shadows.light_layers;
-        shadows::render_layers(
-            encoder,
-            shadow,
-            &state.scene_group,
-            &state.shadows,
-            triangles,
-            (0..layers).map(|l| (l, l)),
-            &mut state.timer,
-        );
-        state.shadows.rendered_epoch = Some(scene.epoch);
-    }
+    let (_, count) = state.frame;
     for slot in 0..count {
         let offset = (slot as u64 * PARAMS_STRIDE) as u32;
-        if state.shadows.has_area {
-            let (views, layer) = (
-                state.shadows.area_view_base(slot),
-                state.shadows.light_layers,
-            );
-            shadows::render_layers(
+        if state.debug_view == RppmDebugView::None {
+            encode_iteration(encoder, &node, state, &scene, slot, offset);
+        } else {
+            encode_debug_iteration(
                 encoder,
-                shadow,
-                &state.scene_group,
-                &state.shadows,
-                triangles,
-                (0..6).map(|f| (views + f, layer + f)),
-                &mut state.timer,
+                &node,
+                state,
+                &scene,
+                &cache,
+                &cubemap_pipelines,
+                offset,
             );
         }
-        encode_gbuffer(encoder, gbuffer, state, triangles, offset);
-        let size = state.key.size;
-        let mut pass = encoder.begin_compute_pass(&ComputePassDescriptor {
-            label: Some("rppm_local_illumination"),
-            timestamp_writes: state.timer.compute_pass(Stage::LocalIllumination),
-        });
-        pass.set_pipeline(local);
-        pass.set_bind_group(0, &state.scene_group, &[]);
-        pass.set_bind_group(1, &state.params_group, &[offset]);
-        pass.set_bind_group(2, &state.local_group, &[]);
-        pass.dispatch_workgroups(size.x.div_ceil(8), size.y.div_ceil(8), 1);
     }
-    let _ = base;
     let output = state
         .output_pipeline
         .and_then(|id| cache.get_render_pipeline(id));
@@ -504,6 +565,97 @@ pub(crate) fn rppm_node(
         pass.draw(0..3, 0..1);
     }
     state.timer.end_frame(encoder);
+}
+
+/// One PPM iteration: shadow maps (light maps once per scene change, the area-light cube
+/// every iteration), the G-buffer, local illumination.
+fn encode_iteration(
+    encoder: &mut CommandEncoder,
+    node: &NodePipelines,
+    state: &mut ViewState,
+    scene: &SceneBuffers,
+    slot: u32,
+    offset: u32,
+) {
+    let triangles = scene.triangle_count();
+    let mut layers: Vec<(u32, u32)> = Vec::new();
+    if state.shadows.rendered_epoch != Some(scene.epoch) {
+        layers.extend((0..state.shadows.light_layers).map(|l| (l, l)));
+        state.shadows.rendered_epoch = Some(scene.epoch);
+    }
+    let maps = &state.shadows;
+    if maps.has_area {
+        let (views, layer) = (maps.area_view_base(slot), maps.light_layers);
+        layers.extend((0..6).map(|f| (views + f, layer + f)));
+    }
+    shadows::render_layers(
+        encoder,
+        node.shadow,
+        &state.scene_group,
+        &state.shadows,
+        triangles,
+        layers.into_iter(),
+        &mut state.timer,
+    );
+    encode_gbuffer(encoder, node.gbuffer, state, triangles, offset);
+    let mut pass = encoder.begin_compute_pass(&ComputePassDescriptor {
+        label: Some("rppm_local_illumination"),
+        timestamp_writes: state.timer.compute_pass(Stage::LocalIllumination),
+    });
+    pass.set_pipeline(node.local);
+    dispatch_per_pixel(&mut pass, state, offset);
+}
+
+/// Binds groups 0–2 of a per-pixel compute stage and dispatches it over the view.
+fn dispatch_per_pixel(pass: &mut ComputePass, state: &ViewState, offset: u32) {
+    pass.set_bind_group(0, &state.scene_group, &[]);
+    pass.set_bind_group(1, &state.params_group, &[offset]);
+    pass.set_bind_group(2, &state.local_group, &[]);
+    let size = state.key.size;
+    pass.dispatch_workgroups(size.x.div_ceil(8), size.y.div_ceil(8), 1);
+}
+
+/// One iteration of a debug image: the G-buffer's normals, or normals traced through a deep
+/// cubemap built for this iteration.
+fn encode_debug_iteration(
+    encoder: &mut CommandEncoder,
+    node: &NodePipelines,
+    state: &mut ViewState,
+    scene: &SceneBuffers,
+    cache: &PipelineCache,
+    cubemap_pipelines: &CubemapPipelines,
+    offset: u32,
+) {
+    let Some(debug) = node.debug else { return };
+    let traced = state.debug_view == RppmDebugView::CubemapNormals;
+    if traced {
+        let Some(cubemap) = &state.cubemap else {
+            return;
+        };
+        cubemap.encode_build(
+            encoder,
+            cache,
+            cubemap_pipelines,
+            &state.scene_group,
+            &mut state.timer,
+        );
+    } else {
+        encode_gbuffer(encoder, node.gbuffer, state, scene.triangle_count(), offset);
+    }
+    let stage = if traced {
+        Stage::CubemapTrace
+    } else {
+        Stage::LocalIllumination
+    };
+    let mut pass = encoder.begin_compute_pass(&ComputePassDescriptor {
+        label: Some("rppm_debug_view"),
+        timestamp_writes: state.timer.compute_pass(stage),
+    });
+    pass.set_pipeline(debug);
+    if let (true, Some(cubemap)) = (traced, &state.cubemap) {
+        pass.set_bind_group(3, &cubemap.trace_group, &[]);
+    }
+    dispatch_per_pixel(&mut pass, state, offset);
 }
 
 fn encode_gbuffer(
@@ -590,6 +742,20 @@ pub(crate) fn report_views(
         }
         let mut memory = scene_memory.clone();
         memory.extend(state.memory.iter().cloned());
+        if let Some(cubemap) = &state.cubemap {
+            memory.extend(cubemap.memory().iter().map(|(n, b)| (n.to_string(), *b)));
+            // The list counters need a GPU round trip: only frames that wait anyway read them.
+            if state.readback_pending
+                && let Some(bytes) = read_back(&device, &queue, cubemap.counters())
+            {
+                let counters: &[u32] = bytemuck::cast_slice(&bytes);
+                state.cubemap_nodes = (counters[0].min(cubemap.params.node_capacity), counters[1]);
+                if counters[1] > 0 {
+                    state.cubemap_capacity =
+                        (counters[0] as u64 * 5 / 4).min(u32::MAX as u64 / 2) as u32;
+                }
+            }
+        }
         let _ = sender.send(RenderMessage::Stats(
             *entity,
             ViewStats {
@@ -611,6 +777,8 @@ pub(crate) fn report_views(
                 memory: memory.into_iter().collect(),
                 adapter: adapter.name.clone(),
                 error: state.error.clone(),
+                cubemap_nodes: state.cubemap_nodes.0,
+                cubemap_overflow: state.cubemap_nodes.1,
             },
         ));
     }

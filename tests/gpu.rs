@@ -176,6 +176,7 @@ fn lit_plane(app: &mut App, light_lumens: f32, light_height: f32, size: u32) -> 
             Transform::from_xyz(0.0, 5.0, 0.0).looking_at(Vec3::ZERO, Vec3::NEG_Z),
             target,
             Msaa::Off,
+            bevy::core_pipeline::tonemapping::Tonemapping::None,
             PhotonMapping::default(),
             RppmReadback,
         ))
@@ -424,4 +425,69 @@ fn cli_uses_a_default_camera_when_the_scene_has_none() {
         "the default camera sees the lit box, mean {}",
         image.mean()
     );
+}
+
+fn render_debug(view: bevy_rppm::RppmDebugView) -> RgbImage {
+    use bevy_rppm::headless::{Budget, RenderRequest, render_gltf};
+    let request = RenderRequest {
+        scene: Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/cornell_box.gltf"),
+        width: 64,
+        height: 48,
+        budget: Budget::Iterations(2),
+        settings: PhotonMapping {
+            debug_view: view,
+            ..default()
+        },
+    };
+    render_gltf(&request, |_, _| {})
+        .unwrap_or_else(|e| panic!("{e}"))
+        .image
+}
+
+#[test]
+fn primary_rays_through_the_cubemap_match_the_gbuffer() {
+    let raster = render_debug(bevy_rppm::RppmDebugView::GBufferNormals);
+    let traced = render_debug(bevy_rppm::RppmDebugView::CubemapNormals);
+    assert!(raster.mean() > 0.1, "the G-buffer image is empty");
+    let differing = raster
+        .pixels
+        .iter()
+        .zip(&traced.pixels)
+        .filter(|(a, b)| a.iter().zip(b.iter()).any(|(x, y)| (x - y).abs() > 1e-3))
+        .count();
+    eprintln!(
+        "cubemap vs G-buffer: {differing} of {} pixels differ",
+        raster.pixels.len()
+    );
+    assert!(
+        differing * 1000 <= raster.pixels.len(),
+        "{differing} pixels differ"
+    );
+}
+
+#[test]
+fn cubemap_traversal_agrees_with_brute_force() {
+    use bevy_rppm::cubemap::CubemapConfig;
+    check_gpu_adapter().unwrap_or_else(|hint| panic!("{hint}"));
+    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/cornell_box.gltf");
+    let defaults = PhotonMapping::default();
+    let configs = vec![
+        CubemapConfig {
+            resolution: defaults.cubemap_resolution,
+            tile_size: 1,
+            bins: defaults.bins,
+        },
+        CubemapConfig {
+            resolution: 64,
+            tile_size: 4,
+            bins: 1,
+        },
+    ];
+    let (rows, _) = bevy_rppm::headless::bench_dirt(&scene, configs, 8192, 8192).unwrap();
+    assert_eq!(rows.len(), 2);
+    for row in rows {
+        eprintln!("{row:?}");
+        assert!(row.agreement >= 0.999, "{row:?}");
+        assert_eq!(row.false_hits, 0, "{row:?}");
+    }
 }

@@ -10,14 +10,15 @@ use std::io::Write;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-use bevy_rppm::PhotonMapping;
 use bevy_rppm::cubemap::CubemapConfig;
 use bevy_rppm::cubemap::bench::DirtBenchRow;
 use bevy_rppm::headless::{Budget, RenderRequest, RenderResult, bench_dirt, render_gltf};
 use bevy_rppm::image_io::{bad_pixels, write_exr, write_png};
+use bevy_rppm::{PhotonMapping, RppmDebugView};
 
 const USAGE: &str = "usage: rppm render SCENE.gltf [--width W] [--height H] \
 [--iterations N | --time-budget SECONDS] [--out FILE.exr|FILE.png]... [--stats FILE.json]
+                   [--debug-view gbuffer-normals|cubemap-normals]
        rppm bench dirt SCENE.gltf [--json] [--rays N] [--timing-rays N] \
 [--resolutions 64,128,256,512] [--bins 4,8,16,32] [--tile 1|2|4]";
 
@@ -91,6 +92,7 @@ fn parse_render(args: &[String]) -> Result<Args, String> {
     let mut budget = None;
     let mut outputs = Vec::new();
     let mut stats = None;
+    let mut settings = PhotonMapping::default();
     let mut i = 0;
     while i < args.len() {
         let flag = args[i].as_str();
@@ -113,6 +115,17 @@ fn parse_render(args: &[String]) -> Result<Args, String> {
             }
             "--out" => outputs.push(output_path(value(args, i, flag)?)?),
             "--stats" => stats = Some(PathBuf::from(value(args, i, flag)?)),
+            "--debug-view" => {
+                settings.debug_view = match value(args, i, flag)? {
+                    "gbuffer-normals" => RppmDebugView::GBufferNormals,
+                    "cubemap-normals" => RppmDebugView::CubemapNormals,
+                    other => {
+                        return Err(format!(
+                            "--debug-view {other}: use gbuffer-normals or cubemap-normals"
+                        ));
+                    }
+                }
+            }
             _ if flag.starts_with("--") => return Err(format!("unknown option {flag}\n{USAGE}")),
             _ if scene.is_none() => {
                 scene = Some(PathBuf::from(flag));
@@ -130,7 +143,7 @@ fn parse_render(args: &[String]) -> Result<Args, String> {
             width,
             height,
             budget: budget.unwrap_or(Budget::Iterations(16)),
-            settings: PhotonMapping::default(),
+            settings,
         },
         outputs,
         stats,
@@ -233,6 +246,8 @@ fn stats_json(args: &Args, r: &RenderResult, total_seconds: f64) -> serde_json::
         "lights": r.lights,
         "emitters": r.emitters,
         "bad_pixels": bad_pixels(&r.image),
+        "cubemap_nodes": r.stats.cubemap_nodes,
+        "cubemap_overflow": r.stats.cubemap_overflow,
         "mean_rgb": mean_rgb(&r.image),
     })
 }

@@ -226,6 +226,7 @@ fn buffer(device: &RenderDevice, label: &'static str, size: u64, usage: BufferUs
 
 impl DeepCubemap {
     /// Buffers for `config` around `centre`, with room for `node_capacity` list entries.
+    #[allow(clippy::too_many_arguments)]
     pub fn new(
         device: &RenderDevice,
         queue: &RenderQueue,
@@ -235,9 +236,21 @@ impl DeepCubemap {
         config: CubemapConfig,
         centre: Vec3,
         node_capacity: u32,
-    ) -> Self {
+    ) -> Result<Self, String> {
         let grid = config.grid();
         let tiles = 6 * grid as u64 * grid as u64;
+        let limit = device
+            .limits()
+            .max_storage_buffer_binding_size
+            .min(device.limits().max_buffer_size);
+        let largest = (tiles * config.bins as u64 * 4).max(node_capacity as u64 * 8);
+        if largest > limit {
+            return Err(format!(
+                "a {}² cubemap with {} bins needs a {largest}-byte buffer, over this GPU's \
+                 limit of {limit} bytes",
+                config.resolution, config.bins
+            ));
+        }
         let (level_offsets, cells) = config.level_offsets();
         let (_, radius) = scene.data.bounding_sphere();
         let params = DirtParams {
@@ -328,7 +341,7 @@ impl DeepCubemap {
                 nodes.as_entire_binding(),
             )),
         );
-        Self {
+        Ok(Self {
             config,
             params,
             params_buffer,
@@ -342,7 +355,13 @@ impl DeepCubemap {
             build_group,
             level_group,
             trace_group,
-        }
+        })
+    }
+
+    /// Moves the cubemap's centre (the camera moved); takes effect at the next build.
+    pub fn set_centre(&mut self, queue: &RenderQueue, centre: Vec3) {
+        self.params.centre = centre.extend(1.0).into();
+        queue.write_buffer(&self.params_buffer, 0, bytemuck::bytes_of(&self.params));
     }
 
     /// A first list capacity for a scene: a few entries per tile, more for many triangles.

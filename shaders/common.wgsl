@@ -91,7 +91,35 @@ struct IterationParams {
     shadow_resolution: u32,
     exposure: f32,
     tonemap: u32,
-    pad: u32,
+    // Photons emitted this iteration, bounces each may take, room in the photon buffer.
+    photons: u32,
+    max_photon_depth: u32,
+    photon_capacity: u32,
+    // Entries of the photon-emission CDF (lights, then emitters).
+    source_count: u32,
+    // Knaus–Zwicker gather radius this iteration, in pixels (world radius = this × footprint).
+    splat_radius: f32,
+    pad_a: u32,
+    pad_b: u32,
+    pad_c: u32,
+    pad_d: u32,
+    // Bounding sphere of the scene: centre, radius (directional-light photons start on a disc).
+    scene_sphere: vec4<f32>,
+}
+
+// A stored photon (64 bytes, the RPPM budget).
+struct Photon {
+    position: vec3<f32>,
+    pad_a: u32,
+    // Flux the photon carries (W), linear RGB.
+    flux: vec3<f32>,
+    pad_b: u32,
+    // Direction towards where the photon came from.
+    incoming: vec3<f32>,
+    pad_c: u32,
+    // Shading normal at the hit, on the side the photon arrived from.
+    normal: vec3<f32>,
+    pad_d: u32,
 }
 
 fn triangle_position(t: Triangle, corner: u32) -> vec3<f32> {
@@ -146,4 +174,32 @@ fn face_basis(f: u32) -> mat3x3<f32> {
 // Offset of hierarchy level l.
 fn level_offset(d: DirtParams, l: u32) -> u32 {
     return d.level_offsets[l / 4u][l % 4u];
+}
+
+// A PCG hash: the random numbers of every stage come from hashing (iteration, item, draw).
+fn pcg_hash(v: u32) -> u32 {
+    let state = v * 747796405u + 2891336453u;
+    let word = ((state >> ((state >> 28u) + 4u)) ^ state) * 277803737u;
+    return (word >> 22u) ^ word;
+}
+
+// Uniform in [0, 1), advancing `state`.
+fn random(state: ptr<function, u32>) -> f32 {
+    *state = pcg_hash(*state);
+    return f32(*state >> 8u) / 16777216.0;
+}
+
+// An orthonormal basis around unit n (Duff et al. 2017).
+fn basis_around(n: vec3<f32>) -> mat3x3<f32> {
+    let s = select(-1.0, 1.0, n.z >= 0.0);
+    let a = -1.0 / (s + n.z);
+    let b = n.x * n.y * a;
+    return mat3x3<f32>(vec3<f32>(1.0 + s * n.x * n.x * a, s * b, -s * n.x), vec3<f32>(b, s + n.y * n.y * a, -n.y), n);
+}
+
+// Cosine-distributed direction around unit n.
+fn cosine_direction(n: vec3<f32>, u: vec2<f32>) -> vec3<f32> {
+    let r = sqrt(u.x);
+    let phi = 2.0 * PI * u.y;
+    return basis_around(n) * vec3<f32>(r * cos(phi), r * sin(phi), sqrt(max(1.0 - u.x, 0.0)));
 }

@@ -1,5 +1,5 @@
 // Debug images: shading normals of the camera G-buffer, or of primary rays traced through the
-// deep cubemap with the same jitter, averaged like the estimate. The two should match.
+// deep cubemap with the same jitter, as this iteration's sample. The two should match.
 #import bevy_rppm::common::{IterationParams, triangle_normal}
 #import bevy_rppm::scene::triangles
 #import bevy_rppm::dirt::{trace_dirt, NO_HIT}
@@ -8,12 +8,10 @@
 
 @group(2) @binding(0) var gbuffer_position: texture_2d<f32>;
 @group(2) @binding(1) var gbuffer_normal: texture_2d<f32>;
-@group(2) @binding(3) var<storage, read_write> radiance: array<vec4<f32>>;
+@group(2) @binding(3) var<storage, read_write> samples: array<vec4<f32>>;
 
 fn accumulate(id: vec2<u32>, sample: vec3<f32>) {
-    let index = id.y * params.size.x + id.x;
-    let previous = select(radiance[index].rgb, vec3<f32>(0.0), params.iteration == 0u);
-    radiance[index] = vec4<f32>(previous + (sample - previous) / f32(params.iteration + 1u), 1.0);
+    samples[id.y * params.size.x + id.x] = vec4<f32>(sample, 1.0);
 }
 
 @compute @workgroup_size(8, 8, 1)

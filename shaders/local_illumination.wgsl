@@ -1,5 +1,5 @@
 // Local illumination: emission seen by the camera plus direct light from every light with
-// shadows from our shadow maps, averaged over iterations into the radiance estimate.
+// shadows from our shadow maps: this iteration's sample, before photons are added to it.
 #import bevy_rppm::common::{Material, Light, IterationParams, LIGHT_SPOT, LIGHT_DIRECTIONAL}
 #import bevy_rppm::bsdf::bsdf_eval
 #import bevy_rppm::scene::{shadow_views, materials, lights}
@@ -9,7 +9,7 @@
 @group(2) @binding(0) var gbuffer_position: texture_2d<f32>;
 @group(2) @binding(1) var gbuffer_normal: texture_2d<f32>;
 @group(2) @binding(2) var shadow_maps: texture_depth_2d_array;
-@group(2) @binding(3) var<storage, read_write> radiance: array<vec4<f32>>;
+@group(2) @binding(3) var<storage, read_write> samples: array<vec4<f32>>;
 
 // Cube face whose frustum holds direction v (the order of src/shadows CUBE_FACES).
 fn cube_face(v: vec3<f32>) -> u32 {
@@ -135,9 +135,5 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
         }
         sample += direct_light(m, x, n, wo) + area_light(m, x, n, wo);
     }
-    let index = id.y * params.size.x + id.x;
-    // Running mean: exact for the first sample, then weight 1/(i+1).
-    let previous = select(radiance[index].rgb, vec3<f32>(0.0), params.iteration == 0u);
-    let w = 1.0 / f32(params.iteration + 1u);
-    radiance[index] = vec4<f32>(previous + (sample - previous) * w, 1.0);
+    samples[id.y * params.size.x + id.x] = vec4<f32>(sample, 1.0);
 }

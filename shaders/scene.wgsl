@@ -8,3 +8,4 @@
 @group(0) @binding(2) var<storage, read> materials: array<Material>;
 @group(0) @binding(3) var<storage, read> lights: array<Light>;
 @group(0) @binding(4) var<storage, read> emitters: array<Emitter>;
+@group(0) @binding(5) var<storage, read> light_cdf: array<f32>;

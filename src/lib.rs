@@ -20,6 +20,7 @@ mod debug_view;
 pub mod headless;
 pub mod image_io;
 mod output;
+mod photons;
 mod pipelines;
 pub mod scene;
 mod settings;
@@ -79,6 +80,7 @@ impl Plugin for RppmPlugin {
                     cubemap::init_cubemap_pipelines,
                     cubemap::bench::init_bench_pipelines,
                     debug_view::init_debug_view_pipelines,
+                    photons::init_photon_pipelines,
                 )
                     .chain(),
             )

@@ -58,6 +58,10 @@ pub struct ViewStats {
     /// fit (the lists then grow for the next build).
     pub cubemap_nodes: u32,
     pub cubemap_overflow: u32,
+    /// Photons emitted per iteration (0: the scene has nothing to emit them), and photons
+    /// stored by the last iteration read back.
+    pub photons_per_iteration: u32,
+    pub photons_stored: u32,
 }
 
 /// Stats of every photon-mapping camera, by camera entity.

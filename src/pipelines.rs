@@ -29,6 +29,9 @@ pub struct RppmShaders {
     pub dirt_build: Handle<Shader>,
     pub dirt_bench: Handle<Shader>,
     pub debug_view: Handle<Shader>,
+    pub photon: Handle<Shader>,
+    pub splat: Handle<Shader>,
+    pub accumulate: Handle<Shader>,
 }
 
 macro_rules! wgsl {
@@ -52,6 +55,9 @@ impl RppmShaders {
             dirt_build: wgsl!(shaders, "dirt_build.wgsl"),
             dirt_bench: wgsl!(shaders, "dirt_bench.wgsl"),
             debug_view: wgsl!(shaders, "debug_view.wgsl"),
+            photon: wgsl!(shaders, "photon.wgsl"),
+            splat: wgsl!(shaders, "splat.wgsl"),
+            accumulate: wgsl!(shaders, "accumulate.wgsl"),
             shadow: wgsl!(shaders, "shadow.wgsl"),
             gbuffer: wgsl!(shaders, "gbuffer.wgsl"),
             local_illumination: wgsl!(shaders, "local_illumination.wgsl"),
@@ -63,11 +69,11 @@ impl RppmShaders {
 /// Bind group layouts and queued pipelines.
 #[derive(Resource)]
 pub struct RppmPipelines {
-    /// 0 triangles, 1 shadow views, 2 materials, 3 lights, 4 emitters.
+    /// 0 triangles, 1 shadow views, 2 materials, 3 lights, 4 emitters, 5 light CDF.
     pub scene_layout: BindGroupLayoutDescriptor,
     /// 0 per-iteration params (dynamic offset).
     pub params_layout: BindGroupLayoutDescriptor,
-    /// 0 G-buffer position, 1 G-buffer normal, 2 shadow maps, 3 radiance.
+    /// 0 G-buffer position, 1 G-buffer normal, 2 shadow maps, 3 this iteration's samples.
     pub local_layout: BindGroupLayoutDescriptor,
     /// 0 params (dynamic offset), 1 radiance.
     pub output_layout: BindGroupLayoutDescriptor,
@@ -90,6 +96,7 @@ impl RppmPipelines {
             &BindGroupLayoutEntries::sequential(
                 all,
                 (
+                    storage_buffer_read_only_sized(false, None),
                     storage_buffer_read_only_sized(false, None),
                     storage_buffer_read_only_sized(false, None),
                     storage_buffer_read_only_sized(false, None),

@@ -10,7 +10,7 @@ use wgpu::{
 };
 
 /// The stages of one PPM iteration that report GPU time.
-pub const STAGES: usize = 6;
+pub const STAGES: usize = 9;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Stage {
@@ -20,6 +20,9 @@ pub enum Stage {
     Output,
     CubemapBuild,
     CubemapTrace,
+    PhotonTrace,
+    Splat,
+    Accumulate,
 }
 
 impl Stage {
@@ -30,6 +33,9 @@ impl Stage {
         Stage::Output,
         Stage::CubemapBuild,
         Stage::CubemapTrace,
+        Stage::PhotonTrace,
+        Stage::Splat,
+        Stage::Accumulate,
     ];
 
     pub fn name(self) -> &'static str {
@@ -40,6 +46,9 @@ impl Stage {
             Stage::Output => "output",
             Stage::CubemapBuild => "cubemap_build",
             Stage::CubemapTrace => "cubemap_trace",
+            Stage::PhotonTrace => "photon_trace",
+            Stage::Splat => "splat",
+            Stage::Accumulate => "accumulate",
         }
     }
 }

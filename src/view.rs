@@ -16,6 +16,7 @@ use bytemuck::{Pod, Zeroable};
 use crate::cubemap::{CubemapConfig, CubemapPipelines, DeepCubemap};
 use crate::debug_view::DebugViewPipelines;
 use crate::output::{RadianceImage, RenderMessage, RenderSender, ViewStats, read_back};
+use crate::photons::{PHOTON_BYTES, PhotonPipelines, PhotonTargets, TargetInputs};
 use crate::pipelines::{DEPTH_FORMAT, GBUFFER_FORMAT, RppmPipelines};
 use crate::scene::gpu::SceneBuffers;
 use crate::scene::{GpuTriangle, SceneData};
@@ -24,9 +25,9 @@ use crate::shadows::{self, ShadowMaps};
 use crate::timing::{Stage, StageTimer};
 
 /// Byte stride between per-iteration slots of the params buffer (dynamic-offset alignment).
-const PARAMS_STRIDE: u64 = 256;
+const PARAMS_STRIDE: u64 = 512;
 
-/// Per-iteration constants (`IterationParams` in common.wgsl, 240 bytes).
+/// Per-iteration constants (`IterationParams` in common.wgsl, 288 bytes).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
 pub struct IterationParams {
@@ -46,7 +47,13 @@ pub struct IterationParams {
     pub shadow_resolution: u32,
     pub exposure: f32,
     pub tonemap: u32,
-    pub _pad: u32,
+    pub photons: u32,
+    pub max_photon_depth: u32,
+    pub photon_capacity: u32,
+    pub source_count: u32,
+    pub splat_radius: f32,
+    pub _pad: [u32; 4],
+    pub scene_sphere: [f32; 4],
 }
 
 /// The camera's settings and change counter, in the render world.
@@ -64,6 +71,8 @@ struct ResourceKey {
     slots: u32,
     shadow_resolution: u32,
     scene_epoch: u64,
+    /// Room for stored photons: photons per iteration × max photon depth; 0 without lights.
+    photon_capacity: u32,
 }
 
 pub struct ViewState {
@@ -73,6 +82,13 @@ pub struct ViewState {
     pub iteration: u32,
     /// First iteration and count run this frame.
     frame: (u32, u32),
+    /// Squared gather radius in pixels for the next iteration (Knaus–Zwicker sequence).
+    radius2: f64,
+    /// Photons emitted per iteration this frame (0: no photon passes).
+    photons: u32,
+    photon_targets: PhotonTargets,
+    /// Photons stored by the last iteration read back.
+    photons_stored: u32,
     mode: RppmMode,
     debug_view: RppmDebugView,
     /// The deep cubemap, while a stage that traces rays needs one.
@@ -142,6 +158,7 @@ impl ViewState {
         queue: &RenderQueue,
         cache: &PipelineCache,
         pipelines: &RppmPipelines,
+        photon_pipelines: &PhotonPipelines,
         scene: &SceneBuffers,
     ) -> Self {
         let size = key.size;
@@ -161,19 +178,23 @@ impl ViewState {
             usage: BufferUsages::UNIFORM | BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
+        let photon_targets = PhotonTargets::new(
+            device,
+            queue,
+            cache,
+            photon_pipelines,
+            TargetInputs {
+                size,
+                params: params_binding(&params),
+                radiance: &radiance,
+                gbuffer_position: &gbuffer_position,
+                gbuffer_normal: &gbuffer_normal,
+                photon_capacity: key.photon_capacity,
+            },
+        );
         let shadows = ShadowMaps::new(device, &scene.data, key.shadow_resolution, key.slots);
         shadows.write_light_views(queue, &scene.data);
-        let scene_group = device.create_bind_group(
-            "rppm_scene_group",
-            &cache.get_bind_group_layout(&pipelines.scene_layout),
-            &BindGroupEntries::sequential((
-                scene.triangles.as_entire_binding(),
-                shadows.views.as_entire_binding(),
-                scene.materials.as_entire_binding(),
-                scene.lights.as_entire_binding(),
-                scene.emitters.as_entire_binding(),
-            )),
-        );
+        let scene_group = scene.bind_group(device, cache, &pipelines.scene_layout, &shadows.views);
         let params_group = device.create_bind_group(
             "rppm_params_group",
             &cache.get_bind_group_layout(&pipelines.params_layout),
@@ -186,7 +207,7 @@ impl ViewState {
                 &gbuffer_position,
                 &gbuffer_normal,
                 &shadows.array_view,
-                radiance.as_entire_binding(),
+                photon_targets.samples.as_entire_binding(),
             )),
         );
         let output_group = device.create_bind_group(
@@ -195,18 +216,27 @@ impl ViewState {
             &BindGroupEntries::sequential((params_binding(&params), radiance.as_entire_binding())),
         );
         let gbuffer_bytes = pixels * (16 + 16 + 4);
-        let memory = vec![
+        let mut memory: Vec<(String, u64)> = photon_targets
+            .memory()
+            .into_iter()
+            .map(|(n, b)| (n.to_string(), b))
+            .collect();
+        memory.extend([
             ("gbuffer".to_string(), gbuffer_bytes),
             ("radiance".to_string(), radiance.size()),
             ("iteration_params".to_string(), params.size()),
             ("shadow_maps".to_string(), shadows.bytes()),
             ("timestamps".to_string(), 4096 * 8 * 2),
-        ];
+        ]);
         Self {
             key,
             view_epoch: u64::MAX,
             iteration: 0,
             frame: (0, 0),
+            radius2: 0.0,
+            photons: 0,
+            photon_targets,
+            photons_stored: 0,
             mode: RppmMode::Full,
             debug_view: RppmDebugView::None,
             cubemap: None,
@@ -321,11 +351,37 @@ fn iteration_params(
         shadow_resolution: state.shadows.resolution,
         exposure: camera.exposure,
         tonemap: (!camera.hdr) as u32,
-        _pad: 0,
+        photons: 0,
+        max_photon_depth: 0,
+        photon_capacity: 0,
+        source_count: 0,
+        splat_radius: 0.0,
+        _pad: [0; 4],
+        scene_sphere: {
+            let (centre, radius) = data.bounding_sphere();
+            centre.extend(radius.max(1e-6)).into()
+        },
     }
 }
 
 /// Whether every pipeline of an iteration is ready, or the first one that failed to build.
+/// Photons the view's store must hold: every photon can be stored once per bounce. Capped by
+/// the GPU's largest storage binding; 0 when nothing emits.
+fn photon_capacity(settings: &PhotonMapping, scene: &SceneData, device: &RenderDevice) -> u32 {
+    if scene.light_cdf.is_empty() || settings.photons_per_iteration == 0 {
+        return 0;
+    }
+    let wanted = settings.photons_per_iteration as u64 * settings.max_photon_depth as u64;
+    let limit = device.limits().max_storage_buffer_binding_size / PHOTON_BYTES;
+    wanted.min(limit).min(u32::MAX as u64) as u32
+}
+
+/// Knaus–Zwicker: r²ᵢ₊₁ = r²ᵢ (i + α)/(i + 1), with i counted from 1 (`iteration` from 0).
+pub fn next_radius2(radius2: f64, iteration: u32, alpha: f32) -> f64 {
+    let i = iteration as f64 + 1.0;
+    radius2 * (i + alpha as f64) / (i + 1.0)
+}
+
 fn pipelines_ready(pipelines: &RppmPipelines, cache: &PipelineCache) -> Result<bool, String> {
     let states = [
         cache.get_render_pipeline_state(pipelines.shadow),
@@ -359,6 +415,7 @@ pub(crate) fn prepare_views(
     cache: Res<PipelineCache>,
     mut pipelines: ResMut<RppmPipelines>,
     cubemap_pipelines: Res<CubemapPipelines>,
+    photon_pipelines: Res<PhotonPipelines>,
     mut states: ResMut<RppmViews>,
 ) {
     let mut alive = Vec::new();
@@ -380,27 +437,51 @@ pub(crate) fn prepare_views(
             slots: settings.iterations_per_frame,
             shadow_resolution: settings.shadow_map_resolution,
             scene_epoch: scene.epoch,
+            photon_capacity: photon_capacity(settings, &scene.data, &device),
         };
-        let state = states
-            .0
-            .entry(main.id())
-            .or_insert_with(|| ViewState::new(key, &device, &queue, &cache, &pipelines, scene));
+        let state = states.0.entry(main.id()).or_insert_with(|| {
+            ViewState::new(
+                key,
+                &device,
+                &queue,
+                &cache,
+                &pipelines,
+                &photon_pipelines,
+                scene,
+            )
+        });
         if state.key != key {
-            *state = ViewState::new(key, &device, &queue, &cache, &pipelines, scene);
+            *state = ViewState::new(
+                key,
+                &device,
+                &queue,
+                &cache,
+                &pipelines,
+                &photon_pipelines,
+                scene,
+            );
         }
         if state.view_epoch != rppm.view_epoch {
             state.view_epoch = rppm.view_epoch;
             state.iteration = 0;
         }
+        if state.iteration == 0 {
+            state.radius2 = (settings.initial_radius_pixels as f64).powi(2);
+        }
+        state.photons = if key.photon_capacity > 0 && settings.debug_view == RppmDebugView::None {
+            settings.photons_per_iteration
+        } else {
+            0
+        };
         state.mode = settings.mode;
         state.debug_view = settings.debug_view;
         state.error = error.clone();
-        let cubemap =
-            (settings.debug_view == RppmDebugView::CubemapNormals).then_some(CubemapConfig {
-                resolution: settings.cubemap_resolution,
-                tile_size: settings.cubemap_tile_size,
-                bins: settings.bins,
-            });
+        let traces = state.photons > 0 || settings.debug_view == RppmDebugView::CubemapNormals;
+        let cubemap = traces.then_some(CubemapConfig {
+            resolution: settings.cubemap_resolution,
+            tile_size: settings.cubemap_tile_size,
+            bins: settings.bins,
+        });
         let centre = view.world_from_view.translation();
         if let Err(e) = prepare_cubemap(
             state,
@@ -426,7 +507,15 @@ pub(crate) fn prepare_views(
             0
         };
         for slot in 0..count.max(1) {
-            let params = iteration_params(view, camera, state, &scene.data, base + slot, slot);
+            let mut params = iteration_params(view, camera, state, &scene.data, base + slot, slot);
+            params.photons = state.photons;
+            params.max_photon_depth = settings.max_photon_depth;
+            params.photon_capacity = key.photon_capacity;
+            params.source_count = scene.data.light_cdf.len() as u32;
+            params.splat_radius = state.radius2.sqrt() as f32;
+            if slot < count {
+                state.radius2 = next_radius2(state.radius2, base + slot, settings.alpha);
+            }
             queue.write_buffer(
                 &state.params,
                 slot as u64 * PARAMS_STRIDE,
@@ -486,10 +575,15 @@ fn prepare_cubemap(
 
 /// Pipelines the node records with, all compiled.
 struct NodePipelines<'a> {
+    cache: &'a PipelineCache,
+    cubemap: &'a CubemapPipelines,
     shadow: &'a RenderPipeline,
     gbuffer: &'a RenderPipeline,
     local: &'a ComputePipeline,
     debug: Option<&'a ComputePipeline>,
+    photon: Option<&'a ComputePipeline>,
+    splat: Option<&'a RenderPipeline>,
+    accumulate: &'a ComputePipeline,
 }
 
 /// The render-graph node: this frame's PPM iterations, then the view output.
@@ -501,6 +595,7 @@ pub(crate) fn rppm_node(
     pipelines: Res<RppmPipelines>,
     cubemap_pipelines: Res<CubemapPipelines>,
     debug_pipelines: Res<DebugViewPipelines>,
+    photon_pipelines: Res<PhotonPipelines>,
     cache: Res<PipelineCache>,
     mut ctx: RenderContext,
 ) {
@@ -515,11 +610,19 @@ pub(crate) fn rppm_node(
     ) else {
         return;
     };
+    let (photon, splat, Some(accumulate)) = photon_pipelines.get(&cache) else {
+        return;
+    };
     let node = NodePipelines {
+        cache: &cache,
+        cubemap: &cubemap_pipelines,
         shadow,
         gbuffer,
         local,
         debug: debug_pipelines.get(&cache, state.debug_view),
+        photon,
+        splat,
+        accumulate,
     };
     let encoder = ctx.command_encoder();
     state.timer.begin_frame(state.frame.1);
@@ -529,16 +632,9 @@ pub(crate) fn rppm_node(
         if state.debug_view == RppmDebugView::None {
             encode_iteration(encoder, &node, state, &scene, slot, offset);
         } else {
-            encode_debug_iteration(
-                encoder,
-                &node,
-                state,
-                &scene,
-                &cache,
-                &cubemap_pipelines,
-                offset,
-            );
+            encode_debug_iteration(encoder, &node, state, &scene, offset);
         }
+        encode_estimate(encoder, &node, state, offset);
     }
     let output = state
         .output_pipeline
@@ -604,6 +700,46 @@ fn encode_iteration(
     });
     pass.set_pipeline(node.local);
     dispatch_per_pixel(&mut pass, state, offset);
+    drop(pass);
+    if let (true, Some(cubemap), Some(trace)) = (state.photons > 0, &state.cubemap, node.photon) {
+        cubemap.encode_build(
+            encoder,
+            node.cache,
+            node.cubemap,
+            &state.scene_group,
+            &mut state.timer,
+        );
+        state.photon_targets.encode_trace(
+            encoder,
+            trace,
+            &state.scene_group,
+            &state.params_group,
+            offset,
+            &cubemap.trace_group,
+            state.photons,
+            &mut state.timer,
+        );
+    }
+}
+
+/// Splats this iteration's photons (if any) and folds the sample into the estimate.
+fn encode_estimate(
+    encoder: &mut CommandEncoder,
+    node: &NodePipelines,
+    state: &mut ViewState,
+    offset: u32,
+) {
+    let splat = if state.photons > 0 { node.splat } else { None };
+    state
+        .photon_targets
+        .encode_splat(encoder, splat, &state.scene_group, offset, &mut state.timer);
+    state.photon_targets.encode_accumulate(
+        encoder,
+        node.accumulate,
+        state.key.size,
+        offset,
+        &mut state.timer,
+    );
 }
 
 /// Binds groups 0–2 of a per-pixel compute stage and dispatches it over the view.
@@ -622,8 +758,6 @@ fn encode_debug_iteration(
     node: &NodePipelines,
     state: &mut ViewState,
     scene: &SceneBuffers,
-    cache: &PipelineCache,
-    cubemap_pipelines: &CubemapPipelines,
     offset: u32,
 ) {
     let Some(debug) = node.debug else { return };
@@ -634,8 +768,8 @@ fn encode_debug_iteration(
         };
         cubemap.encode_build(
             encoder,
-            cache,
-            cubemap_pipelines,
+            node.cache,
+            node.cubemap,
             &state.scene_group,
             &mut state.timer,
         );
@@ -740,6 +874,12 @@ pub(crate) fn report_views(
                 pixels,
             }));
         }
+        if state.readback_pending
+            && let Some(count) = state.photon_targets.photon_count()
+            && let Some(bytes) = read_back(&device, &queue, count)
+        {
+            state.photons_stored = bytemuck::cast_slice::<u8, u32>(&bytes)[1];
+        }
         let mut memory = scene_memory.clone();
         memory.extend(state.memory.iter().cloned());
         if let Some(cubemap) = &state.cubemap {
@@ -778,6 +918,8 @@ pub(crate) fn report_views(
                 adapter: adapter.name.clone(),
                 error: state.error.clone(),
                 cubemap_nodes: state.cubemap_nodes.0,
+                photons_per_iteration: state.photons,
+                photons_stored: state.photons_stored,
                 cubemap_overflow: state.cubemap_nodes.1,
             },
         ));

@@ -13,12 +13,14 @@ use std::process::ExitCode;
 use bevy_rppm::cubemap::CubemapConfig;
 use bevy_rppm::cubemap::bench::DirtBenchRow;
 use bevy_rppm::headless::{Budget, RenderRequest, RenderResult, bench_dirt, render_gltf};
-use bevy_rppm::image_io::{bad_pixels, write_exr, write_png};
+use bevy_rppm::image_io::{bad_pixels, energy_ratio, read_exr, relmse, write_exr, write_png};
 use bevy_rppm::{PhotonMapping, RppmDebugView};
 
 const USAGE: &str = "usage: rppm render SCENE.gltf [--width W] [--height H] \
 [--iterations N | --time-budget SECONDS] [--out FILE.exr|FILE.png]... [--stats FILE.json]
+                   [--photons N] [--photon-depth N] [--radius PIXELS] [--cubemap RESOLUTION]
                    [--debug-view gbuffer-normals|cubemap-normals]
+       rppm compare TEST.exr REFERENCE.exr
        rppm bench dirt SCENE.gltf [--json] [--rays N] [--timing-rays N] \
 [--resolutions 64,128,256,512] [--bins 4,8,16,32] [--tile 1|2|4]";
 
@@ -35,6 +37,15 @@ fn main() -> ExitCode {
     let parsed = match argv.first().map(String::as_str) {
         None => Ok(default_args()),
         Some("render") => parse_render(&argv[1..]),
+        Some("compare") => {
+            return match compare(&argv[1..]) {
+                Ok(()) => ExitCode::SUCCESS,
+                Err(message) => {
+                    eprintln!("rppm: error: {message}");
+                    ExitCode::from(2)
+                }
+            };
+        }
         Some("bench") if argv.get(1).map(String::as_str) == Some("dirt") => {
             return match parse_bench(&argv[2..]).and_then(|b| bench(&b)) {
                 Ok(()) => ExitCode::SUCCESS,
@@ -115,6 +126,10 @@ fn parse_render(args: &[String]) -> Result<Args, String> {
             }
             "--out" => outputs.push(output_path(value(args, i, flag)?)?),
             "--stats" => stats = Some(PathBuf::from(value(args, i, flag)?)),
+            "--photons" => settings.photons_per_iteration = number(value(args, i, flag)?, flag)?,
+            "--photon-depth" => settings.max_photon_depth = number(value(args, i, flag)?, flag)?,
+            "--radius" => settings.initial_radius_pixels = number(value(args, i, flag)?, flag)?,
+            "--cubemap" => settings.cubemap_resolution = number(value(args, i, flag)?, flag)?,
             "--debug-view" => {
                 settings.debug_view = match value(args, i, flag)? {
                     "gbuffer-normals" => RppmDebugView::GBufferNormals,
@@ -248,6 +263,8 @@ fn stats_json(args: &Args, r: &RenderResult, total_seconds: f64) -> serde_json::
         "bad_pixels": bad_pixels(&r.image),
         "cubemap_nodes": r.stats.cubemap_nodes,
         "cubemap_overflow": r.stats.cubemap_overflow,
+        "photons_per_iteration": r.stats.photons_per_iteration,
+        "photons_stored": r.stats.photons_stored,
         "mean_rgb": mean_rgb(&r.image),
     })
 }
@@ -409,4 +426,19 @@ fn print_table(rows: &[DirtBenchRow]) {
             r.bytes as f64 / (1 << 20) as f64
         );
     }
+}
+
+/// Prints the metrics of shared/docs/CONVENTIONS.md for a test image against a reference.
+fn compare(args: &[String]) -> Result<(), String> {
+    let [test, reference] = args else {
+        return Err(format!("compare needs two EXR files\n{USAGE}"));
+    };
+    let (test, reference) = (read_exr(test.as_ref())?, read_exr(reference.as_ref())?);
+    let json = serde_json::json!({
+        "relmse": relmse(&test, &reference)?,
+        "energy_ratio": energy_ratio(&test, &reference)?,
+        "bad_pixels": bad_pixels(&test),
+    });
+    println!("{json}");
+    Ok(())
 }

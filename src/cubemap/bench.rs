@@ -385,17 +385,7 @@ pub(crate) fn run_dirt_bench(
     }
     *done = true;
     let shadow_views = storage_buffer(&device, "rppm_bench_no_shadow_views", &[[0u32; 4]]);
-    let scene_group = device.create_bind_group(
-        "rppm_bench_scene_group",
-        &cache.get_bind_group_layout(&rppm.scene_layout),
-        &BindGroupEntries::sequential((
-            scene.triangles.as_entire_binding(),
-            shadow_views.as_entire_binding(),
-            scene.materials.as_entire_binding(),
-            scene.lights.as_entire_binding(),
-            scene.emitters.as_entire_binding(),
-        )),
-    );
+    let scene_group = scene.bind_group(&device, &cache, &rppm.scene_layout, &shadow_views);
     let rays = storage_buffer(&device, "rppm_bench_rays", &request.rays);
     let empty_group = device.create_bind_group(
         "rppm_bench_empty_group",

@@ -3,7 +3,10 @@
 use std::sync::Arc;
 
 use bevy::prelude::*;
-use bevy::render::render_resource::{Buffer, BufferInitDescriptor, BufferUsages};
+use bevy::render::render_resource::{
+    BindGroup, BindGroupEntries, BindGroupLayoutDescriptor, Buffer, BufferInitDescriptor,
+    BufferUsages, PipelineCache,
+};
 use bevy::render::renderer::RenderDevice;
 use bytemuck::Pod;
 
@@ -18,6 +21,7 @@ pub struct SceneBuffers {
     pub materials: Buffer,
     pub lights: Buffer,
     pub emitters: Buffer,
+    pub light_cdf: Buffer,
 }
 
 impl SceneBuffers {
@@ -26,13 +30,36 @@ impl SceneBuffers {
     }
 
     /// (name, bytes) of every buffer held.
-    pub fn memory(&self) -> [(&'static str, u64); 4] {
+    pub fn memory(&self) -> [(&'static str, u64); 5] {
         [
             ("scene_triangles", self.triangles.size()),
             ("scene_materials", self.materials.size()),
             ("scene_lights", self.lights.size()),
             ("scene_emitters", self.emitters.size()),
+            ("scene_light_cdf", self.light_cdf.size()),
         ]
+    }
+
+    /// Group 0 of every stage: the scene tables and `shadow_views`.
+    pub fn bind_group(
+        &self,
+        device: &RenderDevice,
+        cache: &PipelineCache,
+        layout: &BindGroupLayoutDescriptor,
+        shadow_views: &Buffer,
+    ) -> BindGroup {
+        device.create_bind_group(
+            "rppm_scene_group",
+            &cache.get_bind_group_layout(layout),
+            &BindGroupEntries::sequential((
+                self.triangles.as_entire_binding(),
+                shadow_views.as_entire_binding(),
+                self.materials.as_entire_binding(),
+                self.lights.as_entire_binding(),
+                self.emitters.as_entire_binding(),
+                self.light_cdf.as_entire_binding(),
+            )),
+        )
     }
 }
 
@@ -89,5 +116,6 @@ pub(crate) fn upload_scene(
         materials: storage_buffer(&device, "rppm_materials", &data.materials),
         lights: storage_buffer(&device, "rppm_lights", &data.lights),
         emitters: storage_buffer(&device, "rppm_emitters", &data.emitters),
+        light_cdf: storage_buffer(&device, "rppm_light_cdf", &data.light_cdf),
     });
 }

@@ -1,0 +1,57 @@
+// Direct splatting: every stored photon is drawn as a screen-space quad around its projection,
+// as wide as the gather radius; each fragment adds the photon to its pixel's importon (the
+// camera G-buffer point) when the photon lies inside that importon's radius, on its surface.
+// The estimate per pixel is Σ f(wo, wi) Φ / (π r²), summed by additive blending.
+#import bevy_rppm::common::{Photon, IterationParams, PI}
+#import bevy_rppm::scene::materials
+#import bevy_rppm::bsdf::bsdf_eval
+
+@group(1) @binding(0) var<uniform> params: IterationParams;
+@group(1) @binding(1) var<storage, read> photons: array<Photon>;
+@group(1) @binding(2) var gbuffer_position: texture_2d<f32>;
+@group(1) @binding(3) var gbuffer_normal: texture_2d<f32>;
+
+struct VertexOut {
+    @builtin(position) clip: vec4<f32>,
+    @location(0) @interpolate(flat) photon: u32,
+}
+
+@vertex
+fn vertex(@builtin(vertex_index) vertex: u32, @builtin(instance_index) photon: u32) -> VertexOut {
+    var out: VertexOut;
+    out.photon = photon;
+    out.clip = vec4<f32>(2.0, 2.0, 0.0, 1.0);
+    if photon >= params.photon_capacity {
+        return out;
+    }
+    let clip = params.clip_from_world * vec4<f32>(photons[photon].position, 1.0);
+    if clip.w <= 0.0 {
+        return out;
+    }
+    let corner = array<vec2<f32>, 6>(vec2(-1.0, -1.0), vec2(1.0, -1.0), vec2(-1.0, 1.0), vec2(-1.0, 1.0), vec2(1.0, -1.0), vec2(1.0, 1.0))[vertex];
+    // Half a quad in pixels: the radius, plus one pixel for the pixel's own extent.
+    let half = (params.splat_radius + 1.0) * 2.0 / vec2<f32>(params.size);
+    out.clip = vec4<f32>(clip.xy / clip.w + corner * half, 0.0, 1.0);
+    return out;
+}
+
+@fragment
+fn fragment(in: VertexOut) -> @location(0) vec4<f32> {
+    let pixel = vec2<i32>(in.clip.xy);
+    let gp = textureLoad(gbuffer_position, pixel, 0);
+    if gp.w == 0.0 {
+        discard;
+    }
+    let gn = textureLoad(gbuffer_normal, pixel, 0);
+    let p = photons[in.photon];
+    let radius = params.splat_radius * gn.w;
+    let offset = p.position - gp.xyz;
+    // Inside the gather disc, on this surface: near its plane and facing the same way.
+    if dot(offset, offset) > radius * radius || abs(dot(offset, gn.xyz)) > 0.1 * radius || dot(p.normal, gn.xyz) < 0.5 {
+        discard;
+    }
+    let m = materials[u32(abs(gp.w)) - 1u];
+    let wo = normalize(params.camera_position.xyz - gp.xyz);
+    let f = bsdf_eval(m, gn.xyz, wo, p.incoming);
+    return vec4<f32>(f * p.flux / (PI * radius * radius), 0.0);
+}

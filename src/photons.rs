@@ -1,0 +1,358 @@
+//! Photon tracing through the deep cubemap, direct splatting of the stored photons onto the
+//! camera G-buffer, and the per-iteration accumulation of the estimate.
+
+use std::num::NonZeroU64;
+
+use bevy::prelude::*;
+use bevy::render::render_resource::binding_types::{
+    storage_buffer_read_only_sized, storage_buffer_sized, texture_2d, uniform_buffer_sized,
+};
+use bevy::render::render_resource::*;
+use bevy::render::renderer::{RenderDevice, RenderQueue};
+
+use crate::cubemap::CubemapPipelines;
+use crate::pipelines::{RppmPipelines, RppmShaders};
+use crate::timing::{Stage, StageTimer};
+use crate::view::IterationParams;
+
+/// Bytes of one stored photon (`Photon` in common.wgsl).
+pub const PHOTON_BYTES: u64 = 64;
+/// Per-iteration splat sums; half floats blend everywhere.
+pub const SPLAT_FORMAT: TextureFormat = TextureFormat::Rgba16Float;
+
+#[derive(Resource)]
+pub struct PhotonPipelines {
+    store_layout: BindGroupLayoutDescriptor,
+    splat_layout: BindGroupLayoutDescriptor,
+    accumulate_layout: BindGroupLayoutDescriptor,
+    trace: CachedComputePipelineId,
+    splat: CachedRenderPipelineId,
+    accumulate: CachedComputePipelineId,
+}
+
+fn params_entry() -> BindGroupLayoutEntryBuilder {
+    uniform_buffer_sized(true, NonZeroU64::new(size_of::<IterationParams>() as u64))
+}
+
+pub(crate) fn init_photon_pipelines(
+    mut commands: Commands,
+    cache: Res<PipelineCache>,
+    shaders: Res<RppmShaders>,
+    rppm: Res<RppmPipelines>,
+    cubemap: Res<CubemapPipelines>,
+) {
+    let store_layout = BindGroupLayoutDescriptor::new(
+        "rppm_photon_store_layout",
+        &BindGroupLayoutEntries::sequential(
+            ShaderStages::COMPUTE,
+            (
+                storage_buffer_sized(false, None),
+                storage_buffer_sized(false, None),
+            ),
+        ),
+    );
+    let unfilterable = TextureSampleType::Float { filterable: false };
+    let splat_layout = BindGroupLayoutDescriptor::new(
+        "rppm_splat_layout",
+        &BindGroupLayoutEntries::sequential(
+            ShaderStages::VERTEX_FRAGMENT,
+            (
+                params_entry(),
+                storage_buffer_read_only_sized(false, None),
+                texture_2d(unfilterable),
+                texture_2d(unfilterable),
+            ),
+        ),
+    );
+    let accumulate_layout = BindGroupLayoutDescriptor::new(
+        "rppm_accumulate_layout",
+        &BindGroupLayoutEntries::sequential(
+            ShaderStages::COMPUTE,
+            (
+                params_entry(),
+                storage_buffer_read_only_sized(false, None),
+                texture_2d(unfilterable),
+                storage_buffer_sized(false, None),
+            ),
+        ),
+    );
+    let trace = cache.queue_compute_pipeline(ComputePipelineDescriptor {
+        label: Some("rppm_photon_trace".into()),
+        layout: vec![
+            rppm.scene_layout.clone(),
+            rppm.params_layout.clone(),
+            store_layout.clone(),
+            cubemap.trace_layout.clone(),
+        ],
+        shader: shaders.photon.clone(),
+        ..default()
+    });
+    let additive = BlendComponent {
+        src_factor: BlendFactor::One,
+        dst_factor: BlendFactor::One,
+        operation: BlendOperation::Add,
+    };
+    let splat = cache.queue_render_pipeline(RenderPipelineDescriptor {
+        label: Some("rppm_splat".into()),
+        layout: vec![rppm.scene_layout.clone(), splat_layout.clone()],
+        vertex: VertexState {
+            shader: shaders.splat.clone(),
+            ..default()
+        },
+        fragment: Some(FragmentState {
+            shader: shaders.splat.clone(),
+            targets: vec![Some(ColorTargetState {
+                format: SPLAT_FORMAT,
+                blend: Some(BlendState {
+                    color: additive,
+                    alpha: additive,
+                }),
+                write_mask: ColorWrites::ALL,
+            })],
+            ..default()
+        }),
+        ..default()
+    });
+    let accumulate = cache.queue_compute_pipeline(ComputePipelineDescriptor {
+        label: Some("rppm_accumulate".into()),
+        layout: vec![accumulate_layout.clone()],
+        shader: shaders.accumulate.clone(),
+        ..default()
+    });
+    commands.insert_resource(PhotonPipelines {
+        store_layout,
+        splat_layout,
+        accumulate_layout,
+        trace,
+        splat,
+        accumulate,
+    });
+}
+
+/// The per-view targets of splatting and accumulation, and the photon store when the scene
+/// has lights to emit from.
+pub struct PhotonTargets {
+    pub samples: Buffer,
+    splats: TextureView,
+    accumulate_group: BindGroup,
+    store: Option<PhotonStore>,
+}
+
+struct PhotonStore {
+    photons: Buffer,
+    /// Draw-indirect arguments whose instance count is the number of photons stored.
+    count: Buffer,
+    store_group: BindGroup,
+    splat_group: BindGroup,
+}
+
+/// What `PhotonTargets::new` binds.
+pub struct TargetInputs<'a> {
+    pub size: UVec2,
+    pub params: BufferBinding<'a>,
+    pub radiance: &'a Buffer,
+    pub gbuffer_position: &'a TextureView,
+    pub gbuffer_normal: &'a TextureView,
+    /// Room for stored photons; 0 when the scene emits none.
+    pub photon_capacity: u32,
+}
+
+impl PhotonTargets {
+    pub fn new(
+        device: &RenderDevice,
+        queue: &RenderQueue,
+        cache: &PipelineCache,
+        pipelines: &PhotonPipelines,
+        inputs: TargetInputs,
+    ) -> Self {
+        let pixels = inputs.size.x as u64 * inputs.size.y as u64;
+        let samples = device.create_buffer(&BufferDescriptor {
+            label: Some("rppm_samples"),
+            size: pixels * 16,
+            usage: BufferUsages::STORAGE,
+            mapped_at_creation: false,
+        });
+        let splats = device
+            .create_texture(&TextureDescriptor {
+                label: Some("rppm_splats"),
+                size: Extent3d {
+                    width: inputs.size.x,
+                    height: inputs.size.y,
+                    depth_or_array_layers: 1,
+                },
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: TextureDimension::D2,
+                format: SPLAT_FORMAT,
+                usage: TextureUsages::RENDER_ATTACHMENT | TextureUsages::TEXTURE_BINDING,
+                view_formats: &[],
+            })
+            .create_view(&TextureViewDescriptor::default());
+        let accumulate_group = device.create_bind_group(
+            "rppm_accumulate_group",
+            &cache.get_bind_group_layout(&pipelines.accumulate_layout),
+            &BindGroupEntries::sequential((
+                inputs.params.clone(),
+                samples.as_entire_binding(),
+                &splats,
+                inputs.radiance.as_entire_binding(),
+            )),
+        );
+        let store = (inputs.photon_capacity > 0).then(|| {
+            let photons = device.create_buffer(&BufferDescriptor {
+                label: Some("rppm_photons"),
+                size: inputs.photon_capacity as u64 * PHOTON_BYTES,
+                usage: BufferUsages::STORAGE,
+                mapped_at_creation: false,
+            });
+            let count = device.create_buffer_with_data(&BufferInitDescriptor {
+                label: Some("rppm_photon_count"),
+                contents: bytemuck::cast_slice(&[6u32, 0, 0, 0]),
+                usage: BufferUsages::STORAGE
+                    | BufferUsages::INDIRECT
+                    | BufferUsages::COPY_DST
+                    | BufferUsages::COPY_SRC,
+            });
+            let store_group = device.create_bind_group(
+                "rppm_photon_store_group",
+                &cache.get_bind_group_layout(&pipelines.store_layout),
+                &BindGroupEntries::sequential((
+                    photons.as_entire_binding(),
+                    count.as_entire_binding(),
+                )),
+            );
+            let splat_group = device.create_bind_group(
+                "rppm_splat_group",
+                &cache.get_bind_group_layout(&pipelines.splat_layout),
+                &BindGroupEntries::sequential((
+                    inputs.params.clone(),
+                    photons.as_entire_binding(),
+                    inputs.gbuffer_position,
+                    inputs.gbuffer_normal,
+                )),
+            );
+            PhotonStore {
+                photons,
+                count,
+                store_group,
+                splat_group,
+            }
+        });
+        let _ = queue;
+        Self {
+            samples,
+            splats,
+            accumulate_group,
+            store,
+        }
+    }
+
+    /// The buffer whose second u32 counts the photons stored in the last iteration.
+    pub fn photon_count(&self) -> Option<&Buffer> {
+        self.store.as_ref().map(|s| &s.count)
+    }
+
+    pub fn memory(&self) -> Vec<(&'static str, u64)> {
+        let pixels = self.samples.size() / 16;
+        let mut memory = vec![("samples", self.samples.size()), ("splats", pixels * 8)];
+        if let Some(store) = &self.store {
+            memory.push(("photons", store.photons.size()));
+        }
+        memory
+    }
+
+    /// Photon tracing for one iteration; `trace_group` binds the deep cubemap.
+    #[allow(clippy::too_many_arguments)]
+    pub fn encode_trace(
+        &self,
+        encoder: &mut CommandEncoder,
+        pipeline: &ComputePipeline,
+        scene_group: &BindGroup,
+        params_group: &BindGroup,
+        offset: u32,
+        trace_group: &BindGroup,
+        photons: u32,
+        timer: &mut StageTimer,
+    ) {
+        let Some(store) = &self.store else { return };
+        encoder.clear_buffer(&store.count, 4, Some(4));
+        let mut pass = encoder.begin_compute_pass(&ComputePassDescriptor {
+            label: Some("rppm_photon_trace"),
+            timestamp_writes: timer.compute_pass(Stage::PhotonTrace),
+        });
+        pass.set_pipeline(pipeline);
+        pass.set_bind_group(0, scene_group, &[]);
+        pass.set_bind_group(1, params_group, &[offset]);
+        pass.set_bind_group(2, &store.store_group, &[]);
+        pass.set_bind_group(3, trace_group, &[]);
+        pass.dispatch_workgroups(photons.div_ceil(64), 1, 1);
+    }
+
+    /// Clears the splat target and, when photons were traced, splats them onto it.
+    pub fn encode_splat(
+        &self,
+        encoder: &mut CommandEncoder,
+        pipeline: Option<&RenderPipeline>,
+        scene_group: &BindGroup,
+        offset: u32,
+        timer: &mut StageTimer,
+    ) {
+        let mut pass = encoder.begin_render_pass(&RenderPassDescriptor {
+            label: Some("rppm_splat"),
+            color_attachments: &[Some(RenderPassColorAttachment {
+                view: &self.splats,
+                depth_slice: None,
+                resolve_target: None,
+                ops: Operations {
+                    load: LoadOp::Clear(LinearRgba::NONE.into()),
+                    store: StoreOp::Store,
+                },
+            })],
+            depth_stencil_attachment: None,
+            timestamp_writes: timer.render_pass(Stage::Splat),
+            occlusion_query_set: None,
+            multiview_mask: None,
+        });
+        if let (Some(pipeline), Some(store)) = (pipeline, &self.store) {
+            pass.set_pipeline(pipeline);
+            pass.set_bind_group(0, scene_group, &[]);
+            pass.set_bind_group(1, &store.splat_group, &[offset]);
+            pass.draw_indirect(&store.count, 0);
+        }
+    }
+
+    /// Adds the splats to the local sample and folds it into the running estimate.
+    pub fn encode_accumulate(
+        &self,
+        encoder: &mut CommandEncoder,
+        pipeline: &ComputePipeline,
+        size: UVec2,
+        offset: u32,
+        timer: &mut StageTimer,
+    ) {
+        let mut pass = encoder.begin_compute_pass(&ComputePassDescriptor {
+            label: Some("rppm_accumulate"),
+            timestamp_writes: timer.compute_pass(Stage::Accumulate),
+        });
+        pass.set_pipeline(pipeline);
+        pass.set_bind_group(0, &self.accumulate_group, &[offset]);
+        pass.dispatch_workgroups(size.x.div_ceil(8), size.y.div_ceil(8), 1);
+    }
+}
+
+impl PhotonPipelines {
+    pub fn get<'a>(
+        &self,
+        cache: &'a PipelineCache,
+    ) -> (
+        Option<&'a ComputePipeline>,
+        Option<&'a RenderPipeline>,
+        Option<&'a ComputePipeline>,
+    ) {
+        (
+            cache.get_compute_pipeline(self.trace),
+            cache.get_render_pipeline(self.splat),
+            cache.get_compute_pipeline(self.accumulate),
+        )
+    }
+}

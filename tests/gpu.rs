@@ -491,3 +491,62 @@ fn cubemap_traversal_agrees_with_brute_force() {
         assert_eq!(row.false_hits, 0, "{row:?}");
     }
 }
+
+/// The reference box-filtered down by an integer factor (pixel averages stay pixel averages).
+fn downsample(image: &RgbImage, factor: usize) -> RgbImage {
+    let (w, h) = (image.width / factor, image.height / factor);
+    let mut pixels = vec![[0.0f32; 3]; w * h];
+    for y in 0..h * factor {
+        for x in 0..w * factor {
+            let p = image.at(x, y);
+            let out = &mut pixels[(y / factor) * w + x / factor];
+            for c in 0..3 {
+                out[c] += p[c] / (factor * factor) as f32;
+            }
+        }
+    }
+    RgbImage {
+        width: w,
+        height: h,
+        pixels,
+    }
+}
+
+#[test]
+fn photon_mapping_converges_towards_the_reference() {
+    use bevy_rppm::headless::{Budget, RenderRequest, render_gltf};
+    use bevy_rppm::image_io::{energy_ratio, relmse};
+    let assets = Path::new(env!("CARGO_MANIFEST_DIR")).join("assets");
+    let reference = downsample(&read_exr(&assets.join("cornell_box.ref.exr")).unwrap(), 4);
+    let render = |iterations: u32| {
+        let request = RenderRequest {
+            scene: assets.join("cornell_box.gltf"),
+            width: 64,
+            height: 64,
+            budget: Budget::Iterations(iterations),
+            settings: PhotonMapping {
+                photons_per_iteration: 8192,
+                ..default()
+            },
+        };
+        render_gltf(&request, |_, _| {}).unwrap_or_else(|e| panic!("{e}"))
+    };
+    let few = render(2);
+    let many = render(16);
+    assert!(many.stats.photons_stored > 0, "no photon was stored");
+    let (e_few, e_many) = (
+        relmse(&few.image, &reference).unwrap(),
+        relmse(&many.image, &reference).unwrap(),
+    );
+    let energy = energy_ratio(&many.image, &reference).unwrap();
+    eprintln!(
+        "photon mapping 64x64: relMSE {e_few:.4} after 2 iterations, {e_many:.4} after 16; energy ratio {energy:.3}"
+    );
+    assert_eq!(bad_pixels(&many.image), 0);
+    assert!(
+        e_many < e_few,
+        "error must fall with iterations ({e_few} -> {e_many})"
+    );
+    assert!(e_many < 0.05, "relMSE {e_many} after 16 iterations");
+    assert!((0.95..1.08).contains(&energy), "energy ratio {energy}");
+}

@@ -3,7 +3,8 @@
 //! ```text
 //! rppm render SCENE.gltf [--width W] [--height H] [--iterations N | --time-budget SECONDS]
 //!                        [--out FILE.exr|FILE.png]... [--stats FILE.json]
-//! rppm                   renders assets/cornell_box.gltf to out/cornell_box.{exr,png,json}
+//! rppm                   renders assets/cornell_box.gltf (256², 32 iterations of 65 536 photons)
+//!                        to out/cornell_box.{exr,png,json}
 //! ```
 
 use std::io::Write;
@@ -76,10 +77,13 @@ fn default_args() -> Args {
     Args {
         request: RenderRequest {
             scene: PathBuf::from(DEFAULT_SCENE),
-            width: 512,
-            height: 512,
-            budget: Budget::Iterations(64),
-            settings: PhotonMapping::default(),
+            width: 256,
+            height: 256,
+            budget: Budget::Iterations(32),
+            settings: PhotonMapping {
+                photons_per_iteration: 65_536,
+                ..PhotonMapping::default()
+            },
         },
         outputs: vec![out.join("cornell_box.exr"), out.join("cornell_box.png")],
         stats: Some(out.join("cornell_box.json")),

@@ -99,7 +99,8 @@ struct IterationParams {
     source_count: u32,
     // Knaus–Zwicker gather radius this iteration, in pixels (world radius = this × footprint).
     splat_radius: f32,
-    pad_a: u32,
+    // Vertices a camera path may have (1: the G-buffer only).
+    max_eye_depth: u32,
     pad_b: u32,
     pad_c: u32,
     pad_d: u32,
@@ -171,6 +172,18 @@ fn face_basis(f: u32) -> mat3x3<f32> {
     }
 }
 
+// Cube face whose frustum holds direction v, in the order of face_basis.
+fn face_of(v: vec3<f32>) -> u32 {
+    let a = abs(v);
+    if a.x >= a.y && a.x >= a.z {
+        return select(1u, 0u, v.x > 0.0);
+    }
+    if a.y >= a.z {
+        return select(3u, 2u, v.y > 0.0);
+    }
+    return select(5u, 4u, v.z > 0.0);
+}
+
 // Offset of hierarchy level l.
 fn level_offset(d: DirtParams, l: u32) -> u32 {
     return d.level_offsets[l / 4u][l % 4u];
@@ -202,4 +215,42 @@ fn cosine_direction(n: vec3<f32>, u: vec2<f32>) -> vec3<f32> {
     let r = sqrt(u.x);
     let phi = 2.0 * PI * u.y;
     return basis_around(n) * vec3<f32>(r * cos(phi), r * sin(phi), sqrt(max(1.0 - u.x, 0.0)));
+}
+
+// A camera path's end on a non-specular surface after specular bounces: it gathers photons
+// in its radius (indirect splatting). 64 bytes; one per pixel, index = pixel.
+struct Importon {
+    position: vec3<f32>,
+    // Material index; NO_IMPORTON when the pixel has none this iteration.
+    material: u32,
+    normal: vec3<f32>,
+    // Next importon in its cubemap tile's list, as index + 1 (0 ends the list).
+    next: u32,
+    // Product of the specular bounces' weights from the camera.
+    throughput: vec3<f32>,
+    radius: f32,
+    // Direction towards the previous path vertex.
+    outgoing: vec3<f32>,
+    pad: u32,
+}
+
+const NO_IMPORTON: u32 = 0xffffffffu;
+
+// Tile of the deep cubemap holding world point p (face, tile x, tile y) and its depth.
+struct CubemapTile {
+    index: u32,
+    face: u32,
+    cell: vec2<f32>,
+    depth: f32,
+}
+
+fn cubemap_tile(d: DirtParams, p: vec3<f32>) -> CubemapTile {
+    let v = p - d.centre.xyz;
+    let f = face_of(v);
+    let l = transpose(face_basis(f)) * v;
+    let g = f32(d.grid);
+    let s = l.xy / max(l.z, 1e-30);
+    let cell = clamp(vec2<f32>((s.x + 1.0) * 0.5 * g, (1.0 - s.y) * 0.5 * g), vec2<f32>(0.0), vec2<f32>(g - 1.0));
+    let c = vec2<u32>(cell);
+    return CubemapTile((f * d.grid + c.y) * d.grid + c.x, f, cell, l.z);
 }

@@ -5,7 +5,7 @@
 // that the ray's depth interval crosses are tested, exactly and watertight.
 #define_import_path bevy_rppm::dirt
 
-#import bevy_rppm::common::{DirtParams, face_basis, level_offset}
+#import bevy_rppm::common::{DirtParams, face_basis, level_offset, face_of}
 #import bevy_rppm::scene::triangles
 
 @group(3) @binding(0) var<uniform> dirt: DirtParams;
@@ -85,17 +85,6 @@ fn trace_brute_force(o: vec3<f32>, d: vec3<f32>, t_min: f32, t_max: f32, ignore:
         }
     }
     return best;
-}
-
-fn face_of(v: vec3<f32>) -> u32 {
-    let a = abs(v);
-    if a.x >= a.y && a.x >= a.z {
-        return select(1u, 0u, v.x > 0.0);
-    }
-    if a.y >= a.z {
-        return select(3u, 2u, v.y > 0.0);
-    }
-    return select(5u, 4u, v.z > 0.0);
 }
 
 // The ray in one face's frame: screen coordinate s(t) = (p + t q) / (w + t r).

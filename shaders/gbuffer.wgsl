@@ -9,7 +9,7 @@ struct VertexOut {
     @builtin(position) clip: vec4<f32>,
     @location(0) world: vec3<f32>,
     @location(1) normal: vec3<f32>,
-    @location(2) @interpolate(flat) material: u32,
+    @location(2) @interpolate(flat) triangle: u32,
 }
 
 @vertex
@@ -19,13 +19,13 @@ fn vertex(@builtin(vertex_index) vertex: u32) -> VertexOut {
     var out: VertexOut;
     out.world = triangle_position(t, corner);
     out.normal = triangle_normal(t, corner);
-    out.material = t.material;
+    out.triangle = vertex / 3u;
     out.clip = params.clip_from_world * vec4<f32>(out.world, 1.0);
     return out;
 }
 
 struct GBuffer {
-    // xyz: world position; w: ±(material + 1), negative when the back face is seen, 0 = miss.
+    // xyz: world position; w: ±(triangle + 1), negative when the back face is seen, 0 = miss.
     @location(0) position: vec4<f32>,
     // xyz: shading normal facing the camera; w: footprint, the world size of this pixel.
     @location(1) normal: vec4<f32>,
@@ -41,7 +41,7 @@ fn fragment(in: VertexOut, @builtin(front_facing) front: bool) -> GBuffer {
     if params.orthographic == 0u {
         footprint *= distance(in.world, params.camera_position.xyz);
     }
-    let tag = f32(in.material + 1u);
+    let tag = f32(in.triangle + 1u);
     var out: GBuffer;
     out.position = vec4<f32>(in.world, select(-tag, tag, front));
     out.normal = vec4<f32>(n, footprint);

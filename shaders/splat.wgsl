@@ -3,7 +3,7 @@
 // camera G-buffer point) when the photon lies inside that importon's radius, on its surface.
 // The estimate per pixel is Σ f(wo, wi) Φ / (π r²), summed by additive blending.
 #import bevy_rppm::common::{Photon, IterationParams, PI}
-#import bevy_rppm::scene::materials
+#import bevy_rppm::scene::{triangles, materials}
 #import bevy_rppm::bsdf::bsdf_eval
 
 @group(1) @binding(0) var<uniform> params: IterationParams;
@@ -50,7 +50,7 @@ fn fragment(in: VertexOut) -> @location(0) vec4<f32> {
     if dot(offset, offset) > radius * radius || abs(dot(offset, gn.xyz)) > 0.1 * radius || dot(p.normal, gn.xyz) < 0.5 {
         discard;
     }
-    let m = materials[u32(abs(gp.w)) - 1u];
+    let m = materials[triangles[u32(abs(gp.w)) - 1u].material];
     let wo = normalize(params.camera_position.xyz - gp.xyz);
     let f = bsdf_eval(m, gn.xyz, wo, p.incoming);
     return vec4<f32>(f * p.flux / (PI * radius * radius), 0.0);

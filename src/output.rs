@@ -62,6 +62,8 @@ pub struct ViewStats {
     /// stored by the last iteration read back.
     pub photons_per_iteration: u32,
     pub photons_stored: u32,
+    /// Importons (camera paths past specular surfaces) made by the last iteration read back.
+    pub importons: u32,
 }
 
 /// Stats of every photon-mapping camera, by camera entity.

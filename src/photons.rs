@@ -25,9 +25,12 @@ pub struct PhotonPipelines {
     store_layout: BindGroupLayoutDescriptor,
     splat_layout: BindGroupLayoutDescriptor,
     accumulate_layout: BindGroupLayoutDescriptor,
+    indirect_layout: BindGroupLayoutDescriptor,
     trace: CachedComputePipelineId,
     splat: CachedRenderPipelineId,
     accumulate: CachedComputePipelineId,
+    accumulate_importons: CachedComputePipelineId,
+    indirect_splat: CachedComputePipelineId,
 }
 
 fn params_entry() -> BindGroupLayoutEntryBuilder {
@@ -73,6 +76,22 @@ pub(crate) fn init_photon_pipelines(
                 storage_buffer_read_only_sized(false, None),
                 texture_2d(unfilterable),
                 storage_buffer_sized(false, None),
+                storage_buffer_read_only_sized(false, None),
+            ),
+        ),
+    );
+    let read = || storage_buffer_read_only_sized(false, None);
+    let indirect_layout = BindGroupLayoutDescriptor::new(
+        "rppm_indirect_splat_layout",
+        &BindGroupLayoutEntries::sequential(
+            ShaderStages::COMPUTE,
+            (
+                read(),
+                read(),
+                read(),
+                read(),
+                read(),
+                storage_buffer_sized(false, None),
             ),
         ),
     );
@@ -113,19 +132,41 @@ pub(crate) fn init_photon_pipelines(
         }),
         ..default()
     });
-    let accumulate = cache.queue_compute_pipeline(ComputePipelineDescriptor {
-        label: Some("rppm_accumulate".into()),
-        layout: vec![accumulate_layout.clone()],
-        shader: shaders.accumulate.clone(),
+    let accumulate = |importons: bool| {
+        cache.queue_compute_pipeline(ComputePipelineDescriptor {
+            label: Some("rppm_accumulate".into()),
+            layout: vec![accumulate_layout.clone()],
+            shader: shaders.accumulate.clone(),
+            shader_defs: if importons {
+                vec!["IMPORTONS".into()]
+            } else {
+                vec![]
+            },
+            ..default()
+        })
+    };
+    let indirect_splat = cache.queue_compute_pipeline(ComputePipelineDescriptor {
+        label: Some("rppm_indirect_splat".into()),
+        layout: vec![
+            rppm.scene_layout.clone(),
+            rppm.params_layout.clone(),
+            indirect_layout.clone(),
+            cubemap.trace_layout.clone(),
+        ],
+        shader: shaders.indirect_splat.clone(),
         ..default()
     });
+    let (accumulate, accumulate_importons) = (accumulate(false), accumulate(true));
     commands.insert_resource(PhotonPipelines {
         store_layout,
         splat_layout,
         accumulate_layout,
+        indirect_layout,
         trace,
         splat,
         accumulate,
+        accumulate_importons,
+        indirect_splat,
     });
 }
 
@@ -133,6 +174,14 @@ pub(crate) fn init_photon_pipelines(
 /// has lights to emit from.
 pub struct PhotonTargets {
     pub samples: Buffer,
+    /// One importon per pixel, the heads of the cubemap tiles' importon lists, and
+    /// (largest radius, count); 16-byte stand-ins when there are no importons.
+    pub importons: Buffer,
+    pub importon_heads: Buffer,
+    pub importon_stats: Buffer,
+    /// Per pixel, the photons the pixel's importon gathered.
+    importon_radiance: Buffer,
+    indirect_group: Option<BindGroup>,
     splats: TextureView,
     accumulate_group: BindGroup,
     store: Option<PhotonStore>,
@@ -155,6 +204,9 @@ pub struct TargetInputs<'a> {
     pub gbuffer_normal: &'a TextureView,
     /// Room for stored photons; 0 when the scene emits none.
     pub photon_capacity: u32,
+    /// Deep-cubemap tiles importons register in; 0 when no camera path goes past the
+    /// G-buffer (no specular surfaces, or max eye depth 1).
+    pub importon_tiles: u32,
 }
 
 impl PhotonTargets {
@@ -188,6 +240,25 @@ impl PhotonTargets {
                 view_formats: &[],
             })
             .create_view(&TextureViewDescriptor::default());
+        let storage = |label: &'static str, size: u64| {
+            device.create_buffer(&BufferDescriptor {
+                label: Some(label),
+                size: size.max(16),
+                usage: BufferUsages::STORAGE | BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            })
+        };
+        let with_importons = inputs.importon_tiles > 0;
+        let per_pixel = |bytes: u64| if with_importons { pixels * bytes } else { 0 };
+        let importons = storage("rppm_importons", per_pixel(64));
+        let importon_heads = storage("rppm_importon_heads", inputs.importon_tiles as u64 * 4);
+        let importon_stats = device.create_buffer(&BufferDescriptor {
+            label: Some("rppm_importon_stats"),
+            size: 16,
+            usage: BufferUsages::STORAGE | BufferUsages::COPY_DST | BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        });
+        let importon_radiance = storage("rppm_importon_radiance", per_pixel(16));
         let accumulate_group = device.create_bind_group(
             "rppm_accumulate_group",
             &cache.get_bind_group_layout(&pipelines.accumulate_layout),
@@ -196,6 +267,7 @@ impl PhotonTargets {
                 samples.as_entire_binding(),
                 &splats,
                 inputs.radiance.as_entire_binding(),
+                importon_radiance.as_entire_binding(),
             )),
         );
         let store = (inputs.photon_capacity > 0).then(|| {
@@ -238,9 +310,28 @@ impl PhotonTargets {
                 splat_group,
             }
         });
+        let indirect_group = store.as_ref().filter(|_| with_importons).map(|store| {
+            device.create_bind_group(
+                "rppm_indirect_splat_group",
+                &cache.get_bind_group_layout(&pipelines.indirect_layout),
+                &BindGroupEntries::sequential((
+                    store.photons.as_entire_binding(),
+                    store.count.as_entire_binding(),
+                    importons.as_entire_binding(),
+                    importon_heads.as_entire_binding(),
+                    importon_stats.as_entire_binding(),
+                    importon_radiance.as_entire_binding(),
+                )),
+            )
+        });
         let _ = queue;
         Self {
             samples,
+            importons,
+            importon_heads,
+            importon_stats,
+            importon_radiance,
+            indirect_group,
             splats,
             accumulate_group,
             store,
@@ -254,7 +345,13 @@ impl PhotonTargets {
 
     pub fn memory(&self) -> Vec<(&'static str, u64)> {
         let pixels = self.samples.size() / 16;
-        let mut memory = vec![("samples", self.samples.size()), ("splats", pixels * 8)];
+        let mut memory = vec![
+            ("samples", self.samples.size()),
+            ("splats", pixels * 8),
+            ("importons", self.importons.size()),
+            ("importon_heads", self.importon_heads.size()),
+            ("importon_radiance", self.importon_radiance.size()),
+        ];
         if let Some(store) = &self.store {
             memory.push(("photons", store.photons.size()));
         }
@@ -321,6 +418,45 @@ impl PhotonTargets {
         }
     }
 
+    /// Empties the importon lists and gathered light before an iteration's camera paths.
+    pub fn encode_importon_clear(&self, encoder: &mut CommandEncoder) {
+        for buffer in [
+            &self.importon_heads,
+            &self.importon_stats,
+            &self.importon_radiance,
+        ] {
+            encoder.clear_buffer(buffer, 0, None);
+        }
+    }
+
+    /// Indirect splatting: stored photons against the importons in the cubemap's tiles.
+    #[allow(clippy::too_many_arguments)]
+    pub fn encode_indirect_splat(
+        &self,
+        encoder: &mut CommandEncoder,
+        pipeline: &ComputePipeline,
+        scene_group: &BindGroup,
+        params_group: &BindGroup,
+        offset: u32,
+        trace_group: &BindGroup,
+        capacity: u32,
+        timer: &mut StageTimer,
+    ) {
+        let Some(group) = &self.indirect_group else {
+            return;
+        };
+        let mut pass = encoder.begin_compute_pass(&ComputePassDescriptor {
+            label: Some("rppm_indirect_splat"),
+            timestamp_writes: timer.compute_pass(Stage::IndirectSplat),
+        });
+        pass.set_pipeline(pipeline);
+        pass.set_bind_group(0, scene_group, &[]);
+        pass.set_bind_group(1, params_group, &[offset]);
+        pass.set_bind_group(2, group, &[]);
+        pass.set_bind_group(3, trace_group, &[]);
+        pass.dispatch_workgroups(capacity.div_ceil(64), 1, 1);
+    }
+
     /// Adds the splats to the local sample and folds it into the running estimate.
     pub fn encode_accumulate(
         &self,
@@ -344,15 +480,23 @@ impl PhotonPipelines {
     pub fn get<'a>(
         &self,
         cache: &'a PipelineCache,
+        importons: bool,
     ) -> (
         Option<&'a ComputePipeline>,
         Option<&'a RenderPipeline>,
         Option<&'a ComputePipeline>,
+        Option<&'a ComputePipeline>,
     ) {
+        let accumulate = if importons {
+            self.accumulate_importons
+        } else {
+            self.accumulate
+        };
         (
             cache.get_compute_pipeline(self.trace),
             cache.get_render_pipeline(self.splat),
-            cache.get_compute_pipeline(self.accumulate),
+            cache.get_compute_pipeline(accumulate),
+            cache.get_compute_pipeline(self.indirect_splat),
         )
     }
 }

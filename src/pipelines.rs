@@ -32,6 +32,7 @@ pub struct RppmShaders {
     pub photon: Handle<Shader>,
     pub splat: Handle<Shader>,
     pub accumulate: Handle<Shader>,
+    pub indirect_splat: Handle<Shader>,
 }
 
 macro_rules! wgsl {
@@ -51,6 +52,7 @@ impl RppmShaders {
                 wgsl!(shaders, "scene.wgsl"),
                 wgsl!(shaders, "bsdf.wgsl"),
                 wgsl!(shaders, "dirt.wgsl"),
+                wgsl!(shaders, "lighting.wgsl"),
             ],
             dirt_build: wgsl!(shaders, "dirt_build.wgsl"),
             dirt_bench: wgsl!(shaders, "dirt_bench.wgsl"),
@@ -58,6 +60,7 @@ impl RppmShaders {
             photon: wgsl!(shaders, "photon.wgsl"),
             splat: wgsl!(shaders, "splat.wgsl"),
             accumulate: wgsl!(shaders, "accumulate.wgsl"),
+            indirect_splat: wgsl!(shaders, "indirect_splat.wgsl"),
             shadow: wgsl!(shaders, "shadow.wgsl"),
             gbuffer: wgsl!(shaders, "gbuffer.wgsl"),
             local_illumination: wgsl!(shaders, "local_illumination.wgsl"),
@@ -73,13 +76,16 @@ pub struct RppmPipelines {
     pub scene_layout: BindGroupLayoutDescriptor,
     /// 0 per-iteration params (dynamic offset).
     pub params_layout: BindGroupLayoutDescriptor,
-    /// 0 G-buffer position, 1 G-buffer normal, 2 shadow maps, 3 this iteration's samples.
+    /// 0 G-buffer position, 1 G-buffer normal, 2 shadow maps, 3 this iteration's samples,
+    /// 4 importons, 5 importon lists' heads, 6 importon stats.
     pub local_layout: BindGroupLayoutDescriptor,
     /// 0 params (dynamic offset), 1 radiance.
     pub output_layout: BindGroupLayoutDescriptor,
     pub shadow: CachedRenderPipelineId,
     pub gbuffer: CachedRenderPipelineId,
     pub local_illumination: CachedComputePipelineId,
+    /// Local illumination that also follows camera paths through specular surfaces.
+    pub local_importons: CachedComputePipelineId,
     output_shader: Handle<Shader>,
     output: HashMap<TextureFormat, CachedRenderPipelineId>,
 }
@@ -118,6 +124,9 @@ impl RppmPipelines {
                     texture_2d(unfilterable),
                     texture_2d(unfilterable),
                     texture_2d_array(TextureSampleType::Depth),
+                    storage_buffer_sized(false, None),
+                    storage_buffer_sized(false, None),
+                    storage_buffer_sized(false, None),
                     storage_buffer_sized(false, None),
                 ),
             ),
@@ -163,16 +172,27 @@ impl RppmPipelines {
             depth_stencil: Some(depth_state(DEPTH_FORMAT, CompareFunction::Greater)),
             ..default()
         });
-        let local_illumination = cache.queue_compute_pipeline(ComputePipelineDescriptor {
-            label: Some("rppm_local_illumination_pipeline".into()),
-            layout: vec![
+        let local = |importons: bool| {
+            let mut layout = vec![
                 scene_layout.clone(),
                 params_layout.clone(),
                 local_layout.clone(),
-            ],
-            shader: shaders.local_illumination.clone(),
-            ..default()
-        });
+            ];
+            let mut shader_defs = Vec::new();
+            if importons {
+                layout.push(crate::cubemap::trace_layout());
+                shader_defs.push("IMPORTONS".into());
+            }
+            cache.queue_compute_pipeline(ComputePipelineDescriptor {
+                label: Some("rppm_local_illumination_pipeline".into()),
+                layout,
+                shader: shaders.local_illumination.clone(),
+                shader_defs,
+                ..default()
+            })
+        };
+        let local_illumination = local(false);
+        let local_importons = local(true);
         Self {
             scene_layout,
             params_layout,
@@ -181,6 +201,7 @@ impl RppmPipelines {
             shadow,
             gbuffer,
             local_illumination,
+            local_importons,
             output_shader: shaders.output.clone(),
             output: HashMap::default(),
         }

@@ -10,7 +10,7 @@ use wgpu::{
 };
 
 /// The stages of one PPM iteration that report GPU time.
-pub const STAGES: usize = 9;
+pub const STAGES: usize = 10;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Stage {
@@ -22,6 +22,7 @@ pub enum Stage {
     CubemapTrace,
     PhotonTrace,
     Splat,
+    IndirectSplat,
     Accumulate,
 }
 
@@ -35,6 +36,7 @@ impl Stage {
         Stage::CubemapTrace,
         Stage::PhotonTrace,
         Stage::Splat,
+        Stage::IndirectSplat,
         Stage::Accumulate,
     ];
 
@@ -48,6 +50,7 @@ impl Stage {
             Stage::CubemapTrace => "cubemap_trace",
             Stage::PhotonTrace => "photon_trace",
             Stage::Splat => "splat",
+            Stage::IndirectSplat => "indirect_splat",
             Stage::Accumulate => "accumulate",
         }
     }

@@ -52,7 +52,8 @@ pub struct IterationParams {
     pub photon_capacity: u32,
     pub source_count: u32,
     pub splat_radius: f32,
-    pub _pad: [u32; 4],
+    pub max_eye_depth: u32,
+    pub _pad: [u32; 3],
     pub scene_sphere: [f32; 4],
 }
 
@@ -73,6 +74,8 @@ struct ResourceKey {
     scene_epoch: u64,
     /// Room for stored photons: photons per iteration × max photon depth; 0 without lights.
     photon_capacity: u32,
+    /// Cubemap tiles importons register in; 0 when camera paths end at the G-buffer.
+    importon_tiles: u32,
 }
 
 pub struct ViewState {
@@ -86,9 +89,13 @@ pub struct ViewState {
     radius2: f64,
     /// Photons emitted per iteration this frame (0: no photon passes).
     photons: u32,
+    /// Whether camera paths go past the G-buffer this frame (importon tracing and indirect
+    /// splatting).
+    importons: bool,
     photon_targets: PhotonTargets,
-    /// Photons stored by the last iteration read back.
+    /// Photons stored, and importons made, by the last iteration read back.
     photons_stored: u32,
+    importons_made: u32,
     mode: RppmMode,
     debug_view: RppmDebugView,
     /// The deep cubemap, while a stage that traces rays needs one.
@@ -190,6 +197,7 @@ impl ViewState {
                 gbuffer_position: &gbuffer_position,
                 gbuffer_normal: &gbuffer_normal,
                 photon_capacity: key.photon_capacity,
+                importon_tiles: key.importon_tiles,
             },
         );
         let shadows = ShadowMaps::new(device, &scene.data, key.shadow_resolution, key.slots);
@@ -208,6 +216,9 @@ impl ViewState {
                 &gbuffer_normal,
                 &shadows.array_view,
                 photon_targets.samples.as_entire_binding(),
+                photon_targets.importons.as_entire_binding(),
+                photon_targets.importon_heads.as_entire_binding(),
+                photon_targets.importon_stats.as_entire_binding(),
             )),
         );
         let output_group = device.create_bind_group(
@@ -235,8 +246,10 @@ impl ViewState {
             frame: (0, 0),
             radius2: 0.0,
             photons: 0,
+            importons: false,
             photon_targets,
             photons_stored: 0,
+            importons_made: 0,
             mode: RppmMode::Full,
             debug_view: RppmDebugView::None,
             cubemap: None,
@@ -356,7 +369,8 @@ fn iteration_params(
         photon_capacity: 0,
         source_count: 0,
         splat_radius: 0.0,
-        _pad: [0; 4],
+        max_eye_depth: 1,
+        _pad: [0; 3],
         scene_sphere: {
             let (centre, radius) = data.bounding_sphere();
             centre.extend(radius.max(1e-6)).into()
@@ -374,6 +388,20 @@ fn photon_capacity(settings: &PhotonMapping, scene: &SceneData, device: &RenderD
     let wanted = settings.photons_per_iteration as u64 * settings.max_photon_depth as u64;
     let limit = device.limits().max_storage_buffer_binding_size / PHOTON_BYTES;
     wanted.min(limit).min(u32::MAX as u64) as u32
+}
+
+/// Tiles of the view's cubemap, when camera paths go past the G-buffer; else 0.
+fn importon_tiles(settings: &PhotonMapping, scene: &SceneData) -> u32 {
+    if settings.max_eye_depth < 2 || !scene.has_specular_surfaces() {
+        return 0;
+    }
+    let grid = CubemapConfig {
+        resolution: settings.cubemap_resolution,
+        tile_size: settings.cubemap_tile_size,
+        bins: settings.bins,
+    }
+    .grid();
+    6 * grid * grid
 }
 
 /// Knaus–Zwicker: r²ᵢ₊₁ = r²ᵢ (i + α)/(i + 1), with i counted from 1 (`iteration` from 0).
@@ -438,6 +466,7 @@ pub(crate) fn prepare_views(
             shadow_resolution: settings.shadow_map_resolution,
             scene_epoch: scene.epoch,
             photon_capacity: photon_capacity(settings, &scene.data, &device),
+            importon_tiles: importon_tiles(settings, &scene.data),
         };
         let state = states.0.entry(main.id()).or_insert_with(|| {
             ViewState::new(
@@ -476,7 +505,10 @@ pub(crate) fn prepare_views(
         state.mode = settings.mode;
         state.debug_view = settings.debug_view;
         state.error = error.clone();
-        let traces = state.photons > 0 || settings.debug_view == RppmDebugView::CubemapNormals;
+        state.importons = key.importon_tiles > 0 && settings.debug_view == RppmDebugView::None;
+        let traces = state.photons > 0
+            || state.importons
+            || settings.debug_view == RppmDebugView::CubemapNormals;
         let cubemap = traces.then_some(CubemapConfig {
             resolution: settings.cubemap_resolution,
             tile_size: settings.cubemap_tile_size,
@@ -513,6 +545,7 @@ pub(crate) fn prepare_views(
             params.photon_capacity = key.photon_capacity;
             params.source_count = scene.data.light_cdf.len() as u32;
             params.splat_radius = state.radius2.sqrt() as f32;
+            params.max_eye_depth = settings.max_eye_depth;
             if slot < count {
                 state.radius2 = next_radius2(state.radius2, base + slot, settings.alpha);
             }
@@ -583,6 +616,7 @@ struct NodePipelines<'a> {
     debug: Option<&'a ComputePipeline>,
     photon: Option<&'a ComputePipeline>,
     splat: Option<&'a RenderPipeline>,
+    indirect_splat: Option<&'a ComputePipeline>,
     accumulate: &'a ComputePipeline,
 }
 
@@ -603,14 +637,21 @@ pub(crate) fn rppm_node(
     let (Some(scene), Some(state)) = (scene, states.0.get_mut(&main.id())) else {
         return;
     };
+    let local = if state.importons {
+        pipelines.local_importons
+    } else {
+        pipelines.local_illumination
+    };
     let (Some(shadow), Some(gbuffer), Some(local)) = (
         cache.get_render_pipeline(pipelines.shadow),
         cache.get_render_pipeline(pipelines.gbuffer),
-        cache.get_compute_pipeline(pipelines.local_illumination),
+        cache.get_compute_pipeline(local),
     ) else {
         return;
     };
-    let (photon, splat, Some(accumulate)) = photon_pipelines.get(&cache) else {
+    let (photon, splat, Some(accumulate), indirect_splat) =
+        photon_pipelines.get(&cache, state.importons)
+    else {
         return;
     };
     let node = NodePipelines {
@@ -622,6 +663,7 @@ pub(crate) fn rppm_node(
         debug: debug_pipelines.get(&cache, state.debug_view),
         photon,
         splat,
+        indirect_splat,
         accumulate,
     };
     let encoder = ctx.command_encoder();
@@ -694,14 +736,7 @@ fn encode_iteration(
         &mut state.timer,
     );
     encode_gbuffer(encoder, node.gbuffer, state, triangles, offset);
-    let mut pass = encoder.begin_compute_pass(&ComputePassDescriptor {
-        label: Some("rppm_local_illumination"),
-        timestamp_writes: state.timer.compute_pass(Stage::LocalIllumination),
-    });
-    pass.set_pipeline(node.local);
-    dispatch_per_pixel(&mut pass, state, offset);
-    drop(pass);
-    if let (true, Some(cubemap), Some(trace)) = (state.photons > 0, &state.cubemap, node.photon) {
+    if let Some(cubemap) = &state.cubemap {
         cubemap.encode_build(
             encoder,
             node.cache,
@@ -709,6 +744,21 @@ fn encode_iteration(
             &state.scene_group,
             &mut state.timer,
         );
+    }
+    if state.importons {
+        state.photon_targets.encode_importon_clear(encoder);
+    }
+    let mut pass = encoder.begin_compute_pass(&ComputePassDescriptor {
+        label: Some("rppm_local_illumination"),
+        timestamp_writes: state.timer.compute_pass(Stage::LocalIllumination),
+    });
+    pass.set_pipeline(node.local);
+    if let (true, Some(cubemap)) = (state.importons, &state.cubemap) {
+        pass.set_bind_group(3, &cubemap.trace_group, &[]);
+    }
+    dispatch_per_pixel(&mut pass, state, offset);
+    drop(pass);
+    if let (true, Some(cubemap), Some(trace)) = (state.photons > 0, &state.cubemap, node.photon) {
         state.photon_targets.encode_trace(
             encoder,
             trace,
@@ -733,6 +783,23 @@ fn encode_estimate(
     state
         .photon_targets
         .encode_splat(encoder, splat, &state.scene_group, offset, &mut state.timer);
+    if let (true, true, Some(cubemap), Some(indirect)) = (
+        state.photons > 0,
+        state.importons,
+        &state.cubemap,
+        node.indirect_splat,
+    ) {
+        state.photon_targets.encode_indirect_splat(
+            encoder,
+            indirect,
+            &state.scene_group,
+            &state.params_group,
+            offset,
+            &cubemap.trace_group,
+            state.key.photon_capacity,
+            &mut state.timer,
+        );
+    }
     state.photon_targets.encode_accumulate(
         encoder,
         node.accumulate,
@@ -880,6 +947,12 @@ pub(crate) fn report_views(
         {
             state.photons_stored = bytemuck::cast_slice::<u8, u32>(&bytes)[1];
         }
+        if state.readback_pending
+            && state.importons
+            && let Some(bytes) = read_back(&device, &queue, &state.photon_targets.importon_stats)
+        {
+            state.importons_made = bytemuck::cast_slice::<u8, u32>(&bytes)[1];
+        }
         let mut memory = scene_memory.clone();
         memory.extend(state.memory.iter().cloned());
         if let Some(cubemap) = &state.cubemap {
@@ -920,6 +993,7 @@ pub(crate) fn report_views(
                 cubemap_nodes: state.cubemap_nodes.0,
                 photons_per_iteration: state.photons,
                 photons_stored: state.photons_stored,
+                importons: state.importons_made,
                 cubemap_overflow: state.cubemap_nodes.1,
             },
         ));

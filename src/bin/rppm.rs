@@ -269,6 +269,7 @@ fn stats_json(args: &Args, r: &RenderResult, total_seconds: f64) -> serde_json::
         "cubemap_overflow": r.stats.cubemap_overflow,
         "photons_per_iteration": r.stats.photons_per_iteration,
         "photons_stored": r.stats.photons_stored,
+        "importons": r.stats.importons,
         "mean_rgb": mean_rgb(&r.image),
     })
 }

@@ -73,12 +73,29 @@ pub struct DirtParams {
 /// Byte stride of the per-level uniforms of the hierarchy reduction.
 const LEVEL_STRIDE: u64 = 256;
 
+/// Group 3 of any shader that traces rays: 0 params, 1 hierarchy, 2 heads, 3 nodes.
+pub fn trace_layout() -> BindGroupLayoutDescriptor {
+    let read = || storage_buffer_read_only_sized(false, None);
+    BindGroupLayoutDescriptor::new(
+        "rppm_cubemap_trace_layout",
+        &BindGroupLayoutEntries::sequential(
+            ShaderStages::COMPUTE | ShaderStages::FRAGMENT,
+            (
+                uniform_buffer_sized(false, NonZeroU64::new(size_of::<DirtParams>() as u64)),
+                read(),
+                read(),
+                read(),
+            ),
+        ),
+    )
+}
+
 /// Pipelines of the build, and the layouts a tracer binds the cubemap with.
 #[derive(Resource)]
 pub struct CubemapPipelines {
     pub build_layout: BindGroupLayoutDescriptor,
     pub level_layout: BindGroupLayoutDescriptor,
-    /// 0 params, 1 hierarchy, 2 heads, 3 nodes (read-only): group 1 of any tracing shader.
+    /// [`trace_layout`].
     pub trace_layout: BindGroupLayoutDescriptor,
     bounds: CachedRenderPipelineId,
     insert: CachedRenderPipelineId,
@@ -119,19 +136,7 @@ impl CubemapPipelines {
                 uniform_buffer_sized(true, NonZeroU64::new(16)),
             ),
         );
-        let read = || storage_buffer_read_only_sized(false, None);
-        let trace_layout = BindGroupLayoutDescriptor::new(
-            "rppm_cubemap_trace_layout",
-            &BindGroupLayoutEntries::sequential(
-                ShaderStages::COMPUTE | ShaderStages::FRAGMENT,
-                (
-                    uniform_buffer_sized(false, NonZeroU64::new(size_of::<DirtParams>() as u64)),
-                    read(),
-                    read(),
-                    read(),
-                ),
-            ),
-        );
+        let trace_layout = trace_layout();
         let raster = |entry: &'static str| RenderPipelineDescriptor {
             label: Some(format!("rppm_cubemap_{entry}").into()),
             layout: vec![scene_layout.clone(), build_layout.clone()],

@@ -135,9 +135,14 @@ impl SceneData {
         ((lo + hi) * 0.5, ((hi - lo) * 0.5).length())
     }
 
-    /// Which material features the scene uses, for building only the code paths it needs.
-    pub fn has_transmission(&self) -> bool {
-        self.materials.iter().any(|m| m.specular_transmission > 0.0)
+    /// Whether some surface only reflects or refracts specularly (a mirror, clear glass): then
+    /// camera paths go on past the G-buffer (`is_specular` in local_illumination.wgsl).
+    pub fn has_specular_surfaces(&self) -> bool {
+        self.materials.iter().any(|m| {
+            let diffuse = (1.0 - m.metallic) * (1.0 - m.specular_transmission);
+            let albedo = luminance([m.base_color[0], m.base_color[1], m.base_color[2]]);
+            m.perceptual_roughness < 0.02 && diffuse * albedo <= 0.0
+        })
     }
 }
 

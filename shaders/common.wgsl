@@ -101,8 +101,11 @@ struct IterationParams {
     splat_radius: f32,
     // Vertices a camera path may have (1: the G-buffer only).
     max_eye_depth: u32,
-    pad_b: u32,
-    pad_c: u32,
+    // 1: each splat fragment survives with probability 1/2 and counts twice.
+    splat_russian_roulette: u32,
+    // 1: direct light comes from photons (stored at their first hit) instead of the
+    // local stage; for checking photon flux.
+    direct_photons: u32,
     pad_d: u32,
     // Bounding sphere of the scene: centre, radius (directional-light photons start on a disc).
     scene_sphere: vec4<f32>,
@@ -187,6 +190,25 @@ fn face_of(v: vec3<f32>) -> u32 {
 // Offset of hierarchy level l.
 fn level_offset(d: DirtParams, l: u32) -> u32 {
     return d.level_offsets[l / 4u][l % 4u];
+}
+
+// The world gather radius of a pixel or importon: `pixels` footprints, kept within scene-
+// relative bounds so it neither vanishes nor covers the scene.
+fn gather_radius(params: IterationParams, pixels: f32, footprint: f32) -> f32 {
+    let scale = params.scene_sphere.w;
+    return clamp(pixels * footprint, 1e-6 * scale, 0.1 * scale);
+}
+
+// Russian roulette on a splat: false to drop it; the kept ones count twice (unbiased).
+fn splat_survives(params: IterationParams, a: u32, b: u32) -> bool {
+    if params.splat_russian_roulette == 0u {
+        return true;
+    }
+    return (pcg_hash(a ^ pcg_hash(b ^ pcg_hash(params.iteration))) & 1u) == 0u;
+}
+
+fn splat_weight(params: IterationParams) -> f32 {
+    return select(1.0, 2.0, params.splat_russian_roulette != 0u);
 }
 
 // A PCG hash: the random numbers of every stage come from hashing (iteration, item, draw).

@@ -2,7 +2,7 @@
 // it, over the tiles its gather radius can reach there; each tile's importon list is tested,
 // and a photon inside an importon's radius, on its surface, adds
 // throughput · f(wo, wi) · Φ / (π r²) to the importon's pixel.
-#import bevy_rppm::common::{Photon, Importon, IterationParams, PI, cubemap_tile}
+#import bevy_rppm::common::{Photon, Importon, IterationParams, PI, cubemap_tile, splat_survives, splat_weight}
 #import bevy_rppm::scene::materials
 #import bevy_rppm::bsdf::bsdf_eval
 #import bevy_rppm::dirt::dirt
@@ -31,7 +31,7 @@ fn add_f32(index: u32, value: f32) {
     }
 }
 
-fn gather(p: Photon, list: u32) {
+fn gather(p: Photon, photon: u32, list: u32) {
     var node = list;
     for (var guard = 0u; node != 0u && guard < arrayLength(&importons); guard += 1u) {
         let pixel = node - 1u;
@@ -42,8 +42,11 @@ fn gather(p: Photon, list: u32) {
         if dot(offset, offset) > r * r || abs(dot(offset, imp.normal)) > 0.1 * r || dot(p.normal, imp.normal) < 0.5 {
             continue;
         }
+        if !splat_survives(params, photon, pixel) {
+            continue;
+        }
         let f = bsdf_eval(materials[imp.material], imp.normal, imp.outgoing, p.incoming);
-        let c = imp.throughput * f * p.flux / (PI * r * r);
+        let c = imp.throughput * f * p.flux * (splat_weight(params) / (PI * r * r));
         add_f32(4u * pixel, c.x);
         add_f32(4u * pixel + 1u, c.y);
         add_f32(4u * pixel + 2u, c.z);
@@ -69,7 +72,7 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     for (var y = max(c.y - reach, 0); y <= min(c.y + reach, g - 1); y += 1) {
         for (var x = max(c.x - reach, 0); x <= min(c.x + reach, g - 1); x += 1) {
             let index = (tile.face * dirt.grid + u32(y)) * dirt.grid + u32(x);
-            gather(p, importon_heads[index]);
+            gather(p, id.x, importon_heads[index]);
         }
     }
 }

@@ -106,5 +106,8 @@ fn area_light(m: Material, x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>) -> vec3<f3
 // Radiance leaving x towards wo by emission (front faces only) and direct light.
 fn surface_light(m: Material, x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, front: bool) -> vec3<f32> {
     let emitted = select(vec3<f32>(0.0), m.emissive.rgb, front);
+    if params.direct_photons != 0u {
+        return emitted;
+    }
     return emitted + direct_light(m, x, n, wo) + area_light(m, x, n, wo);
 }

@@ -3,7 +3,7 @@
 // With IMPORTONS, a pixel that sees a specular surface (mirror, glass) follows the camera path
 // through the deep cubemap to the first non-specular surface, lights it the same way, and
 // leaves an importon there for indirect splatting.
-#import bevy_rppm::common::{Material, IterationParams, Importon, NO_IMPORTON, cubemap_tile}
+#import bevy_rppm::common::{Material, IterationParams, Importon, NO_IMPORTON, cubemap_tile, gather_radius}
 #import bevy_rppm::scene::{triangles, materials}
 #import bevy_rppm::lighting::{params, surface_light}
 #ifdef IMPORTONS
@@ -89,7 +89,8 @@ fn follow_camera_path(pixel: u32, x0: vec3<f32>, n0: vec3<f32>, m0: Material, tr
             n = -n;
         }
         if !is_specular(m) {
-            let radius = params.splat_radius * params.pixel_spread * select(length, 1.0, params.orthographic != 0u);
+            let footprint = params.pixel_spread * select(length, 1.0, params.orthographic != 0u);
+            let radius = gather_radius(params, params.splat_radius, footprint);
             importons[pixel] = Importon(x, t.material, n, 0u, throughput, radius, -d, 0u);
             let tile = cubemap_tile(dirt, x);
             importons[pixel].next = atomicExchange(&importon_heads[tile.index], pixel + 1u);

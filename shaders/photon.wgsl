@@ -135,8 +135,12 @@ fn trace(@builtin(global_invocation_id) id: vec3<u32>) {
             n = -n;
         }
         let diffuse = m.base_color.rgb * ((1.0 - m.metallic) * (1.0 - m.specular_transmission));
-        if depth > 0u && any(diffuse > vec3<f32>(0.0)) {
+        let direct_only = params.direct_photons != 0u;
+        if (depth > 0u || direct_only) && any(diffuse > vec3<f32>(0.0)) {
             store(x, ray, n);
+        }
+        if direct_only {
+            return;
         }
         // Scatter: diffuse, mirror (delta metals) or delta dielectric; otherwise absorbed.
         let delta = m.perceptual_roughness < DELTA_ROUGHNESS;

@@ -2,7 +2,7 @@
 // as wide as the gather radius; each fragment adds the photon to its pixel's importon (the
 // camera G-buffer point) when the photon lies inside that importon's radius, on its surface.
 // The estimate per pixel is Σ f(wo, wi) Φ / (π r²), summed by additive blending.
-#import bevy_rppm::common::{Photon, IterationParams, PI}
+#import bevy_rppm::common::{Photon, IterationParams, PI, gather_radius, splat_survives, splat_weight}
 #import bevy_rppm::scene::{triangles, materials}
 #import bevy_rppm::bsdf::bsdf_eval
 
@@ -44,14 +44,17 @@ fn fragment(in: VertexOut) -> @location(0) vec4<f32> {
     }
     let gn = textureLoad(gbuffer_normal, pixel, 0);
     let p = photons[in.photon];
-    let radius = params.splat_radius * gn.w;
+    let radius = gather_radius(params, params.splat_radius, gn.w);
     let offset = p.position - gp.xyz;
     // Inside the gather disc, on this surface: near its plane and facing the same way.
     if dot(offset, offset) > radius * radius || abs(dot(offset, gn.xyz)) > 0.1 * radius || dot(p.normal, gn.xyz) < 0.5 {
         discard;
     }
+    if !splat_survives(params, in.photon, u32(pixel.y) * params.size.x + u32(pixel.x)) {
+        discard;
+    }
     let m = materials[triangles[u32(abs(gp.w)) - 1u].material];
     let wo = normalize(params.camera_position.xyz - gp.xyz);
     let f = bsdf_eval(m, gn.xyz, wo, p.incoming);
-    return vec4<f32>(f * p.flux / (PI * radius * radius), 0.0);
+    return vec4<f32>(f * p.flux * (splat_weight(params) / (PI * radius * radius)), 0.0);
 }

@@ -21,7 +21,7 @@ impl DebugViewPipelines {
         view: RppmDebugView,
     ) -> Option<&'a ComputePipeline> {
         match view {
-            RppmDebugView::None => None,
+            RppmDebugView::None | RppmDebugView::DirectPhotons => None,
             RppmDebugView::GBufferNormals => cache.get_compute_pipeline(self.gbuffer_normals),
             RppmDebugView::CubemapNormals => cache.get_compute_pipeline(self.cubemap_normals),
         }

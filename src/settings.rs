@@ -32,6 +32,10 @@ pub enum RppmDebugView {
     /// Shading normals of primary rays traced through the deep cubemap, with the G-buffer's
     /// jitter: it should match `GBufferNormals`.
     CubemapNormals,
+    /// Direct light from photons (stored at their first hit, not bounced) instead of shadow
+    /// maps: it should match the estimate with `photons_per_iteration = 0`, which checks
+    /// photon flux against the local stage.
+    DirectPhotons,
 }
 
 /// Rasterisation-based progressive photon mapping on a 3D camera.

@@ -53,7 +53,9 @@ pub struct IterationParams {
     pub source_count: u32,
     pub splat_radius: f32,
     pub max_eye_depth: u32,
-    pub _pad: [u32; 3],
+    pub splat_russian_roulette: u32,
+    pub direct_photons: u32,
+    pub _pad: u32,
     pub scene_sphere: [f32; 4],
 }
 
@@ -370,7 +372,9 @@ fn iteration_params(
         source_count: 0,
         splat_radius: 0.0,
         max_eye_depth: 1,
-        _pad: [0; 3],
+        splat_russian_roulette: 0,
+        direct_photons: 0,
+        _pad: 0,
         scene_sphere: {
             let (centre, radius) = data.bounding_sphere();
             centre.extend(radius.max(1e-6)).into()
@@ -497,7 +501,11 @@ pub(crate) fn prepare_views(
         if state.iteration == 0 {
             state.radius2 = (settings.initial_radius_pixels as f64).powi(2);
         }
-        state.photons = if key.photon_capacity > 0 && settings.debug_view == RppmDebugView::None {
+        let estimate = matches!(
+            settings.debug_view,
+            RppmDebugView::None | RppmDebugView::DirectPhotons
+        );
+        state.photons = if key.photon_capacity > 0 && estimate {
             settings.photons_per_iteration
         } else {
             0
@@ -546,6 +554,8 @@ pub(crate) fn prepare_views(
             params.source_count = scene.data.light_cdf.len() as u32;
             params.splat_radius = state.radius2.sqrt() as f32;
             params.max_eye_depth = settings.max_eye_depth;
+            params.splat_russian_roulette = settings.splat_russian_roulette as u32;
+            params.direct_photons = (settings.debug_view == RppmDebugView::DirectPhotons) as u32;
             if slot < count {
                 state.radius2 = next_radius2(state.radius2, base + slot, settings.alpha);
             }
@@ -671,7 +681,10 @@ pub(crate) fn rppm_node(
     let (_, count) = state.frame;
     for slot in 0..count {
         let offset = (slot as u64 * PARAMS_STRIDE) as u32;
-        if state.debug_view == RppmDebugView::None {
+        if matches!(
+            state.debug_view,
+            RppmDebugView::None | RppmDebugView::DirectPhotons
+        ) {
             encode_iteration(encoder, &node, state, &scene, slot, offset);
         } else {
             encode_debug_iteration(encoder, &node, state, &scene, offset);

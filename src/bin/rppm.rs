@@ -20,7 +20,7 @@ use bevy_rppm::{PhotonMapping, RppmDebugView};
 const USAGE: &str = "usage: rppm render SCENE.gltf [--width W] [--height H] \
 [--iterations N | --time-budget SECONDS] [--out FILE.exr|FILE.png]... [--stats FILE.json]
                    [--photons N] [--photon-depth N] [--radius PIXELS] [--cubemap RESOLUTION]
-                   [--debug-view gbuffer-normals|cubemap-normals]
+                   [--debug-view gbuffer-normals|cubemap-normals|direct-photons]
        rppm compare TEST.exr REFERENCE.exr
        rppm bench dirt SCENE.gltf [--json] [--rays N] [--timing-rays N] \
 [--resolutions 64,128,256,512] [--bins 4,8,16,32] [--tile 1|2|4]";
@@ -138,9 +138,11 @@ fn parse_render(args: &[String]) -> Result<Args, String> {
                 settings.debug_view = match value(args, i, flag)? {
                     "gbuffer-normals" => RppmDebugView::GBufferNormals,
                     "cubemap-normals" => RppmDebugView::CubemapNormals,
+                    "direct-photons" => RppmDebugView::DirectPhotons,
                     other => {
                         return Err(format!(
-                            "--debug-view {other}: use gbuffer-normals or cubemap-normals"
+                            "--debug-view {other}: use gbuffer-normals, cubemap-normals or \
+                             direct-photons"
                         ));
                     }
                 }

@@ -50,3 +50,36 @@ fn bsdf_eval(m: Material, n: vec3<f32>, wo: vec3<f32>, wi: vec3<f32>) -> vec3<f3
     }
     return f;
 }
+
+// Photons are stored at glossy surfaces at least this rough (density estimation needs a
+// lobe wide enough to gather over); smoother ones only scatter them.
+const GLOSSY_STORE_ROUGHNESS: f32 = 0.3;
+
+// Whether the GGX lobe is a rough (non-delta) lobe.
+fn has_glossy_lobe(m: Material) -> bool {
+    return m.perceptual_roughness >= DELTA_ROUGHNESS;
+}
+
+// Samples the GGX lobe by its normal distribution around n for light arriving from `v`
+// (pointing away from the surface): returns the scattered direction (xyz) and the weight
+// f·cos/pdf (w, scalar part; multiply by Fresnel), or w = 0 when it leaves below the surface.
+fn sample_ggx(m: Material, n: vec3<f32>, v: vec3<f32>, u: vec2<f32>) -> vec4<f32> {
+    let a = m.perceptual_roughness * m.perceptual_roughness;
+    let cos_h = sqrt((1.0 - u.x) / (1.0 + (a * a - 1.0) * u.x));
+    let sin_h = sqrt(max(1.0 - cos_h * cos_h, 0.0));
+    let phi = 2.0 * PI * u.y;
+    let t = select(vec3<f32>(1.0, 0.0, 0.0), vec3<f32>(0.0, 1.0, 0.0), abs(n.x) > 0.9);
+    let x = normalize(cross(t, n));
+    let y = cross(n, x);
+    let h = x * (sin_h * cos(phi)) + y * (sin_h * sin(phi)) + n * cos_h;
+    let l = reflect(-v, h);
+    let n_dot_l = dot(n, l);
+    let n_dot_v = dot(n, v);
+    let v_dot_h = dot(v, h);
+    if n_dot_l <= 0.0 || n_dot_v <= 0.0 || v_dot_h <= 0.0 {
+        return vec4<f32>(l, 0.0);
+    }
+    // f cos / pdf with pdf = D (n·h) / (4 v·h): G · (v·h) / ((n·v)(n·h)), G = 4 V (n·v)(n·l).
+    let g = 4.0 * smith_visibility(n_dot_v, n_dot_l, a) * n_dot_v * n_dot_l;
+    return vec4<f32>(l, g * v_dot_h / (n_dot_v * cos_h));
+}

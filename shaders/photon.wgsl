@@ -1,11 +1,12 @@
 // Photon tracing: photons leave every light, chosen by power, and are traced through the deep
-// cubemap; a photon is stored at every diffuse hit after its first bounce (direct light is the
-// local-illumination stage's), then scattered by the material or absorbed (Russian roulette
-// by albedo, so flux stays unbiased).
+// cubemap; a photon is stored at every diffuse or rough-glossy hit after its first bounce
+// (direct light is the local-illumination stage's), then scattered by the material (diffuse,
+// GGX glossy, mirror, Fresnel glass) or absorbed (Russian roulette by albedo, so flux stays
+// unbiased).
 #import bevy_rppm::common::{Light, Photon, IterationParams, PI, LIGHT_POINT, LIGHT_SPOT, LIGHT_DIRECTIONAL, luminance, random, pcg_hash, basis_around, cosine_direction}
 #import bevy_rppm::scene::{triangles, materials, lights, emitters, light_cdf}
 #import bevy_rppm::dirt::{trace_dirt, NO_HIT}
-#import bevy_rppm::bsdf::DELTA_ROUGHNESS
+#import bevy_rppm::bsdf::{DELTA_ROUGHNESS, GLOSSY_STORE_ROUGHNESS, has_glossy_lobe, sample_ggx, specular_f0, fresnel_schlick}
 
 @group(1) @binding(0) var<uniform> params: IterationParams;
 
@@ -136,29 +137,43 @@ fn trace(@builtin(global_invocation_id) id: vec3<u32>) {
         }
         let diffuse = m.base_color.rgb * ((1.0 - m.metallic) * (1.0 - m.specular_transmission));
         let direct_only = params.direct_photons != 0u;
-        if (depth > 0u || direct_only) && any(diffuse > vec3<f32>(0.0)) {
+        let glossy_store = has_glossy_lobe(m) && m.perceptual_roughness >= GLOSSY_STORE_ROUGHNESS;
+        if (depth > 0u || direct_only) && (any(diffuse > vec3<f32>(0.0)) || glossy_store) {
             store(x, ray, n);
         }
         if direct_only {
             return;
         }
-        // Scatter: diffuse, mirror (delta metals) or delta dielectric; otherwise absorbed.
+        // Scatter: diffuse, GGX glossy, mirror (delta metals) or delta dielectric; otherwise
+        // absorbed. Each lobe is chosen with a probability near its albedo.
         let delta = m.perceptual_roughness < DELTA_ROUGHNESS;
         let mirror = select(vec3<f32>(0.0), m.base_color.rgb * m.metallic, delta);
         let glass = select(0.0, m.specular_transmission * (1.0 - m.metallic), delta);
+        let f0 = select(specular_f0(m), vec3<f32>(0.0), delta);
         let p_diffuse = min(luminance(diffuse), 1.0);
-        let p_mirror = min(luminance(mirror), 1.0 - p_diffuse);
-        let p_glass = min(glass, 1.0 - p_diffuse - p_mirror);
+        let p_glossy = min(luminance(f0), 1.0 - p_diffuse);
+        let p_mirror = min(luminance(mirror), 1.0 - p_diffuse - p_glossy);
+        let p_glass = min(glass, 1.0 - p_diffuse - p_glossy - p_mirror);
         let u = random(&rng);
         ray.ignore = hit.triangle;
         ray.origin = x;
-        if u < p_diffuse {
+        if u < p_glossy {
+            let v = -ray.direction;
+            let s = sample_ggx(m, n, v, vec2<f32>(random(&rng), random(&rng)));
+            if s.w <= 0.0 {
+                return;
+            }
+            ray.direction = s.xyz;
+            ray.flux *= fresnel_schlick(f0, dot(v, normalize(v + s.xyz))) * (s.w / p_glossy);
+            continue;
+        }
+        if u < p_glossy + p_diffuse {
             ray.direction = cosine_direction(n, vec2<f32>(random(&rng), random(&rng)));
             ray.flux *= diffuse / p_diffuse;
-        } else if u < p_diffuse + p_mirror {
+        } else if u < p_glossy + p_diffuse + p_mirror {
             ray.direction = reflect(ray.direction, n);
             ray.flux *= mirror / p_mirror;
-        } else if u < p_diffuse + p_mirror + p_glass {
+        } else if u < p_glossy + p_diffuse + p_mirror + p_glass {
             let eta = select(m.ior, 1.0 / m.ior, front);
             let cos_i = dot(-ray.direction, n);
             let refracted = refract(ray.direction, n, eta);

@@ -1,0 +1,281 @@
+#!/usr/bin/env python3
+"""Ground truth for bevy_rppm: renders a glTF scene with Mitsuba 3's path tracer under the
+conventions of shared/docs/CONVENTIONS.md (linear radiance, box filter, photometric numbers
+used as radiometric ones, light range ignored).
+
+    python3 tools/reference.py SCENE.gltf --out REF.exr [--width 256] [--height 256]
+                               [--spp 1024] [--variant llvm_ad_rgb|scalar_rgb] [--json REF.json]
+
+Needs `pip install mitsuba` (3.9). The llvm variants need an LLVM that drjit accepts: on
+Debian 12 install `libllvm19` and the script points DRJIT_LIBLLVM_PATH at it; otherwise it
+falls back to `scalar_rgb`, which is slower.
+
+Material mapping (as the references in shared/scenes): metallic 0 and no transmission →
+Lambertian `diffuse` (Bevy's 4% specular layer is left out, see CONVENTIONS.md); metallic with
+roughness < 0.02 → perfect `conductor`; metallic otherwise → `roughconductor` (GGX, α =
+roughness²); transmission with roughness < 0.02 → `dielectric`; emissive → area emitter.
+Lights: KHR_lights_punctual point (W/sr = cd), spot (hard cone at the outer angle: Mitsuba's
+falloff differs from Bevy's a², so only the cone is kept), directional (W/m² = lux).
+"""
+
+import argparse
+import base64
+import glob
+import json
+import math
+import os
+import struct
+import sys
+import tempfile
+import time
+
+COMPONENTS = {5120: ("b", 1), 5121: ("B", 1), 5122: ("h", 2), 5123: ("H", 2), 5125: ("I", 4), 5126: ("f", 4)}
+SIZES = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4, "MAT4": 16}
+
+
+def load_buffers(gltf, folder):
+    buffers = []
+    for b in gltf.get("buffers", []):
+        uri = b["uri"]
+        if uri.startswith("data:"):
+            buffers.append(base64.b64decode(uri.split(",", 1)[1]))
+        else:
+            with open(os.path.join(folder, uri), "rb") as f:
+                buffers.append(f.read())
+    return buffers
+
+
+def accessor(gltf, buffers, index):
+    a = gltf["accessors"][index]
+    view = gltf["bufferViews"][a["bufferView"]]
+    fmt, size = COMPONENTS[a["componentType"]]
+    width = SIZES[a["type"]]
+    stride = view.get("byteStride", size * width)
+    start = view.get("byteOffset", 0) + a.get("byteOffset", 0)
+    data = buffers[view["buffer"]]
+    out = []
+    for i in range(a["count"]):
+        off = start + i * stride
+        out.append(struct.unpack_from("<" + fmt * width, data, off))
+    return out
+
+
+def mat_mul(a, b):
+    return [[sum(a[i][k] * b[k][j] for k in range(4)) for j in range(4)] for i in range(4)]
+
+
+def node_matrix(node):
+    if "matrix" in node:
+        m = node["matrix"]
+        return [[m[c * 4 + r] for c in range(4)] for r in range(4)]
+    tx, ty, tz = node.get("translation", [0, 0, 0])
+    x, y, z, w = node.get("rotation", [0, 0, 0, 1])
+    sx, sy, sz = node.get("scale", [1, 1, 1])
+    r = [
+        [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+        [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+        [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
+    ]
+    return [
+        [r[0][0] * sx, r[0][1] * sy, r[0][2] * sz, tx],
+        [r[1][0] * sx, r[1][1] * sy, r[1][2] * sz, ty],
+        [r[2][0] * sx, r[2][1] * sy, r[2][2] * sz, tz],
+        [0, 0, 0, 1],
+    ]
+
+
+def walk(gltf):
+    """(node, world matrix) for every node of the default scene."""
+    identity = [[float(i == j) for j in range(4)] for i in range(4)]
+    scene = gltf["scenes"][gltf.get("scene", 0)]
+    stack = [(n, identity) for n in scene["nodes"]]
+    while stack:
+        index, parent = stack.pop()
+        node = gltf["nodes"][index]
+        world = mat_mul(parent, node_matrix(node))
+        yield node, world
+        stack.extend((c, world) for c in node.get("children", []))
+
+
+def transform_point(m, p):
+    return [sum(m[r][c] * p[c] for c in range(3)) + m[r][3] for r in range(3)]
+
+
+def transform_dir(m, d):
+    return [sum(m[r][c] * d[c] for c in range(3)) for r in range(3)]
+
+
+def write_ply(path, positions, faces):
+    with open(path, "wb") as f:
+        f.write(
+            (
+                "ply\nformat binary_little_endian 1.0\n"
+                f"element vertex {len(positions)}\nproperty float x\nproperty float y\nproperty float z\n"
+                f"element face {len(faces)}\nproperty list uchar int vertex_indices\nend_header\n"
+            ).encode()
+        )
+        for p in positions:
+            f.write(struct.pack("<3f", *p))
+        for t in faces:
+            f.write(struct.pack("<B3i", 3, *t))
+
+
+def bsdf_of(material):
+    """Mitsuba BSDF dict and a one-line description, per the mapping in this file's header."""
+    pbr = material.get("pbrMetallicRoughness", {})
+    base = pbr.get("baseColorFactor", [1, 1, 1, 1])[:3]
+    metallic = pbr.get("metallicFactor", 1.0)
+    roughness = pbr.get("roughnessFactor", 1.0)
+    ext = material.get("extensions", {})
+    transmission = ext.get("KHR_materials_transmission", {}).get("transmissionFactor", 0.0)
+    ior = ext.get("KHR_materials_ior", {}).get("ior", 1.5)
+    rgb = {"type": "rgb", "value": base}
+    if transmission > 0 and roughness < 0.02:
+        return {"type": "dielectric", "int_ior": ior, "ext_ior": 1.0}, f"dielectric(ior={ior})"
+    if metallic > 0 and roughness < 0.02:
+        return {"type": "conductor", "material": "none", "specular_reflectance": rgb}, "conductor(none)"
+    if metallic > 0:
+        alpha = max(roughness * roughness, 1e-3)
+        return (
+            {"type": "roughconductor", "material": "none", "distribution": "ggx", "alpha": alpha, "specular_reflectance": rgb},
+            f"roughconductor(alpha={alpha:.3f})",
+        )
+    return {"type": "diffuse", "reflectance": rgb}, "diffuse(lambert)"
+
+
+def emission_of(material):
+    strength = material.get("extensions", {}).get("KHR_materials_emissive_strength", {}).get("emissiveStrength", 1.0)
+    e = [c * strength for c in material.get("emissiveFactor", [0, 0, 0])]
+    return e if max(e) > 0 else None
+
+
+def build_scene(path, width, height, tmp):
+    import mitsuba as mi
+
+    folder = os.path.dirname(os.path.abspath(path))
+    with open(path) as f:
+        gltf = json.load(f)
+    buffers = load_buffers(gltf, folder)
+    materials = gltf.get("materials", [])
+    lights = gltf.get("extensions", {}).get("KHR_lights_punctual", {}).get("lights", [])
+    scene = {"type": "scene", "integrator": {"type": "path", "max_depth": 16, "rr_depth": 8}}
+    mapping = []
+    camera = None
+    for node, world in walk(gltf):
+        name = node.get("name", "node")
+        if "mesh" in node:
+            for k, prim in enumerate(gltf["meshes"][node["mesh"]]["primitives"]):
+                if prim.get("mode", 4) != 4:
+                    continue
+                positions = [transform_point(world, p) for p in accessor(gltf, buffers, prim["attributes"]["POSITION"])]
+                if "indices" in prim:
+                    idx = [i[0] for i in accessor(gltf, buffers, prim["indices"])]
+                else:
+                    idx = list(range(len(positions)))
+                if sum(world[r][0] * (world[(r + 1) % 3][1] * world[(r + 2) % 3][2] - world[(r + 1) % 3][2] * world[(r + 2) % 3][1]) for r in range(3)) < 0:
+                    faces = [(idx[i], idx[i + 2], idx[i + 1]) for i in range(0, len(idx) - 2, 3)]
+                else:
+                    faces = [(idx[i], idx[i + 1], idx[i + 2]) for i in range(0, len(idx) - 2, 3)]
+                ply = os.path.join(tmp, f"{len(scene)}.ply")
+                write_ply(ply, positions, faces)
+                material = materials[prim["material"]] if "material" in prim else {}
+                bsdf, description = bsdf_of(material)
+                shape = {"type": "ply", "filename": ply, "bsdf": bsdf, "face_normals": "NORMAL" not in prim["attributes"]}
+                emitted = emission_of(material)
+                if emitted:
+                    shape["emitter"] = {"type": "area", "radiance": {"type": "rgb", "value": emitted}}
+                    description += f" + area emitter radiance {emitted}"
+                scene[f"{name}_{k}_{len(scene)}"] = shape
+                mapping.append(f"{name}[{k}]: {len(faces)} tris, material '{material.get('name', '')}' -> {description}")
+        if "camera" in node and camera is None:
+            cam = gltf["cameras"][node["camera"]]["perspective"]
+            origin = transform_point(world, [0, 0, 0])
+            forward = transform_dir(world, [0, 0, -1])
+            up = transform_dir(world, [0, 1, 0])
+            camera = (origin, [origin[i] + forward[i] for i in range(3)], up, math.degrees(cam["yfov"]))
+        light = node.get("extensions", {}).get("KHR_lights_punctual")
+        if light is not None:
+            l = lights[light["light"]]
+            colour = [c * l.get("intensity", 1.0) for c in l.get("color", [1, 1, 1])]
+            position = transform_point(world, [0, 0, 0])
+            direction = transform_dir(world, [0, 0, -1])
+            kind = l["type"]
+            if kind == "point":
+                scene[f"light_{len(scene)}"] = {"type": "point", "position": position, "intensity": {"type": "rgb", "value": colour}}
+            elif kind == "directional":
+                scene[f"light_{len(scene)}"] = {"type": "directional", "direction": direction, "irradiance": {"type": "rgb", "value": colour}}
+            elif kind == "spot":
+                outer = math.degrees(l.get("spot", {}).get("outerConeAngle", math.pi / 4))
+                target = [position[i] + direction[i] for i in range(3)]
+                scene[f"light_{len(scene)}"] = {
+                    "type": "spot",
+                    "to_world": mi.ScalarTransform4f().look_at(origin=position, target=target, up=[0, 1, 0] if abs(direction[1]) < 0.9 else [1, 0, 0]),
+                    "intensity": {"type": "rgb", "value": colour},
+                    "cutoff_angle": outer,
+                    "beam_width": outer,
+                }
+            mapping.append(f"{node.get('name', 'light')}: {kind} {l.get('intensity', 1.0)} x {l.get('color', [1, 1, 1])}")
+    if camera is None:
+        sys.exit("reference.py: error: the scene has no perspective camera")
+    origin, target, up, fov = camera
+    scene["sensor"] = {
+        "type": "perspective",
+        "fov": fov,
+        "fov_axis": "y",
+        "to_world": mi.ScalarTransform4f().look_at(origin=origin, target=target, up=up),
+        "film": {"type": "hdrfilm", "width": width, "height": height, "rfilter": {"type": "box"}, "pixel_format": "rgb", "component_format": "float32"},
+    }
+    return scene, mapping
+
+
+def pick_variant(wanted):
+    import mitsuba as mi
+
+    if wanted.startswith("llvm") and "DRJIT_LIBLLVM_PATH" not in os.environ:
+        found = sorted(glob.glob("/usr/lib/*/libLLVM-19.so") + glob.glob("/usr/lib/llvm-19/lib/libLLVM*.so*"))
+        if found:
+            os.environ["DRJIT_LIBLLVM_PATH"] = found[0]
+    try:
+        mi.set_variant(wanted)
+        return wanted
+    except Exception as e:  # drjit rejects the system LLVM: fall back, slower but exact
+        print(f"reference.py: {wanted} unavailable ({e}); using scalar_rgb", file=sys.stderr)
+        mi.set_variant("scalar_rgb")
+        return "scalar_rgb"
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("scene")
+    parser.add_argument("--out", required=True)
+    parser.add_argument("--json")
+    parser.add_argument("--width", type=int, default=256)
+    parser.add_argument("--height", type=int, default=256)
+    parser.add_argument("--spp", type=int, default=1024)
+    parser.add_argument("--variant", default="llvm_ad_rgb")
+    parser.add_argument("--seed", type=int, default=0)
+    args = parser.parse_args()
+    variant = pick_variant(args.variant)
+    import mitsuba as mi
+
+    with tempfile.TemporaryDirectory() as tmp:
+        description, mapping = build_scene(args.scene, args.width, args.height, tmp)
+        scene = mi.load_dict(description)
+        start = time.time()
+        bitmap = mi.Bitmap(mi.render(scene, spp=args.spp, seed=args.seed))  # evaluates the render
+        seconds = time.time() - start
+        bitmap.write(args.out)
+    if args.json:
+        with open(args.json, "w") as f:
+            json.dump(
+                {"scene": os.path.basename(args.scene), "width": args.width, "height": args.height, "spp": args.spp,
+                 "variant": variant, "max_depth": 16, "rr_depth": 8, "seed": args.seed, "mapping": mapping,
+                 "time_render_s": round(seconds, 1)},
+                f,
+                indent=1,
+            )
+    print(f"wrote {args.out}: {args.spp} spp in {seconds:.1f} s ({variant})", file=sys.stderr)
+
+
+if __name__ == "__main__":
+    main()

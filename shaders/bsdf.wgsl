@@ -83,3 +83,15 @@ fn sample_ggx(m: Material, n: vec3<f32>, v: vec3<f32>, u: vec2<f32>) -> vec4<f32
     let g = 4.0 * smith_visibility(n_dot_v, n_dot_l, a) * n_dot_v * n_dot_l;
     return vec4<f32>(l, g * v_dot_h / (n_dot_v * cos_h));
 }
+
+// Unpolarised Fresnel reflectance of a dielectric; eta = n_incident / n_transmitted.
+fn fresnel_dielectric(cos_i: f32, eta: f32) -> f32 {
+    let sin2_t = eta * eta * max(1.0 - cos_i * cos_i, 0.0);
+    if sin2_t >= 1.0 {
+        return 1.0;
+    }
+    let cos_t = sqrt(1.0 - sin2_t);
+    let rs = (eta * cos_i - cos_t) / (eta * cos_i + cos_t);
+    let rp = (cos_i - eta * cos_t) / (cos_i + eta * cos_t);
+    return 0.5 * (rs * rs + rp * rp);
+}

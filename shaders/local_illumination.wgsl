@@ -7,7 +7,7 @@
 #import bevy_rppm::scene::{triangles, materials}
 #import bevy_rppm::lighting::{params, surface_light}
 #ifdef IMPORTONS
-#import bevy_rppm::bsdf::DELTA_ROUGHNESS
+#import bevy_rppm::bsdf::{DELTA_ROUGHNESS, fresnel_dielectric}
 #import bevy_rppm::common::{random, pcg_hash, luminance}
 #import bevy_rppm::dirt::{dirt, trace_dirt, NO_HIT}
 #endif
@@ -30,18 +30,6 @@ fn is_specular(m: Material) -> bool {
 struct Bounce {
     direction: vec3<f32>,
     weight: vec3<f32>,
-}
-
-// Unpolarised Fresnel reflectance of a dielectric; eta = n_incident / n_transmitted.
-fn fresnel_dielectric(cos_i: f32, eta: f32) -> f32 {
-    let sin2_t = eta * eta * max(1.0 - cos_i * cos_i, 0.0);
-    if sin2_t >= 1.0 {
-        return 1.0;
-    }
-    let cos_t = sqrt(1.0 - sin2_t);
-    let rs = (eta * cos_i - cos_t) / (eta * cos_i + cos_t);
-    let rp = (cos_i - eta * cos_t) / (cos_i + eta * cos_t);
-    return 0.5 * (rs * rs + rp * rp);
 }
 
 // Samples the specular lobes: the mirror of metals, Fresnel-chosen reflection or refraction

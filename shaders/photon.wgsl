@@ -6,7 +6,7 @@
 #import bevy_rppm::common::{Light, Photon, IterationParams, PI, LIGHT_POINT, LIGHT_SPOT, LIGHT_DIRECTIONAL, luminance, random, pcg_hash, basis_around, cosine_direction}
 #import bevy_rppm::scene::{triangles, materials, lights, emitters, light_cdf}
 #import bevy_rppm::dirt::{trace_dirt, NO_HIT}
-#import bevy_rppm::bsdf::{DELTA_ROUGHNESS, GLOSSY_STORE_ROUGHNESS, has_glossy_lobe, sample_ggx, specular_f0, fresnel_schlick}
+#import bevy_rppm::bsdf::{DELTA_ROUGHNESS, GLOSSY_STORE_ROUGHNESS, has_glossy_lobe, sample_ggx, specular_f0, fresnel_schlick, fresnel_dielectric}
 
 @group(1) @binding(0) var<uniform> params: IterationParams;
 
@@ -90,18 +90,6 @@ fn emit(rng: ptr<function, u32>) -> Ray {
     ray.direction = uniform_sphere(vec2<f32>(random(rng), random(rng)));
     ray.flux = l.radiance.rgb * (4.0 * PI * share);
     return ray;
-}
-
-// Unpolarised Fresnel reflectance of a dielectric; eta = n_incident / n_transmitted.
-fn fresnel_dielectric(cos_i: f32, eta: f32) -> f32 {
-    let sin2_t = eta * eta * max(1.0 - cos_i * cos_i, 0.0);
-    if sin2_t >= 1.0 {
-        return 1.0;
-    }
-    let cos_t = sqrt(1.0 - sin2_t);
-    let rs = (eta * cos_i - cos_t) / (eta * cos_i + cos_t);
-    let rp = (cos_i - eta * cos_t) / (cos_i + eta * cos_t);
-    return 0.5 * (rs * rs + rp * rp);
 }
 
 fn store(x: vec3<f32>, ray: Ray, n: vec3<f32>) {

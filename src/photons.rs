@@ -9,6 +9,7 @@ use bevy::render::render_resource::binding_types::{
 };
 use bevy::render::render_resource::*;
 use bevy::render::renderer::{RenderDevice, RenderQueue};
+use bevy::shader::Shader;
 
 use crate::cubemap::CubemapPipelines;
 use crate::pipelines::{RppmPipelines, RppmShaders};
@@ -95,17 +96,22 @@ pub(crate) fn init_photon_pipelines(
             ),
         ),
     );
-    let trace = cache.queue_compute_pipeline(ComputePipelineDescriptor {
-        label: Some("rppm_photon_trace".into()),
-        layout: vec![
-            rppm.scene_layout.clone(),
-            rppm.params_layout.clone(),
-            store_layout.clone(),
-            cubemap.trace_layout.clone(),
-        ],
-        shader: shaders.photon.clone(),
-        ..default()
-    });
+    // Tracing stages: scene, iteration constants, their own group, the deep cubemap.
+    let tracing =
+        |label: &'static str, own: &BindGroupLayoutDescriptor, shader: &Handle<Shader>| {
+            cache.queue_compute_pipeline(ComputePipelineDescriptor {
+                label: Some(label.into()),
+                layout: vec![
+                    rppm.scene_layout.clone(),
+                    rppm.params_layout.clone(),
+                    own.clone(),
+                    cubemap.trace_layout.clone(),
+                ],
+                shader: shader.clone(),
+                ..default()
+            })
+        };
+    let trace = tracing("rppm_photon_trace", &store_layout, &shaders.photon);
     let additive = BlendComponent {
         src_factor: BlendFactor::One,
         dst_factor: BlendFactor::One,
@@ -145,17 +151,11 @@ pub(crate) fn init_photon_pipelines(
             ..default()
         })
     };
-    let indirect_splat = cache.queue_compute_pipeline(ComputePipelineDescriptor {
-        label: Some("rppm_indirect_splat".into()),
-        layout: vec![
-            rppm.scene_layout.clone(),
-            rppm.params_layout.clone(),
-            indirect_layout.clone(),
-            cubemap.trace_layout.clone(),
-        ],
-        shader: shaders.indirect_splat.clone(),
-        ..default()
-    });
+    let indirect_splat = tracing(
+        "rppm_indirect_splat",
+        &indirect_layout,
+        &shaders.indirect_splat,
+    );
     let (accumulate, accumulate_importons) = (accumulate(false), accumulate(true));
     commands.insert_resource(PhotonPipelines {
         store_layout,

@@ -472,7 +472,7 @@ pub(crate) fn prepare_views(
             photon_capacity: photon_capacity(settings, &scene.data, &device),
             importon_tiles: importon_tiles(settings, &scene.data),
         };
-        let state = states.0.entry(main.id()).or_insert_with(|| {
+        let fresh = || {
             ViewState::new(
                 key,
                 &device,
@@ -482,17 +482,10 @@ pub(crate) fn prepare_views(
                 &photon_pipelines,
                 scene,
             )
-        });
+        };
+        let state = states.0.entry(main.id()).or_insert_with(fresh);
         if state.key != key {
-            *state = ViewState::new(
-                key,
-                &device,
-                &queue,
-                &cache,
-                &pipelines,
-                &photon_pipelines,
-                scene,
-            );
+            *state = fresh();
         }
         if state.view_epoch != rppm.view_epoch {
             state.view_epoch = rppm.view_epoch;

@@ -285,18 +285,7 @@ impl Gpu<'_> {
                 centre,
                 capacity,
             )?;
-            let mut timer = StageTimer::new(self.device, self.queue, 2);
-            let mut encoder = self
-                .device
-                .create_command_encoder(&CommandEncoderDescriptor::default());
-            cubemap.encode_build(
-                &mut encoder,
-                self.cache,
-                self.cubemap,
-                &self.scene_group,
-                &mut timer,
-            );
-            self.submit(encoder);
+            self.run_build(&cubemap);
             let counters = crate::output::read_back(self.device, self.queue, cubemap.counters())
                 .unwrap_or_default();
             let counters: &[u32] = bytemuck::cast_slice(&counters);
@@ -312,30 +301,31 @@ impl Gpu<'_> {
         }
     }
 
+    /// Builds the cubemap once; returns the build's GPU ms.
+    fn run_build(&self, cubemap: &DeepCubemap) -> f64 {
+        let mut timer = StageTimer::new(self.device, self.queue, 16);
+        timer.begin_frame(1);
+        let mut encoder = self
+            .device
+            .create_command_encoder(&CommandEncoderDescriptor::default());
+        cubemap.encode_build(
+            &mut encoder,
+            self.cache,
+            self.cubemap,
+            &self.scene_group,
+            &mut timer,
+        );
+        timer.end_frame(&mut encoder);
+        self.submit(encoder);
+        timer.start_readback();
+        timer.collect(self.device, true);
+        timer.last_ms.iter().sum()
+    }
+
     /// Mean GPU ms of a few builds.
     fn time_build(&self, cubemap: &DeepCubemap) -> f64 {
         let runs = 3;
-        let mut total = 0.0;
-        for _ in 0..runs {
-            let mut timer = StageTimer::new(self.device, self.queue, 16);
-            timer.begin_frame(1);
-            let mut encoder = self
-                .device
-                .create_command_encoder(&CommandEncoderDescriptor::default());
-            cubemap.encode_build(
-                &mut encoder,
-                self.cache,
-                self.cubemap,
-                &self.scene_group,
-                &mut timer,
-            );
-            timer.end_frame(&mut encoder);
-            self.submit(encoder);
-            timer.start_readback();
-            timer.collect(self.device, true);
-            total += timer.last_ms.iter().sum::<f64>();
-        }
-        total / runs as f64
+        (0..runs).map(|_| self.run_build(cubemap)).sum::<f64>() / runs as f64
     }
 }
 

@@ -641,3 +641,62 @@ fn error_falls_faster_than_the_square_root_of_iterations() {
     eprintln!("relMSE against iterations {points:?}: log-log slope {slope:.3}");
     assert!(slope < -0.5, "log-log slope {slope}");
 }
+
+#[derive(Resource, Default)]
+struct TargetPixels(Option<Vec<u8>>);
+
+#[test]
+fn full_mode_writes_the_estimate_into_the_bevy_view() {
+    use bevy::render::gpu_readback::{Readback, ReadbackComplete};
+    let mut app = gpu_app();
+    let (camera, _) = lit_plane(&mut app, 1000.0, 1.5, 64);
+    // Exposure 1 (Bevy: 1 / (2^ev100 · 1.2)) and a frozen estimate, so the view is comparable.
+    let world = app.world_mut();
+    world.entity_mut(camera).insert(bevy::camera::Exposure {
+        ev100: -(1.2f32).log2(),
+    });
+    world
+        .get_mut::<PhotonMapping>(camera)
+        .unwrap()
+        .max_iterations = Some(2);
+    let Some(bevy::camera::RenderTarget::Image(target)) =
+        world.get::<bevy::camera::RenderTarget>(camera).cloned()
+    else {
+        panic!("the test camera renders to an image");
+    };
+    world.init_resource::<TargetPixels>();
+    world
+        .spawn(Readback::texture(target.handle.clone()))
+        .observe(
+            |event: On<ReadbackComplete>, mut pixels: ResMut<TargetPixels>| {
+                pixels.0 = Some(event.data.clone())
+            },
+        );
+    for _ in 0..100 {
+        app.update();
+        if iteration(&app, camera) >= 2 && app.world().resource::<TargetPixels>().0.is_some() {
+            frames(&mut app, 4);
+            break;
+        }
+    }
+    let radiance = app.world().resource::<RppmRadiance>().images[&camera].clone();
+    let view = app
+        .world()
+        .resource::<TargetPixels>()
+        .0
+        .clone()
+        .expect("view read back");
+    assert_eq!(view.len(), 64 * 64 * 4);
+    let mut worst = 0i32;
+    for (i, p) in radiance.pixels.iter().enumerate() {
+        let expected = bevy_rppm::image_io::tonemap_srgb8([p[0], p[1], p[2]]);
+        for c in 0..3 {
+            worst = worst.max((view[4 * i + c] as i32 - expected[c] as i32).abs());
+        }
+    }
+    eprintln!("view vs tonemapped estimate: worst difference {worst}/255");
+    assert!(
+        worst <= 3,
+        "the view differs from the estimate by {worst}/255"
+    );
+}

@@ -1,5 +1,6 @@
 // Bevy StandardMaterial as a BSDF: Lambert diffuse, GGX specular (F0 = 0.16·reflectance² for
-// dielectrics, base colour for metals), and delta lobes below DELTA_ROUGHNESS.
+// dielectrics, base colour for metals), and delta lobes below DELTA_ROUGHNESS. Energy-conserving
+// between the diffuse lobe and the dielectric layer (see diffuse_albedo).
 #define_import_path bevy_rppm::bsdf
 
 #import bevy_rppm::common::{Material, PI}
@@ -32,6 +33,15 @@ fn smith_visibility(n_dot_v: f32, n_dot_l: f32, a: f32) -> f32 {
     return 0.5 / max(gv + gl, 1e-8);
 }
 
+// Albedo of the diffuse lobe: Bevy's (1 − metallic)(1 − transmission) × base colour, less what
+// the dielectric specular layer reflects (F0 = 0.16·reflectance²). Bevy adds the two lobes
+// without that split; for direct light the difference is a few percent, but bounced many
+// times (as photons are) the extra energy compounds, so the diffuse lobe gives it back.
+fn diffuse_albedo(m: Material) -> vec3<f32> {
+    let layer = 0.16 * m.reflectance * m.reflectance;
+    return m.base_color.rgb * ((1.0 - m.metallic) * (1.0 - m.specular_transmission) * (1.0 - layer));
+}
+
 // f(wo, wi), without the cosine. wo and wi point away from the surface.
 fn bsdf_eval(m: Material, n: vec3<f32>, wo: vec3<f32>, wi: vec3<f32>) -> vec3<f32> {
     let n_dot_l = dot(n, wi);
@@ -39,8 +49,7 @@ fn bsdf_eval(m: Material, n: vec3<f32>, wo: vec3<f32>, wi: vec3<f32>) -> vec3<f3
     if n_dot_l <= 0.0 || n_dot_v <= 0.0 {
         return vec3<f32>(0.0);
     }
-    let diffuse_weight = (1.0 - m.metallic) * (1.0 - m.specular_transmission);
-    var f = m.base_color.rgb * (diffuse_weight / PI);
+    var f = diffuse_albedo(m) / PI;
     if m.perceptual_roughness >= DELTA_ROUGHNESS {
         let a = m.perceptual_roughness * m.perceptual_roughness;
         let h = normalize(wi + wo);

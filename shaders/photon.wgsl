@@ -6,7 +6,7 @@
 #import bevy_rppm::common::{Light, Photon, IterationParams, PI, LIGHT_POINT, LIGHT_SPOT, LIGHT_DIRECTIONAL, luminance, random, pcg_hash, basis_around, cosine_direction}
 #import bevy_rppm::scene::{triangles, materials, lights, emitters, light_cdf}
 #import bevy_rppm::dirt::{trace_dirt, NO_HIT}
-#import bevy_rppm::bsdf::{DELTA_ROUGHNESS, GLOSSY_STORE_ROUGHNESS, has_glossy_lobe, sample_ggx, specular_f0, fresnel_schlick, fresnel_dielectric}
+#import bevy_rppm::bsdf::{DELTA_ROUGHNESS, GLOSSY_STORE_ROUGHNESS, has_glossy_lobe, sample_ggx, specular_f0, fresnel_schlick, fresnel_dielectric, diffuse_albedo}
 
 @group(1) @binding(0) var<uniform> params: IterationParams;
 
@@ -123,7 +123,7 @@ fn trace(@builtin(global_invocation_id) id: vec3<u32>) {
         if !front {
             n = -n;
         }
-        let diffuse = m.base_color.rgb * ((1.0 - m.metallic) * (1.0 - m.specular_transmission));
+        let diffuse = diffuse_albedo(m);
         let direct_only = params.direct_photons != 0u;
         let glossy_store = has_glossy_lobe(m) && m.perceptual_roughness >= GLOSSY_STORE_ROUGHNESS;
         if (depth > 0u || direct_only) && (any(diffuse > vec3<f32>(0.0)) || glossy_store) {

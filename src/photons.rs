@@ -8,7 +8,7 @@ use bevy::render::render_resource::binding_types::{
     storage_buffer_read_only_sized, storage_buffer_sized, texture_2d, uniform_buffer_sized,
 };
 use bevy::render::render_resource::*;
-use bevy::render::renderer::{RenderDevice, RenderQueue};
+use bevy::render::renderer::RenderDevice;
 use bevy::shader::Shader;
 
 use crate::cubemap::CubemapPipelines;
@@ -212,7 +212,6 @@ pub struct TargetInputs<'a> {
 impl PhotonTargets {
     pub fn new(
         device: &RenderDevice,
-        queue: &RenderQueue,
         cache: &PipelineCache,
         pipelines: &PhotonPipelines,
         inputs: TargetInputs,
@@ -324,7 +323,6 @@ impl PhotonTargets {
                 )),
             )
         });
-        let _ = queue;
         Self {
             samples,
             importons,

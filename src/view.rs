@@ -189,7 +189,6 @@ impl ViewState {
         });
         let photon_targets = PhotonTargets::new(
             device,
-            queue,
             cache,
             photon_pipelines,
             TargetInputs {

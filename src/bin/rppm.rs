@@ -19,7 +19,7 @@ use bevy_rppm::{PhotonMapping, RppmDebugView};
 
 const USAGE: &str = "usage: rppm render SCENE.gltf [--width W] [--height H] \
 [--iterations N | --time-budget SECONDS] [--out FILE.exr|FILE.png]... [--stats FILE.json]
-                   [--photons N] [--photon-depth N] [--radius PIXELS] [--cubemap RESOLUTION]
+                   [--photons N] [--photon-depth N] [--radius PIXELS] [--cubemap RESOLUTION] [--splat-rr]
                    [--debug-view gbuffer-normals|cubemap-normals|direct-photons]
        rppm compare TEST.exr REFERENCE.exr
        rppm bench dirt SCENE.gltf [--json] [--rays N] [--timing-rays N] \
@@ -134,6 +134,11 @@ fn parse_render(args: &[String]) -> Result<Args, String> {
             "--photon-depth" => settings.max_photon_depth = number(value(args, i, flag)?, flag)?,
             "--radius" => settings.initial_radius_pixels = number(value(args, i, flag)?, flag)?,
             "--cubemap" => settings.cubemap_resolution = number(value(args, i, flag)?, flag)?,
+            "--splat-rr" => {
+                settings.splat_russian_roulette = true;
+                i += 1;
+                continue;
+            }
             "--debug-view" => {
                 settings.debug_view = match value(args, i, flag)? {
                     "gbuffer-normals" => RppmDebugView::GBufferNormals,

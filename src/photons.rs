@@ -18,11 +18,23 @@ use crate::view::IterationParams;
 
 /// Bytes of one stored photon (`Photon` in common.wgsl).
 pub const PHOTON_BYTES: u64 = 64;
-/// Per-iteration splat sums; half floats blend everywhere.
-pub const SPLAT_FORMAT: TextureFormat = TextureFormat::Rgba16Float;
+/// The per-iteration splat sums: thousands of photons can overlap a pixel, and half floats
+/// stop adding small terms past a few units, so 32-bit floats where they blend.
+fn splat_format(device: &RenderDevice) -> TextureFormat {
+    if device.features().contains(WgpuFeatures::FLOAT32_BLENDABLE) {
+        TextureFormat::Rgba32Float
+    } else {
+        warn!(
+            "bevy_rppm: this GPU cannot blend 32-bit floats; photon splats are summed in half \
+             floats, which saturate where very many photons overlap"
+        );
+        TextureFormat::Rgba16Float
+    }
+}
 
 #[derive(Resource)]
 pub struct PhotonPipelines {
+    splat_format: TextureFormat,
     store_layout: BindGroupLayoutDescriptor,
     splat_layout: BindGroupLayoutDescriptor,
     accumulate_layout: BindGroupLayoutDescriptor,
@@ -40,11 +52,13 @@ fn params_entry() -> BindGroupLayoutEntryBuilder {
 
 pub(crate) fn init_photon_pipelines(
     mut commands: Commands,
+    device: Res<RenderDevice>,
     cache: Res<PipelineCache>,
     shaders: Res<RppmShaders>,
     rppm: Res<RppmPipelines>,
     cubemap: Res<CubemapPipelines>,
 ) {
+    let splat_format = splat_format(&device);
     let store_layout = BindGroupLayoutDescriptor::new(
         "rppm_photon_store_layout",
         &BindGroupLayoutEntries::sequential(
@@ -127,7 +141,7 @@ pub(crate) fn init_photon_pipelines(
         fragment: Some(FragmentState {
             shader: shaders.splat.clone(),
             targets: vec![Some(ColorTargetState {
-                format: SPLAT_FORMAT,
+                format: splat_format,
                 blend: Some(BlendState {
                     color: additive,
                     alpha: additive,
@@ -158,6 +172,7 @@ pub(crate) fn init_photon_pipelines(
     );
     let (accumulate, accumulate_importons) = (accumulate(false), accumulate(true));
     commands.insert_resource(PhotonPipelines {
+        splat_format,
         store_layout,
         splat_layout,
         accumulate_layout,
@@ -234,7 +249,7 @@ impl PhotonTargets {
                 mip_level_count: 1,
                 sample_count: 1,
                 dimension: TextureDimension::D2,
-                format: SPLAT_FORMAT,
+                format: pipelines.splat_format,
                 usage: TextureUsages::RENDER_ATTACHMENT | TextureUsages::TEXTURE_BINDING,
                 view_formats: &[],
             })
@@ -345,7 +360,7 @@ impl PhotonTargets {
         let pixels = self.samples.size() / 16;
         let mut memory = vec![
             ("samples", self.samples.size()),
-            ("splats", pixels * 8),
+            ("splats", pixels * 16),
             ("importons", self.importons.size()),
             ("importon_heads", self.importon_heads.size()),
             ("importon_radiance", self.importon_radiance.size()),

@@ -140,7 +140,27 @@ fn extraction_gives_world_space_triangles() {
 
 /// A white plane, a point light above it and a camera looking straight down.
 fn lit_plane(app: &mut App, light_lumens: f32, light_height: f32, size: u32) -> (Entity, Entity) {
+    let light = (
+        PointLight {
+            intensity: light_lumens,
+            range: 100.0,
+            ..default()
+        },
+        Transform::from_xyz(0.0, light_height, 0.0),
+    );
+    plane_scene(app, light, size, PhotonMapping::default())
+}
+
+/// A 10 m white plane (albedo 0.8, no specular layer), `light`, and an orthographic camera
+/// looking straight down at 4 m × 4 m of it.
+fn plane_scene(
+    app: &mut App,
+    light: impl Bundle,
+    size: u32,
+    settings: PhotonMapping,
+) -> (Entity, Entity) {
     let world = app.world_mut();
+    world.spawn(light);
     let plane = world.resource_mut::<Assets<Mesh>>().add(quad(
         5.0,
         Some(Indices::U32(vec![0, 1, 2, 0, 2, 3])),
@@ -154,14 +174,6 @@ fn lit_plane(app: &mut App, light_lumens: f32, light_height: f32, size: u32) -> 
             Transform::default(),
         ))
         .id();
-    world.spawn((
-        PointLight {
-            intensity: light_lumens,
-            range: 100.0,
-            ..default()
-        },
-        Transform::from_xyz(0.0, light_height, 0.0),
-    ));
     let target = offscreen_target(&mut world.resource_mut::<Assets<Image>>(), size, size);
     let camera = world
         .spawn((
@@ -177,7 +189,7 @@ fn lit_plane(app: &mut App, light_lumens: f32, light_height: f32, size: u32) -> 
             target,
             Msaa::Off,
             bevy::core_pipeline::tonemapping::Tonemapping::None,
-            PhotonMapping::default(),
+            settings,
             RppmReadback,
         ))
         .id();
@@ -698,5 +710,166 @@ fn full_mode_writes_the_estimate_into_the_bevy_view() {
     assert!(
         worst <= 3,
         "the view differs from the estimate by {worst}/255"
+    );
+}
+
+/// The pixel-centre radiance of the plane, averaged over the same Halton jitter as the
+/// renderer's first `iterations` iterations (so only numerical error remains). The jitter
+/// shifts the projection by (jx, jy) pixels, so a pixel sees the point (−jx, −jy) from its
+/// centre.
+fn jittered_expectation(
+    size: u32,
+    iterations: u32,
+    radiance: impl Fn(f32, f32) -> f32,
+) -> Vec<f32> {
+    let halton = |mut i: u32, base: u32| {
+        let (mut f, mut r) = (1.0f32, 0.0f32);
+        while i > 0 {
+            f /= base as f32;
+            r += f * (i % base) as f32;
+            i /= base;
+        }
+        r
+    };
+    let mut out = vec![0.0; (size * size) as usize];
+    for it in 0..iterations {
+        let (jx, jy) = (halton(it + 1, 2) - 0.5, halton(it + 1, 3) - 0.5);
+        for j in 0..size {
+            for i in 0..size {
+                let x = -2.0 + (i as f32 + 0.5 - jx) * 4.0 / size as f32;
+                let z = -2.0 + (j as f32 + 0.5 - jy) * 4.0 / size as f32;
+                out[(j * size + i) as usize] += radiance(x, z) / iterations as f32;
+            }
+        }
+    }
+    out
+}
+
+/// Renders the plane lit by `light` with local illumination only, compares it with the
+/// analytic radiance, then checks that photons carry the same direct light.
+fn check_light(light: impl Bundle + Clone, radiance: impl Fn(f32, f32) -> f32, name: &str) {
+    let (size, iterations) = (48u32, 8u32);
+    let render = |settings: PhotonMapping| {
+        let mut app = gpu_app();
+        let (camera, _) = plane_scene(&mut app, light.clone(), size, settings);
+        for _ in 0..200 {
+            app.update();
+            let done = app
+                .world()
+                .resource::<RppmRadiance>()
+                .images
+                .get(&camera)
+                .is_some_and(|i| i.iteration >= iterations);
+            if done {
+                break;
+            }
+        }
+        let image = app.world().resource::<RppmRadiance>().images[&camera].clone();
+        assert_eq!(
+            image.iteration, iterations,
+            "{name}: the estimate did not reach {iterations} iterations"
+        );
+        RgbImage::from_rgba(image.width, image.height, &image.pixels)
+    };
+    let local = render(PhotonMapping {
+        photons_per_iteration: 0,
+        max_iterations: Some(iterations),
+        ..default()
+    });
+    let expected = jittered_expectation(size, iterations, radiance);
+    let mut worst = 0.0f32;
+    for (got, want) in local.pixels.iter().zip(&expected) {
+        let err = (got[1] - want).abs() / want.max(1e-3);
+        worst = worst.max(if *want > 1e-3 {
+            err
+        } else {
+            (got[1] - want).abs()
+        });
+    }
+    let photons = render(PhotonMapping {
+        photons_per_iteration: 65_536,
+        max_iterations: Some(iterations),
+        debug_view: bevy_rppm::RppmDebugView::DirectPhotons,
+        ..default()
+    });
+    let energy = bevy_rppm::image_io::energy_ratio(&photons, &local).unwrap();
+    bevy_rppm::image_io::write_exr(Path::new(&format!("/tmp/dbg_{name}_local.exr")), &local)
+        .unwrap();
+    bevy_rppm::image_io::write_exr(Path::new(&format!("/tmp/dbg_{name}_photons.exr")), &photons)
+        .unwrap();
+    eprintln!(
+        "{name}: local vs analytic worst relative error {worst:.4}; photon/local energy {energy:.4}"
+    );
+    assert_eq!(bad_pixels(&local) + bad_pixels(&photons), 0);
+    assert!(worst < 0.01, "{name}: local illumination off by {worst}");
+    assert!(
+        (0.97..1.03).contains(&energy),
+        "{name}: photon energy ratio {energy}"
+    );
+}
+
+#[test]
+fn spot_light_on_a_plane_matches_bevys_falloff() {
+    let (lumens, height, inner, outer) = (3000.0f32, 1.5f32, 0.35f32, 0.6f32);
+    let light = (
+        SpotLight {
+            intensity: lumens,
+            inner_angle: inner,
+            outer_angle: outer,
+            range: 100.0,
+            ..default()
+        },
+        Transform::from_xyz(0.0, height, 0.0).looking_at(Vec3::ZERO, Vec3::Z),
+    );
+    let intensity = lumens / (4.0 * std::f32::consts::PI);
+    check_light(
+        light,
+        |x, z| {
+            let d2 = x * x + z * z + height * height;
+            let cos = height / d2.sqrt();
+            let a = ((cos - outer.cos()) / (inner.cos() - outer.cos())).clamp(0.0, 1.0);
+            0.8 / std::f32::consts::PI * intensity * a * a * cos / d2
+        },
+        "spot",
+    );
+}
+
+#[test]
+fn directional_light_on_a_plane_gives_e_cos_theta() {
+    let (lux, tilt) = (10.0f32, 0.5f32);
+    let direction = Vec3::new(tilt.sin(), -tilt.cos(), 0.0);
+    let light = (
+        DirectionalLight {
+            illuminance: lux,
+            ..default()
+        },
+        Transform::default().looking_to(direction, Vec3::Z),
+    );
+    check_light(
+        light,
+        |_, _| 0.8 / std::f32::consts::PI * lux * tilt.cos(),
+        "directional",
+    );
+}
+
+#[test]
+fn point_light_photons_carry_its_power() {
+    let (lumens, height) = (2000.0f32, 1.5f32);
+    let light = (
+        PointLight {
+            intensity: lumens,
+            range: 100.0,
+            ..default()
+        },
+        Transform::from_xyz(0.0, height, 0.0),
+    );
+    let intensity = lumens / (4.0 * std::f32::consts::PI);
+    check_light(
+        light,
+        |x, z| {
+            let d2 = x * x + z * z + height * height;
+            0.8 / std::f32::consts::PI * intensity * height / d2.sqrt() / d2
+        },
+        "point",
     );
 }

@@ -873,3 +873,71 @@ fn point_light_photons_carry_its_power() {
         "point",
     );
 }
+
+#[test]
+fn bad_input_is_left_out_without_a_panic() {
+    let mut app = gpu_app();
+    // A zero-power light: nothing emits, so no photon passes run.
+    let light = (
+        PointLight {
+            intensity: 0.0,
+            ..default()
+        },
+        Transform::from_xyz(0.0, 1.0, 0.0),
+    );
+    let (camera, _) = plane_scene(&mut app, light, 16, PhotonMapping::default());
+    let world = app.world_mut();
+    let material = matte(&mut world.resource_mut::<Assets<StandardMaterial>>(), 0.5);
+    let degenerate = {
+        let mut mesh = Mesh::new(
+            PrimitiveTopology::TriangleList,
+            RenderAssetUsages::default(),
+        );
+        mesh.insert_attribute(Mesh::ATTRIBUTE_POSITION, vec![[0.0, 0.0, 0.0]; 3]);
+        world.resource_mut::<Assets<Mesh>>().add(mesh)
+    };
+    let lines = {
+        let mut mesh = Mesh::new(PrimitiveTopology::LineList, RenderAssetUsages::default());
+        mesh.insert_attribute(
+            Mesh::ATTRIBUTE_POSITION,
+            vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]],
+        );
+        world.resource_mut::<Assets<Mesh>>().add(mesh)
+    };
+    let cube = world.resource_mut::<Assets<Mesh>>().add(Cuboid::default());
+    world.spawn((Mesh3d(degenerate), MeshMaterial3d(material.clone())));
+    world.spawn((Mesh3d(lines), MeshMaterial3d(material.clone())));
+    world.spawn((
+        Mesh3d(cube),
+        MeshMaterial3d(material),
+        Transform::from_xyz(f32::NAN, 0.0, 0.0),
+    ));
+    for _ in 0..100 {
+        app.update();
+        if iteration(&app, camera) >= 2 {
+            break;
+        }
+    }
+    let scene = app.world().resource::<RppmScene>().data.clone();
+    assert_eq!(
+        scene.triangles.len(),
+        2,
+        "only the plane's triangles remain"
+    );
+    assert!(scene.lights.is_empty(), "a zero-power light emits nothing");
+    let stats = app.world().resource::<RppmStats>().views[&camera].clone();
+    assert!(stats.iteration >= 2 && stats.error.is_none(), "{stats:?}");
+    assert_eq!(stats.photons_per_iteration, 0, "no light, no photons");
+    assert!(
+        !stats.memory.contains_key("photons"),
+        "no photon store without lights"
+    );
+    let image = app.world().resource::<RppmRadiance>().images[&camera].clone();
+    // Nothing emits: the estimate is black, and finite.
+    assert!(
+        image
+            .pixels
+            .iter()
+            .all(|p| p[..3].iter().all(|v| *v == 0.0))
+    );
+}

@@ -64,6 +64,8 @@ pub struct ViewStats {
     pub photons_stored: u32,
     /// Importons (camera paths past specular surfaces) made by the last iteration read back.
     pub importons: u32,
+    /// The passes each iteration runs: only those the scene and settings need.
+    pub passes: Vec<String>,
 }
 
 /// Stats of every photon-mapping camera, by camera entity.

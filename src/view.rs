@@ -639,6 +639,8 @@ pub(crate) fn rppm_node(
     let (Some(scene), Some(state)) = (scene, states.0.get_mut(&main.id())) else {
         return;
     };
+    // Importons need the cubemap bound; without one (its buffers refused) the plain variant runs.
+    state.importons &= state.cubemap.is_some();
     let local = if state.importons {
         pipelines.local_importons
     } else {
@@ -784,16 +786,14 @@ fn encode_estimate(
     state: &mut ViewState,
     offset: u32,
 ) {
-    let splat = if state.photons > 0 { node.splat } else { None };
+    let traced = traces_photons(state, node);
+    let splat = if traced { node.splat } else { None };
     state
         .photon_targets
         .encode_splat(encoder, splat, &state.scene_group, offset, &mut state.timer);
-    if let (true, true, Some(cubemap), Some(indirect)) = (
-        state.photons > 0,
-        state.importons,
-        &state.cubemap,
-        node.indirect_splat,
-    ) {
+    if let (true, true, Some(cubemap), Some(indirect)) =
+        (traced, state.importons, &state.cubemap, node.indirect_splat)
+    {
         state.photon_targets.encode_indirect_splat(
             encoder,
             indirect,
@@ -812,6 +812,11 @@ fn encode_estimate(
         offset,
         &mut state.timer,
     );
+}
+
+/// Whether this iteration traces photons: the scene emits, and the cubemap and pipeline exist.
+fn traces_photons(state: &ViewState, node: &NodePipelines) -> bool {
+    state.photons > 0 && state.cubemap.is_some() && node.photon.is_some()
 }
 
 /// Binds groups 0–2 of a per-pixel compute stage and dispatches it over the view.
@@ -909,6 +914,35 @@ fn encode_gbuffer(
     pass.draw(0..triangles * 3, 0..1);
 }
 
+/// The passes an iteration of this view runs, by the scene and settings (for the stats).
+fn passes(state: &ViewState) -> Vec<String> {
+    let debug = !matches!(
+        state.debug_view,
+        RppmDebugView::None | RppmDebugView::DirectPhotons
+    );
+    let traced = state.photons > 0 && state.cubemap.is_some();
+    [
+        (
+            "shadow_maps",
+            !debug && (state.shadows.light_layers > 0 || state.shadows.has_area),
+        ),
+        ("gbuffer", state.debug_view != RppmDebugView::CubemapNormals),
+        ("cubemap_build", state.cubemap.is_some()),
+        ("local_illumination", !debug),
+        ("importon_tracing", state.importons),
+        ("photon_trace", traced),
+        ("splat", traced),
+        ("indirect_splat", traced && state.importons),
+        ("debug_view", debug),
+        ("accumulate", true),
+        ("output", state.mode == RppmMode::Full),
+    ]
+    .into_iter()
+    .filter(|(_, runs)| *runs)
+    .map(|(name, _)| name.to_string())
+    .collect()
+}
+
 /// After submission: read back what was asked for and report each view to the main world.
 pub(crate) fn report_views(
     mut states: ResMut<RppmViews>,
@@ -999,6 +1033,7 @@ pub(crate) fn report_views(
                 photons_per_iteration: state.photons,
                 photons_stored: state.photons_stored,
                 importons: state.importons_made,
+                passes: passes(state),
                 cubemap_overflow: state.cubemap_nodes.1,
             },
         ));

@@ -277,6 +277,7 @@ fn stats_json(args: &Args, r: &RenderResult, total_seconds: f64) -> serde_json::
         "photons_per_iteration": r.stats.photons_per_iteration,
         "photons_stored": r.stats.photons_stored,
         "importons": r.stats.importons,
+        "passes": r.stats.passes,
         "mean_rgb": mean_rgb(&r.image),
     })
 }

@@ -17,6 +17,7 @@
 
 pub mod cubemap;
 mod debug_view;
+pub mod diagnostics;
 pub mod headless;
 pub mod image_io;
 mod output;
@@ -25,7 +26,7 @@ mod pipelines;
 pub mod scene;
 mod settings;
 mod shadows;
-mod timing;
+pub mod timing;
 mod view;
 
 use bevy::core_pipeline::schedule::{Core3d, Core3dSystems};
@@ -66,6 +67,7 @@ impl Plugin for RppmPlugin {
             .insert_resource(output::MainReceiver(receiver))
             .add_systems(PreUpdate, output::receive_reports)
             .add_systems(PostUpdate, settings::validate_settings);
+        diagnostics::register(app);
         let Some(render_app) = app.get_sub_app_mut(RenderApp) else {
             return;
         };

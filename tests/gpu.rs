@@ -216,6 +216,15 @@ fn moving_an_entity_resets_accumulation() {
     }
     let before = iteration(&app, camera);
     assert!(before >= 4, "iterations should accumulate, got {before}");
+    let store = app.world().resource::<bevy::diagnostic::DiagnosticsStore>();
+    let published = store
+        .get(&bevy_rppm::diagnostics::ITERATIONS)
+        .and_then(|d| d.value())
+        .unwrap_or(0.0);
+    assert!(
+        published >= 1.0,
+        "rppm/iterations in DiagnosticsStore: {published}"
+    );
     frames(&mut app, 2);
     let still = iteration(&app, camera);
     assert!(

@@ -106,7 +106,8 @@ struct IterationParams {
     // 1: direct light comes from photons (stored at their first hit) instead of the
     // local stage; for checking photon flux.
     direct_photons: u32,
-    pad_d: u32,
+    // 1 (mode Indirect): leave out the light of first camera hits, which Bevy renders.
+    indirect_only: u32,
     // Bounding sphere of the scene: centre, radius (directional-light photons start on a disc).
     scene_sphere: vec4<f32>,
 }

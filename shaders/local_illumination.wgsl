@@ -112,7 +112,10 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
         let n = textureLoad(gbuffer_normal, vec2<i32>(id.xy), 0).xyz;
         let m = materials[triangles[triangle].material];
         let wo = normalize(params.camera_position.xyz - gp.xyz);
-        sample = surface_light(m, gp.xyz, n, wo, gp.w > 0.0);
+        // Mode Indirect: Bevy renders the first hit's emission and direct light itself.
+        if params.indirect_only == 0u {
+            sample = surface_light(m, gp.xyz, n, wo, gp.w > 0.0);
+        }
 #ifdef IMPORTONS
         if is_specular(m) {
             sample += follow_camera_path(pixel, gp.xyz, n, m, triangle, gp.w > 0.0, wo);

@@ -87,7 +87,7 @@ pub struct RppmPipelines {
     /// Local illumination that also follows camera paths through specular surfaces.
     pub local_importons: CachedComputePipelineId,
     output_shader: Handle<Shader>,
-    output: HashMap<TextureFormat, CachedRenderPipelineId>,
+    output: HashMap<(TextureFormat, bool), CachedRenderPipelineId>,
 }
 
 fn params_size() -> Option<NonZeroU64> {
@@ -207,15 +207,26 @@ impl RppmPipelines {
         }
     }
 
-    /// The output pipeline for a view's texture format, queued the first time it is asked for.
+    /// The output pipeline for a view's texture format: replacing the view (mode Full) or
+    /// adding to it (mode Indirect), queued the first time it is asked for.
     pub fn output_pipeline(
         &mut self,
         cache: &PipelineCache,
         format: TextureFormat,
+        additive: bool,
     ) -> CachedRenderPipelineId {
         let shader = self.output_shader.clone();
         let layout = self.output_layout.clone();
-        *self.output.entry(format).or_insert_with(|| {
+        let add = BlendComponent {
+            src_factor: BlendFactor::One,
+            dst_factor: BlendFactor::One,
+            operation: BlendOperation::Add,
+        };
+        let blend = additive.then_some(BlendState {
+            color: add,
+            alpha: BlendComponent::REPLACE,
+        });
+        *self.output.entry((format, additive)).or_insert_with(|| {
             cache.queue_render_pipeline(RenderPipelineDescriptor {
                 label: Some("rppm_output_pipeline".into()),
                 layout: vec![layout],
@@ -227,7 +238,7 @@ impl RppmPipelines {
                     shader,
                     targets: vec![Some(ColorTargetState {
                         format,
-                        blend: None,
+                        blend,
                         write_mask: ColorWrites::ALL,
                     })],
                     ..default()

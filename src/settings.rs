@@ -16,8 +16,9 @@ pub enum RppmMode {
     /// The progressive estimate (local illumination plus photon-mapped light) replaces the view.
     #[default]
     Full,
-    /// Bevy's own direct lighting plus our indirect light. Until indirect light lands, the
-    /// view is left as Bevy lit it.
+    /// Bevy's own lighting (its direct light, shadows, emission) plus our light from every other
+    /// path (photon-mapped indirect light, and what mirrors and glass show), added in HDR before
+    /// Bevy's tonemapping with the view's exposure. Needs an HDR camera (`Hdr`).
     Indirect,
 }
 

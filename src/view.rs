@@ -55,7 +55,7 @@ pub struct IterationParams {
     pub max_eye_depth: u32,
     pub splat_russian_roulette: u32,
     pub direct_photons: u32,
-    pub _pad: u32,
+    pub indirect_only: u32,
     pub scene_sphere: [f32; 4],
 }
 
@@ -373,12 +373,36 @@ fn iteration_params(
         max_eye_depth: 1,
         splat_russian_roulette: 0,
         direct_photons: 0,
-        _pad: 0,
+        indirect_only: 0,
         scene_sphere: {
             let (centre, radius) = data.bounding_sphere();
             centre.extend(radius.max(1e-6)).into()
         },
     }
+}
+
+/// How the estimate reaches the view: replacing it (Full), or added to Bevy's own lighting
+/// before tonemapping (Indirect, which needs an HDR view: without one Bevy tonemaps inside its
+/// shaders, and linear light added afterwards would be wrong, so nothing is added).
+fn output_pipeline(
+    pipelines: &mut RppmPipelines,
+    cache: &PipelineCache,
+    mode: RppmMode,
+    camera: &ExtractedCamera,
+    target: &ViewTarget,
+    warned: &mut bool,
+) -> Option<CachedRenderPipelineId> {
+    let additive = mode == RppmMode::Indirect;
+    if additive && !camera.hdr {
+        if !*warned {
+            warn!(
+                "bevy_rppm: RppmMode::Indirect needs an HDR camera (add `Hdr`); showing Bevy's image alone"
+            );
+            *warned = true;
+        }
+        return None;
+    }
+    Some(pipelines.output_pipeline(cache, target.main_texture_format(), additive))
 }
 
 /// Whether every pipeline of an iteration is ready, or the first one that failed to build.
@@ -448,6 +472,7 @@ pub(crate) fn prepare_views(
     cubemap_pipelines: Res<CubemapPipelines>,
     photon_pipelines: Res<PhotonPipelines>,
     mut states: ResMut<RppmViews>,
+    mut warned_indirect: Local<bool>,
 ) {
     let mut alive = Vec::new();
     let (ready, error) = match pipelines_ready(&pipelines, &cache) {
@@ -527,8 +552,14 @@ pub(crate) fn prepare_views(
         ) {
             state.error = Some(e);
         }
-        state.output_pipeline =
-            Some(pipelines.output_pipeline(&cache, view_target.main_texture_format()));
+        state.output_pipeline = output_pipeline(
+            &mut pipelines,
+            &cache,
+            settings.mode,
+            camera,
+            view_target,
+            &mut warned_indirect,
+        );
         let base = state.iteration;
         let budget = settings
             .max_iterations
@@ -548,6 +579,7 @@ pub(crate) fn prepare_views(
             params.max_eye_depth = settings.max_eye_depth;
             params.splat_russian_roulette = settings.splat_russian_roulette as u32;
             params.direct_photons = (settings.debug_view == RppmDebugView::DirectPhotons) as u32;
+            params.indirect_only = (settings.mode == RppmMode::Indirect) as u32;
             if slot < count {
                 state.radius2 = next_radius2(state.radius2, base + slot, settings.alpha);
             }
@@ -688,7 +720,7 @@ pub(crate) fn rppm_node(
     let output = state
         .output_pipeline
         .and_then(|id| cache.get_render_pipeline(id));
-    if let (RppmMode::Full, Some(output)) = (state.mode, output) {
+    if let Some(output) = output {
         let mut pass = encoder.begin_render_pass(&RenderPassDescriptor {
             label: Some("rppm_output"),
             color_attachments: &[Some(RenderPassColorAttachment {
@@ -935,7 +967,7 @@ fn passes(state: &ViewState) -> Vec<String> {
         ("indirect_splat", traced && state.importons),
         ("debug_view", debug),
         ("accumulate", true),
-        ("output", state.mode == RppmMode::Full),
+        ("output", state.output_pipeline.is_some()),
     ]
     .into_iter()
     .filter(|(_, runs)| *runs)

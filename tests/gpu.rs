@@ -950,3 +950,114 @@ fn bad_input_is_left_out_without_a_panic() {
             .all(|p| p[..3].iter().all(|v| *v == 0.0))
     );
 }
+
+fn srgb_to_linear(v: u8) -> f32 {
+    let c = v as f32 / 255.0;
+    if c <= 0.04045 {
+        c / 12.92
+    } else {
+        ((c + 0.055) / 1.055).powf(2.4)
+    }
+}
+
+/// Runs frames until the camera's target has been read back at least once more.
+fn capture_view(app: &mut App) -> Vec<u8> {
+    app.world_mut().resource_mut::<TargetPixels>().0 = None;
+    for _ in 0..50 {
+        app.update();
+        if let Some(pixels) = app.world().resource::<TargetPixels>().0.clone() {
+            return pixels;
+        }
+    }
+    panic!("the view was never read back");
+}
+
+#[test]
+fn indirect_mode_adds_our_light_to_bevys_and_off_gives_bevys_image() {
+    use bevy::render::gpu_readback::{Readback, ReadbackComplete};
+    check_gpu_adapter().unwrap_or_else(|hint| panic!("{hint}"));
+    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/cornell_box.gltf");
+    let mut app = bevy_rppm::headless::load_gltf(&scene).unwrap();
+    let world = app.world_mut();
+    // Bevy's lights only: its default ambient term (which photon mapping replaces) would
+    // saturate the view at exposure 1.
+    world.insert_resource(bevy::light::GlobalAmbientLight::NONE);
+    let camera = world
+        .query_filtered::<Entity, With<Camera3d>>()
+        .iter(world)
+        .next()
+        .unwrap();
+    let target = offscreen_target(&mut world.resource_mut::<Assets<Image>>(), 64, 64);
+    let bevy::camera::RenderTarget::Image(image) = target.clone() else {
+        unreachable!()
+    };
+    world.entity_mut(camera).insert((
+        target,
+        bevy::camera::Hdr,
+        bevy::camera::Exposure {
+            ev100: -(1.2f32).log2(),
+        },
+        bevy::core_pipeline::tonemapping::Tonemapping::None,
+        bevy::core_pipeline::tonemapping::DebandDither::Disabled,
+        Msaa::Off,
+        PhotonMapping {
+            mode: bevy_rppm::RppmMode::Indirect,
+            photons_per_iteration: 16_384,
+            max_iterations: Some(4),
+            ..default()
+        },
+        RppmReadback,
+    ));
+    world.init_resource::<TargetPixels>();
+    world
+        .spawn(Readback::texture(image.handle.clone()))
+        .observe(
+            |event: On<ReadbackComplete>, mut pixels: ResMut<TargetPixels>| {
+                pixels.0 = Some(event.data.clone())
+            },
+        );
+    for _ in 0..200 {
+        app.update();
+        if iteration(&app, camera) >= 4 {
+            break;
+        }
+    }
+    frames(&mut app, 3);
+    let with_gi = capture_view(&mut app);
+    let ours = app.world().resource::<RppmRadiance>().images[&camera].clone();
+    app.world_mut()
+        .get_mut::<PhotonMapping>(camera)
+        .unwrap()
+        .enabled = false;
+    frames(&mut app, 3);
+    let without = capture_view(&mut app);
+    app.world_mut().entity_mut(camera).remove::<PhotonMapping>();
+    frames(&mut app, 3);
+    let no_component = capture_view(&mut app);
+    assert_eq!(
+        without, no_component,
+        "GI off must give exactly Bevy's image"
+    );
+    // Where nothing saturates, the view with GI is Bevy's plus our indirect estimate.
+    let (mut added, mut expected, mut n) = (0.0f64, 0.0f64, 0);
+    for (i, p) in ours.pixels.iter().enumerate() {
+        let on: Vec<f32> = (0..3).map(|c| srgb_to_linear(with_gi[4 * i + c])).collect();
+        if on.iter().any(|&v| v > 0.95) {
+            continue;
+        }
+        for c in 0..3 {
+            added += (on[c] - srgb_to_linear(without[4 * i + c])) as f64;
+            expected += p[c] as f64;
+        }
+        n += 1;
+    }
+    eprintln!("indirect mode over {n} pixels: added {added:.2}, our estimate {expected:.2}");
+    assert!(
+        n > 1000 && expected > 1.0,
+        "no indirect light to compare ({n} px, {expected})"
+    );
+    assert!(
+        (added / expected - 1.0).abs() < 0.1,
+        "added {added} against our estimate {expected}"
+    );
+}

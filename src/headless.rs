@@ -42,8 +42,17 @@ pub fn check_gpu_adapter() -> Result<String, String> {
     Ok(adapter.get_info().name)
 }
 
-/// A windowless Bevy app with the photon-mapping plugin; assets load relative to `asset_root`.
+/// A windowless Bevy app with the photon-mapping plugin, ready for `update()`; assets load
+/// relative to `asset_root`.
 pub fn headless_app(asset_root: &Path) -> App {
+    let mut app = headless_app_unfinished(asset_root);
+    app.finish();
+    app.cleanup();
+    app
+}
+
+/// The same app, not yet finished: for `App::run()` (it loops with no delay between frames).
+pub fn headless_app_unfinished(asset_root: &Path) -> App {
     let mut app = App::new();
     app.add_plugins(
         DefaultPlugins
@@ -65,11 +74,14 @@ pub fn headless_app(asset_root: &Path) -> App {
             .set(bevy::log::LogPlugin {
                 filter: "warn,wgpu=error,naga=warn,bevy_light=error,bevy_rppm=info".into(),
                 ..default()
-            }),
+            })
+            // No display server here; rendering goes to images.
+            .disable::<bevy::winit::WinitPlugin>(),
     )
-    .add_plugins(RppmPlugin);
-    app.finish();
-    app.cleanup();
+    .add_plugins((
+        RppmPlugin,
+        bevy::app::ScheduleRunnerPlugin::run_loop(Duration::ZERO),
+    ));
     app
 }
 

@@ -18,6 +18,7 @@
 pub mod cubemap;
 mod debug_view;
 pub mod diagnostics;
+pub mod example;
 pub mod headless;
 pub mod image_io;
 mod output;

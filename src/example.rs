@@ -124,12 +124,12 @@ fn save_and_exit(
     mut exit: MessageWriter<AppExit>,
 ) {
     *frame += 1;
-    if *frame == args.frames {
-        if let (Some(out), Some(RenderTarget::Image(image))) = (&args.out, cameras.iter().next()) {
-            commands
-                .spawn(Screenshot::image(image.handle.clone()))
-                .observe(save_to_disk(out.clone()));
-        }
+    if *frame == args.frames
+        && let (Some(out), Some(RenderTarget::Image(image))) = (&args.out, cameras.iter().next())
+    {
+        commands
+            .spawn(Screenshot::image(image.handle.clone()))
+            .observe(save_to_disk(out.clone()));
     }
     // The screenshot is written a few frames later.
     let written = args.out.as_ref().is_none_or(|out| out.exists());

@@ -142,10 +142,12 @@ fn show_progress(keys: Res<ExampleKeys>, stats: Res<RppmStats>, mut windows: Que
     let Ok(mut window) = windows.single_mut() else {
         return;
     };
+    let on = cameras.iter().any(|c| c.enabled);
     let progress = stats
         .views
         .values()
         .next()
+        .filter(|_| on)
         .map(|s| {
             let ms: f64 = s.stage_ms.values().sum();
             format!("{} iterations, {ms:.1} GPU ms/frame", s.iteration)

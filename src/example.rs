@@ -138,7 +138,12 @@ fn save_and_exit(
     }
 }
 
-fn show_progress(keys: Res<ExampleKeys>, stats: Res<RppmStats>, mut windows: Query<&mut Window>) {
+fn show_progress(
+    keys: Res<ExampleKeys>,
+    stats: Res<RppmStats>,
+    cameras: Query<&crate::PhotonMapping>,
+    mut windows: Query<&mut Window>,
+) {
     let Ok(mut window) = windows.single_mut() else {
         return;
     };

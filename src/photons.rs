@@ -210,6 +210,25 @@ struct PhotonStore {
     splat_group: BindGroup,
 }
 
+/// The bind groups every tracing stage shares: scene (0), this iteration's constants (1, at
+/// `offset`) and the deep cubemap (3); group 2 is the stage's own.
+pub struct TracingGroups<'a> {
+    pub scene: &'a BindGroup,
+    pub params: &'a BindGroup,
+    pub offset: u32,
+    pub cubemap: &'a BindGroup,
+}
+
+impl TracingGroups<'_> {
+    fn bind(&self, pass: &mut ComputePass, pipeline: &ComputePipeline, own: &BindGroup) {
+        pass.set_pipeline(pipeline);
+        pass.set_bind_group(0, self.scene, &[]);
+        pass.set_bind_group(1, self.params, &[self.offset]);
+        pass.set_bind_group(2, own, &[]);
+        pass.set_bind_group(3, self.cubemap, &[]);
+    }
+}
+
 /// What `PhotonTargets::new` binds.
 pub struct TargetInputs<'a> {
     pub size: UVec2,
@@ -371,16 +390,12 @@ impl PhotonTargets {
         memory
     }
 
-    /// Photon tracing for one iteration; `trace_group` binds the deep cubemap.
-    #[allow(clippy::too_many_arguments)]
+    /// Photon tracing for one iteration.
     pub fn encode_trace(
         &self,
         encoder: &mut CommandEncoder,
         pipeline: &ComputePipeline,
-        scene_group: &BindGroup,
-        params_group: &BindGroup,
-        offset: u32,
-        trace_group: &BindGroup,
+        groups: &TracingGroups,
         photons: u32,
         timer: &mut StageTimer,
     ) {
@@ -390,11 +405,7 @@ impl PhotonTargets {
             label: Some("rppm_photon_trace"),
             timestamp_writes: timer.compute_pass(Stage::PhotonTrace),
         });
-        pass.set_pipeline(pipeline);
-        pass.set_bind_group(0, scene_group, &[]);
-        pass.set_bind_group(1, params_group, &[offset]);
-        pass.set_bind_group(2, &store.store_group, &[]);
-        pass.set_bind_group(3, trace_group, &[]);
+        groups.bind(&mut pass, pipeline, &store.store_group);
         pass.dispatch_workgroups(photons.div_ceil(64), 1, 1);
     }
 
@@ -443,15 +454,11 @@ impl PhotonTargets {
     }
 
     /// Indirect splatting: stored photons against the importons in the cubemap's tiles.
-    #[allow(clippy::too_many_arguments)]
     pub fn encode_indirect_splat(
         &self,
         encoder: &mut CommandEncoder,
         pipeline: &ComputePipeline,
-        scene_group: &BindGroup,
-        params_group: &BindGroup,
-        offset: u32,
-        trace_group: &BindGroup,
+        groups: &TracingGroups,
         capacity: u32,
         timer: &mut StageTimer,
     ) {
@@ -462,11 +469,7 @@ impl PhotonTargets {
             label: Some("rppm_indirect_splat"),
             timestamp_writes: timer.compute_pass(Stage::IndirectSplat),
         });
-        pass.set_pipeline(pipeline);
-        pass.set_bind_group(0, scene_group, &[]);
-        pass.set_bind_group(1, params_group, &[offset]);
-        pass.set_bind_group(2, group, &[]);
-        pass.set_bind_group(3, trace_group, &[]);
+        groups.bind(&mut pass, pipeline, group);
         pass.dispatch_workgroups(capacity.div_ceil(64), 1, 1);
     }
 

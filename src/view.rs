@@ -16,7 +16,7 @@ use bytemuck::{Pod, Zeroable};
 use crate::cubemap::{CubemapConfig, CubemapPipelines, DeepCubemap};
 use crate::debug_view::DebugViewPipelines;
 use crate::output::{RadianceImage, RenderMessage, RenderSender, ViewStats, read_back};
-use crate::photons::{PHOTON_BYTES, PhotonPipelines, PhotonTargets, TargetInputs};
+use crate::photons::{PHOTON_BYTES, PhotonPipelines, PhotonTargets, TargetInputs, TracingGroups};
 use crate::pipelines::{DEPTH_FORMAT, GBUFFER_FORMAT, RppmPipelines};
 use crate::scene::gpu::SceneBuffers;
 use crate::scene::{GpuTriangle, SceneData};
@@ -775,15 +775,7 @@ fn encode_iteration(
         &mut state.timer,
     );
     encode_gbuffer(encoder, node.gbuffer, state, triangles, offset);
-    if let Some(cubemap) = &state.cubemap {
-        cubemap.encode_build(
-            encoder,
-            node.cache,
-            node.cubemap,
-            &state.scene_group,
-            &mut state.timer,
-        );
-    }
+    build_cubemap(encoder, node, state);
     if state.importons {
         state.photon_targets.encode_importon_clear(encoder);
     }
@@ -798,17 +790,35 @@ fn encode_iteration(
     dispatch_per_pixel(&mut pass, state, offset);
     drop(pass);
     if let (true, Some(cubemap), Some(trace)) = (state.photons > 0, &state.cubemap, node.photon) {
-        state.photon_targets.encode_trace(
-            encoder,
-            trace,
-            &state.scene_group,
-            &state.params_group,
+        let groups = TracingGroups {
+            scene: &state.scene_group,
+            params: &state.params_group,
             offset,
-            &cubemap.trace_group,
-            state.photons,
-            &mut state.timer,
-        );
+            cubemap: &cubemap.trace_group,
+        };
+        state
+            .photon_targets
+            .encode_trace(encoder, trace, &groups, state.photons, &mut state.timer);
     }
+}
+
+/// Rebuilds the view's deep cubemap from the current triangles; false when it has none.
+fn build_cubemap(
+    encoder: &mut CommandEncoder,
+    node: &NodePipelines,
+    state: &mut ViewState,
+) -> bool {
+    let Some(cubemap) = &state.cubemap else {
+        return false;
+    };
+    cubemap.encode_build(
+        encoder,
+        node.cache,
+        node.cubemap,
+        &state.scene_group,
+        &mut state.timer,
+    );
+    true
 }
 
 /// Splats this iteration's photons (if any) and folds the sample into the estimate.
@@ -826,14 +836,18 @@ fn encode_estimate(
     if let (true, true, Some(cubemap), Some(indirect)) =
         (traced, state.importons, &state.cubemap, node.indirect_splat)
     {
+        let groups = TracingGroups {
+            scene: &state.scene_group,
+            params: &state.params_group,
+            offset,
+            cubemap: &cubemap.trace_group,
+        };
+        let capacity = state.key.photon_capacity;
         state.photon_targets.encode_indirect_splat(
             encoder,
             indirect,
-            &state.scene_group,
-            &state.params_group,
-            offset,
-            &cubemap.trace_group,
-            state.key.photon_capacity,
+            &groups,
+            capacity,
             &mut state.timer,
         );
     }
@@ -872,16 +886,9 @@ fn encode_debug_iteration(
     let Some(debug) = node.debug else { return };
     let traced = state.debug_view == RppmDebugView::CubemapNormals;
     if traced {
-        let Some(cubemap) = &state.cubemap else {
+        if !build_cubemap(encoder, node, state) {
             return;
-        };
-        cubemap.encode_build(
-            encoder,
-            node.cache,
-            node.cubemap,
-            &state.scene_group,
-            &mut state.timer,
-        );
+        }
     } else {
         encode_gbuffer(encoder, node.gbuffer, state, scene.triangle_count(), offset);
     }

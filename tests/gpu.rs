@@ -666,9 +666,19 @@ fn error_falls_faster_than_the_square_root_of_iterations() {
 #[derive(Resource, Default)]
 struct TargetPixels(Option<Vec<u8>>);
 
+/// Reads the camera's target image back every frame into `TargetPixels`.
+fn read_back_view(world: &mut World, image: Handle<Image>) {
+    use bevy::render::gpu_readback::{Readback, ReadbackComplete};
+    world.init_resource::<TargetPixels>();
+    world.spawn(Readback::texture(image)).observe(
+        |event: On<ReadbackComplete>, mut pixels: ResMut<TargetPixels>| {
+            pixels.0 = Some(event.data.clone())
+        },
+    );
+}
+
 #[test]
 fn full_mode_writes_the_estimate_into_the_bevy_view() {
-    use bevy::render::gpu_readback::{Readback, ReadbackComplete};
     let mut app = gpu_app();
     let (camera, _) = lit_plane(&mut app, 1000.0, 1.5, 64);
     // Exposure 1 (Bevy: 1 / (2^ev100 · 1.2)) and a frozen estimate, so the view is comparable.
@@ -685,14 +695,7 @@ fn full_mode_writes_the_estimate_into_the_bevy_view() {
     else {
         panic!("the test camera renders to an image");
     };
-    world.init_resource::<TargetPixels>();
-    world
-        .spawn(Readback::texture(target.handle.clone()))
-        .observe(
-            |event: On<ReadbackComplete>, mut pixels: ResMut<TargetPixels>| {
-                pixels.0 = Some(event.data.clone())
-            },
-        );
+    read_back_view(world, target.handle.clone());
     for _ in 0..100 {
         app.update();
         if iteration(&app, camera) >= 2 && app.world().resource::<TargetPixels>().0.is_some() {
@@ -974,7 +977,6 @@ fn capture_view(app: &mut App) -> Vec<u8> {
 
 #[test]
 fn indirect_mode_adds_our_light_to_bevys_and_off_gives_bevys_image() {
-    use bevy::render::gpu_readback::{Readback, ReadbackComplete};
     check_gpu_adapter().unwrap_or_else(|hint| panic!("{hint}"));
     let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/cornell_box.gltf");
     let mut app = bevy_rppm::headless::load_gltf(&scene).unwrap();
@@ -1008,14 +1010,7 @@ fn indirect_mode_adds_our_light_to_bevys_and_off_gives_bevys_image() {
         },
         RppmReadback,
     ));
-    world.init_resource::<TargetPixels>();
-    world
-        .spawn(Readback::texture(image.handle.clone()))
-        .observe(
-            |event: On<ReadbackComplete>, mut pixels: ResMut<TargetPixels>| {
-                pixels.0 = Some(event.data.clone())
-            },
-        );
+    read_back_view(world, image.handle.clone());
     for _ in 0..200 {
         app.update();
         if iteration(&app, camera) >= 4 {

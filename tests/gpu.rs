@@ -1071,10 +1071,10 @@ fn example_binary(name: &str) -> PathBuf {
 #[test]
 fn examples_run_headless_and_save_their_view() {
     check_gpu_adapter().unwrap_or_else(|hint| panic!("{hint}"));
-    for name in ["toggle", "cornell"] {
+    for (name, frames) in [("toggle", "12"), ("cornell", "12"), ("pool", "3")] {
         let out = temp(&format!("example_{name}.png"));
         let run = Command::new(example_binary(name))
-            .args(["--headless", "--frames", "12", "--out"])
+            .args(["--headless", "--frames", frames, "--out"])
             .arg(&out)
             .output()
             .unwrap_or_else(|e| panic!("cannot run the {name} example: {e}"));

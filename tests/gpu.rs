@@ -306,6 +306,14 @@ fn temp(name: &str) -> PathBuf {
     dir.join(name)
 }
 
+fn assert_success(out: &std::process::Output) {
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
 fn run_failing(cmd: &mut Command) -> String {
     let out = cmd.output().expect("run rppm");
     assert_eq!(out.status.code(), Some(2), "expected exit 2: {out:?}");
@@ -376,11 +384,7 @@ fn cli_renders_a_scene_and_its_stats() {
         .arg(&stats)
         .output()
         .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    assert_success(&out);
     let image = read_exr(&exr).unwrap();
     assert_eq!((image.width, image.height), (48, 40));
     assert_eq!(bad_pixels(&image), 0);
@@ -432,11 +436,7 @@ fn cli_uses_a_default_camera_when_the_scene_has_none() {
         .arg(&stats)
         .output()
         .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    assert_success(&out);
     let json: serde_json::Value = serde_json::from_slice(&std::fs::read(&stats).unwrap()).unwrap();
     assert_eq!(json["camera_from_scene"], false);
     let image = read_exr(&exr).unwrap();
@@ -449,20 +449,11 @@ fn cli_uses_a_default_camera_when_the_scene_has_none() {
 }
 
 fn render_debug(view: bevy_rppm::RppmDebugView) -> RgbImage {
-    use bevy_rppm::headless::{Budget, RenderRequest, render_gltf};
-    let request = RenderRequest {
-        scene: Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/cornell_box.gltf"),
-        width: 64,
-        height: 48,
-        budget: Budget::Iterations(2),
-        settings: PhotonMapping {
-            debug_view: view,
-            ..default()
-        },
+    let settings = PhotonMapping {
+        debug_view: view,
+        ..default()
     };
-    render_gltf(&request, |_, _| {})
-        .unwrap_or_else(|e| panic!("{e}"))
-        .image
+    render_asset(settings, 64, 48, 2).image
 }
 
 #[test]
@@ -535,23 +526,14 @@ fn downsample(image: &RgbImage, factor: usize) -> RgbImage {
 
 #[test]
 fn photon_mapping_converges_towards_the_reference() {
-    use bevy_rppm::headless::{Budget, RenderRequest, render_gltf};
     use bevy_rppm::image_io::{energy_ratio, relmse};
     let assets = Path::new(env!("CARGO_MANIFEST_DIR")).join("assets");
     let reference = downsample(&read_exr(&assets.join("cornell_box.ref.exr")).unwrap(), 4);
-    let render = |iterations: u32| {
-        let request = RenderRequest {
-            scene: assets.join("cornell_box.gltf"),
-            width: 64,
-            height: 64,
-            budget: Budget::Iterations(iterations),
-            settings: PhotonMapping {
-                photons_per_iteration: 8192,
-                ..default()
-            },
-        };
-        render_gltf(&request, |_, _| {}).unwrap_or_else(|e| panic!("{e}"))
+    let settings = PhotonMapping {
+        photons_per_iteration: 8192,
+        ..default()
     };
+    let render = |iterations: u32| render_asset(settings.clone(), 64, 64, iterations);
     let few = render(2);
     let many = render(16);
     assert!(many.stats.photons_stored > 0, "no photon was stored");
@@ -572,18 +554,26 @@ fn photon_mapping_converges_towards_the_reference() {
     assert!((0.95..1.08).contains(&energy), "energy ratio {energy}");
 }
 
-fn render_box(settings: PhotonMapping, size: u32, iterations: u32) -> RgbImage {
+/// The shipped Cornell box rendered in-process through the CLI's code path.
+fn render_asset(
+    settings: PhotonMapping,
+    width: u32,
+    height: u32,
+    iterations: u32,
+) -> bevy_rppm::headless::RenderResult {
     use bevy_rppm::headless::{Budget, RenderRequest, render_gltf};
     let request = RenderRequest {
         scene: Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/cornell_box.gltf"),
-        width: size,
-        height: size,
+        width,
+        height,
         budget: Budget::Iterations(iterations),
         settings,
     };
-    render_gltf(&request, |_, _| {})
-        .unwrap_or_else(|e| panic!("{e}"))
-        .image
+    render_gltf(&request, |_, _| {}).unwrap_or_else(|e| panic!("{e}"))
+}
+
+fn render_box(settings: PhotonMapping, size: u32, iterations: u32) -> RgbImage {
+    render_asset(settings, size, size, iterations).image
 }
 
 fn region_mean(

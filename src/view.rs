@@ -73,7 +73,6 @@ struct ResourceKey {
     size: UVec2,
     slots: u32,
     shadow_resolution: u32,
-    scene_epoch: u64,
     /// Room for stored photons: photons per iteration × max photon depth; 0 without lights.
     photon_capacity: u32,
     /// Cubemap tiles importons register in; 0 when camera paths end at the G-buffer.
@@ -119,7 +118,8 @@ pub struct ViewState {
     output_group: BindGroup,
     timer: StageTimer,
     readback_pending: bool,
-    memory: Vec<(String, u64)>,
+    /// Scene epoch the scene-dependent resources (shadow maps, bind groups) were made for.
+    scene_epoch: u64,
     error: Option<String>,
 }
 
@@ -201,45 +201,26 @@ impl ViewState {
                 importon_tiles: key.importon_tiles,
             },
         );
-        let shadows = ShadowMaps::new(device, &scene.data, key.shadow_resolution, key.slots);
-        shadows.write_light_views(queue, &scene.data);
-        let scene_group = scene.bind_group(device, cache, &pipelines.scene_layout, &shadows.views);
         let params_group = device.create_bind_group(
             "rppm_params_group",
             &cache.get_bind_group_layout(&pipelines.params_layout),
             &BindGroupEntries::single(params_binding(&params)),
-        );
-        let local_group = device.create_bind_group(
-            "rppm_local_group",
-            &cache.get_bind_group_layout(&pipelines.local_layout),
-            &BindGroupEntries::sequential((
-                &gbuffer_position,
-                &gbuffer_normal,
-                &shadows.array_view,
-                photon_targets.samples.as_entire_binding(),
-                photon_targets.importons.as_entire_binding(),
-                photon_targets.importon_heads.as_entire_binding(),
-                photon_targets.importon_stats.as_entire_binding(),
-            )),
         );
         let output_group = device.create_bind_group(
             "rppm_output_group",
             &cache.get_bind_group_layout(&pipelines.output_layout),
             &BindGroupEntries::sequential((params_binding(&params), radiance.as_entire_binding())),
         );
-        let gbuffer_bytes = pixels * (16 + 16 + 4);
-        let mut memory: Vec<(String, u64)> = photon_targets
-            .memory()
-            .into_iter()
-            .map(|(n, b)| (n.to_string(), b))
-            .collect();
-        memory.extend([
-            ("gbuffer".to_string(), gbuffer_bytes),
-            ("radiance".to_string(), radiance.size()),
-            ("iteration_params".to_string(), params.size()),
-            ("shadow_maps".to_string(), shadows.bytes()),
-            ("timestamps".to_string(), 4096 * 8 * 2),
-        ]);
+        let (shadows, scene_group, local_group) = scene_resources(
+            key,
+            device,
+            queue,
+            cache,
+            pipelines,
+            scene,
+            &photon_targets,
+            [&gbuffer_position, &gbuffer_normal],
+        );
         Self {
             key,
             view_epoch: u64::MAX,
@@ -269,10 +250,93 @@ impl ViewState {
             output_group,
             timer: StageTimer::new(device, queue, 4096),
             readback_pending: false,
-            memory,
+            scene_epoch: scene.epoch,
             error: None,
         }
     }
+}
+
+impl ViewState {
+    /// A changed scene keeps the view's targets: only what depends on the scene's lights and
+    /// buffers is made again, and accumulation restarts.
+    fn rebind_scene(
+        &mut self,
+        device: &RenderDevice,
+        queue: &RenderQueue,
+        cache: &PipelineCache,
+        pipelines: &RppmPipelines,
+        scene: &SceneBuffers,
+    ) {
+        (self.shadows, self.scene_group, self.local_group) = scene_resources(
+            self.key,
+            device,
+            queue,
+            cache,
+            pipelines,
+            scene,
+            &self.photon_targets,
+            [&self.gbuffer_position, &self.gbuffer_normal],
+        );
+        if let Some(cubemap) = &mut self.cubemap {
+            cubemap.set_scene(queue, scene);
+        }
+        self.scene_epoch = scene.epoch;
+        self.iteration = 0;
+    }
+
+    /// Bytes held per buffer or texture of the view.
+    fn memory(&self) -> Vec<(String, u64)> {
+        let pixels = self.key.size.x as u64 * self.key.size.y as u64;
+        let mut memory: Vec<(String, u64)> = self
+            .photon_targets
+            .memory()
+            .into_iter()
+            .chain([
+                ("gbuffer", pixels * (16 + 16 + 4)),
+                ("radiance", self.radiance.size()),
+                ("iteration_params", self.params.size()),
+                ("shadow_maps", self.shadows.bytes()),
+                ("timestamps", 4096 * 8 * 2),
+            ])
+            .map(|(n, b)| (n.to_string(), b))
+            .collect();
+        if let Some(cubemap) = &self.cubemap {
+            memory.extend(cubemap.memory().iter().map(|(n, b)| (n.to_string(), *b)));
+        }
+        memory
+    }
+}
+
+/// The view's shadow maps and the bind groups that hold scene buffers: group 0 (the scene)
+/// and group 2 of the local stage (which samples the shadow maps).
+#[allow(clippy::too_many_arguments)]
+fn scene_resources(
+    key: ResourceKey,
+    device: &RenderDevice,
+    queue: &RenderQueue,
+    cache: &PipelineCache,
+    pipelines: &RppmPipelines,
+    scene: &SceneBuffers,
+    photon_targets: &PhotonTargets,
+    [gbuffer_position, gbuffer_normal]: [&TextureView; 2],
+) -> (ShadowMaps, BindGroup, BindGroup) {
+    let shadows = ShadowMaps::new(device, &scene.data, key.shadow_resolution, key.slots);
+    shadows.write_light_views(queue, &scene.data);
+    let scene_group = scene.bind_group(device, cache, &pipelines.scene_layout, &shadows.views);
+    let local_group = device.create_bind_group(
+        "rppm_local_group",
+        &cache.get_bind_group_layout(&pipelines.local_layout),
+        &BindGroupEntries::sequential((
+            gbuffer_position,
+            gbuffer_normal,
+            &shadows.array_view,
+            photon_targets.samples.as_entire_binding(),
+            photon_targets.importons.as_entire_binding(),
+            photon_targets.importon_heads.as_entire_binding(),
+            photon_targets.importon_stats.as_entire_binding(),
+        )),
+    );
+    (shadows, scene_group, local_group)
 }
 
 /// A deterministic hash of the iteration, the source of this iteration's random numbers.
@@ -492,7 +556,6 @@ pub(crate) fn prepare_views(
             size,
             slots: settings.iterations_per_frame,
             shadow_resolution: settings.shadow_map_resolution,
-            scene_epoch: scene.epoch,
             photon_capacity: photon_capacity(settings, &scene.data, &device),
             importon_tiles: importon_tiles(settings, &scene.data),
         };
@@ -510,6 +573,9 @@ pub(crate) fn prepare_views(
         let state = states.0.entry(main.id()).or_insert_with(fresh);
         if state.key != key {
             *state = fresh();
+        }
+        if state.scene_epoch != scene.epoch {
+            state.rebind_scene(&device, &queue, &cache, &pipelines, scene);
         }
         if state.view_epoch != rppm.view_epoch {
             state.view_epoch = rppm.view_epoch;
@@ -1032,9 +1098,8 @@ pub(crate) fn report_views(
             state.importons_made = bytemuck::cast_slice::<u8, u32>(&bytes)[1];
         }
         let mut memory = scene_memory.clone();
-        memory.extend(state.memory.iter().cloned());
+        memory.extend(state.memory());
         if let Some(cubemap) = &state.cubemap {
-            memory.extend(cubemap.memory().iter().map(|(n, b)| (n.to_string(), *b)));
             // The list counters need a GPU round trip: only frames that wait anyway read them.
             if state.readback_pending
                 && let Some(bytes) = read_back(&device, &queue, cubemap.counters())

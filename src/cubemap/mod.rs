@@ -257,14 +257,13 @@ impl DeepCubemap {
             ));
         }
         let (level_offsets, cells) = config.level_offsets();
-        let (_, radius) = scene.data.bounding_sphere();
         let params = DirtParams {
             centre: centre.extend(1.0).into(),
             grid,
             bins: config.bins,
             node_capacity,
             levels: config.levels(),
-            near: (radius * 1e-6).max(1e-9),
+            near: near_limit(scene),
             triangle_count: scene.triangle_count(),
             _pad: [0; 2],
             level_offsets,
@@ -363,6 +362,13 @@ impl DeepCubemap {
         })
     }
 
+    /// Follows a changed scene (its triangle count and size); takes effect at the next build.
+    pub fn set_scene(&mut self, queue: &RenderQueue, scene: &SceneBuffers) {
+        self.params.triangle_count = scene.triangle_count();
+        self.params.near = near_limit(scene);
+        queue.write_buffer(&self.params_buffer, 0, bytemuck::bytes_of(&self.params));
+    }
+
     /// Moves the cubemap's centre (the camera moved); takes effect at the next build.
     pub fn set_centre(&mut self, queue: &RenderQueue, centre: Vec3) {
         self.params.centre = centre.extend(1.0).into();
@@ -454,6 +460,11 @@ impl DeepCubemap {
             pass.dispatch_workgroups((6 * cells * cells).div_ceil(64), 1, 1);
         }
     }
+}
+
+/// Depth below which geometry is not recorded: a millionth of the scene's size.
+fn near_limit(scene: &SceneBuffers) -> f32 {
+    (scene.data.bounding_sphere().1 * 1e-6).max(1e-9)
 }
 
 /// Queues the build pipelines once the scene layout exists.

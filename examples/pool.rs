@@ -1,7 +1,9 @@
 //! A pool with an animated water surface over a tiled floor: sunlight refracted by the waves
 //! makes caustics that move with the water (the RPPM paper's pool scene). The water mesh is
 //! rewritten every frame through `Assets<Mesh>`, so photon mapping restarts every frame.
-//! Keys: G GI on/off. `--headless --frames N --out FILE.png` renders offscreen instead.
+//! Keys: G GI on/off, P pause the water (PPM then converges), O overlay.
+//! `--headless --frames N --out FILE.png` renders offscreen instead; `--time T` holds the
+//! water at T seconds.
 use bevy::asset::RenderAssetUsages;
 use bevy::core_pipeline::tonemapping::Tonemapping;
 use bevy::mesh::{Indices, PrimitiveTopology, VertexAttributeValues};
@@ -18,7 +20,11 @@ const DEPTH: f32 = 1.0;
 struct Water(Handle<Mesh>);
 
 fn main() {
-    example_app("bevy_rppm: pool", "G: GI on/off", ExampleArgs::from_env())
+    example_app(
+        "bevy_rppm: pool",
+        "G: GI on/off  P: pause water",
+        ExampleArgs::from_env(),
+    )
         .add_systems(Startup, setup)
         .add_systems(Update, (waves, toggle))
         .run();
@@ -120,10 +126,29 @@ fn water_mesh(t: f32) -> Mesh {
     .with_computed_smooth_normals()
 }
 
-/// Moves the waves one thirtieth of a second per frame (deterministic, headless or not).
-fn waves(water: Res<Water>, mut meshes: ResMut<Assets<Mesh>>, mut frame: Local<u32>) {
-    *frame += 1;
-    let t = *frame as f32 / 30.0;
+/// Moves the waves one thirtieth of a second per frame (deterministic, headless or not),
+/// unless paused (P) or held at `--time`; an unchanged surface is left alone, so photon
+/// mapping accumulates.
+fn waves(
+    args: Res<ExampleArgs>,
+    keys: Res<ButtonInput<KeyCode>>,
+    water: Res<Water>,
+    mut meshes: ResMut<Assets<Mesh>>,
+    mut clock: Local<Option<f32>>,
+    mut paused: Local<bool>,
+) {
+    if keys.just_pressed(KeyCode::KeyP) {
+        *paused = !*paused;
+    }
+    let t = match (args.time, *clock) {
+        (Some(held), _) => held,
+        (None, Some(t)) if *paused => t,
+        (None, t) => t.unwrap_or(0.0) + 1.0 / 30.0,
+    };
+    if *clock == Some(t) {
+        return;
+    }
+    *clock = Some(t);
     let Some(mut mesh) = meshes.get_mut(&water.0) else {
         return;
     };

@@ -110,6 +110,11 @@ struct IterationParams {
     indirect_only: u32,
     // Bounding sphere of the scene: centre, radius (directional-light photons start on a disc).
     scene_sphere: vec4<f32>,
+    // Gather kernel's extent along the surface normal over its radius (ISPM's flattening).
+    kernel_flattening: f32,
+    // Photons are splatted on every n-th pixel, then upsampled (1: every pixel).
+    indirect_subsampling: u32,
+    pad: vec2<u32>,
 }
 
 // A stored photon (64 bytes, the RPPM budget).
@@ -198,6 +203,12 @@ fn level_offset(d: DirtParams, l: u32) -> u32 {
 fn gather_radius(params: IterationParams, pixels: f32, footprint: f32) -> f32 {
     let scale = params.scene_sphere.w;
     return clamp(pixels * footprint, 1e-6 * scale, 0.1 * scale);
+}
+
+// The full-resolution pixel that stands for subsampled texel `texel` (the block's centre).
+fn subsample_representative(params: IterationParams, texel: vec2<u32>) -> vec2<i32> {
+    let n = params.indirect_subsampling;
+    return vec2<i32>(min(texel * n + n / 2u, params.size - 1u));
 }
 
 // Russian roulette on a splat: false to drop it; the kept ones count twice (unbiased).

@@ -39,7 +39,7 @@ fn gather(p: Photon, photon: u32, list: u32) {
         node = imp.next;
         let offset = p.position - imp.position;
         let r = imp.radius;
-        if dot(offset, offset) > r * r || abs(dot(offset, imp.normal)) > 0.1 * r || dot(p.normal, imp.normal) < 0.5 {
+        if dot(offset, offset) > r * r || abs(dot(offset, imp.normal)) > params.kernel_flattening * r || dot(p.normal, imp.normal) < 0.5 {
             continue;
         }
         if !splat_survives(params, photon, pixel) {

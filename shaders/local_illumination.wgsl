@@ -38,15 +38,21 @@ fn specular_bounce(m: Material, d: vec3<f32>, n: vec3<f32>, front: bool, rng: pt
     let mirror = luminance(m.base_color.rgb) * m.metallic;
     let glass = m.specular_transmission * (1.0 - m.metallic);
     let total = max(mirror + glass, 1e-6);
+#ifdef MIRRORS
     if random(rng) * total < mirror {
         return Bounce(reflect(d, n), m.base_color.rgb * (total / luminance(m.base_color.rgb)));
     }
+#endif
+#ifdef REFRACTION
     let eta = select(m.ior, 1.0 / m.ior, front);
     let refracted = refract(d, n, eta);
     if random(rng) < fresnel_dielectric(dot(-d, n), eta) || all(refracted == vec3<f32>(0.0)) {
         return Bounce(reflect(d, n), vec3<f32>(total));
     }
     return Bounce(refracted, vec3<f32>(total));
+#else
+    return Bounce(d, vec3<f32>(0.0));
+#endif
 }
 
 // Follows the camera path from a specular G-buffer point; returns the light it finds and

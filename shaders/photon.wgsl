@@ -133,18 +133,19 @@ fn trace(@builtin(global_invocation_id) id: vec3<u32>) {
             return;
         }
         // Scatter: diffuse, GGX glossy, mirror (delta metals) or delta dielectric; otherwise
-        // absorbed. Each lobe is chosen with a probability near its albedo.
+        // absorbed. Each lobe is chosen with a probability near its albedo. Lobes no material
+        // of the scene has are compiled out (GLOSSY, MIRRORS, REFRACTION).
         let delta = m.perceptual_roughness < DELTA_ROUGHNESS;
-        let mirror = select(vec3<f32>(0.0), m.base_color.rgb * m.metallic, delta);
-        let glass = select(0.0, m.specular_transmission * (1.0 - m.metallic), delta);
-        let f0 = select(specular_f0(m), vec3<f32>(0.0), delta);
-        let p_diffuse = min(luminance(diffuse), 1.0);
-        let p_glossy = min(luminance(f0), 1.0 - p_diffuse);
-        let p_mirror = min(luminance(mirror), 1.0 - p_diffuse - p_glossy);
-        let p_glass = min(glass, 1.0 - p_diffuse - p_glossy - p_mirror);
-        let u = random(&rng);
+        var left = 1.0;
+        let p_diffuse = min(luminance(diffuse), left);
+        left -= p_diffuse;
+        var u = random(&rng);
         ray.ignore = hit.triangle;
         ray.origin = x;
+#ifdef GLOSSY
+        let f0 = select(specular_f0(m), vec3<f32>(0.0), delta);
+        let p_glossy = min(luminance(f0), left);
+        left -= p_glossy;
         if u < p_glossy {
             let v = -ray.direction;
             let s = sample_ggx(m, n, v, vec2<f32>(random(&rng), random(&rng)));
@@ -155,13 +156,29 @@ fn trace(@builtin(global_invocation_id) id: vec3<u32>) {
             ray.flux *= fresnel_schlick(f0, dot(v, normalize(v + s.xyz))) * (s.w / p_glossy);
             continue;
         }
-        if u < p_glossy + p_diffuse {
+        u -= p_glossy;
+#endif
+        if u < p_diffuse {
             ray.direction = cosine_direction(n, vec2<f32>(random(&rng), random(&rng)));
             ray.flux *= diffuse / p_diffuse;
-        } else if u < p_glossy + p_diffuse + p_mirror {
+            continue;
+        }
+        u -= p_diffuse;
+#ifdef MIRRORS
+        let mirror = select(vec3<f32>(0.0), m.base_color.rgb * m.metallic, delta);
+        let p_mirror = min(luminance(mirror), left);
+        left -= p_mirror;
+        if u < p_mirror {
             ray.direction = reflect(ray.direction, n);
             ray.flux *= mirror / p_mirror;
-        } else if u < p_glossy + p_diffuse + p_mirror + p_glass {
+            continue;
+        }
+        u -= p_mirror;
+#endif
+#ifdef REFRACTION
+        let glass = select(0.0, m.specular_transmission * (1.0 - m.metallic), delta);
+        let p_glass = min(glass, left);
+        if u < p_glass {
             let eta = select(m.ior, 1.0 / m.ior, front);
             let cos_i = dot(-ray.direction, n);
             let refracted = refract(ray.direction, n, eta);
@@ -172,8 +189,9 @@ fn trace(@builtin(global_invocation_id) id: vec3<u32>) {
                 ray.direction = refracted;
             }
             ray.flux *= glass / p_glass;
-        } else {
-            return;
+            continue;
         }
+#endif
+        return;
     }
 }

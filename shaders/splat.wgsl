@@ -2,7 +2,10 @@
 // as wide as the gather radius; each fragment adds the photon to its pixel's importon (the
 // camera G-buffer point) when the photon lies inside that importon's radius, on its surface.
 // The estimate per pixel is Σ f(wo, wi) Φ / (π r²), summed by additive blending.
-#import bevy_rppm::common::{Photon, IterationParams, PI, gather_radius, splat_survives, splat_weight}
+// SUBSAMPLED (ISPM): the target has one texel per n×n pixels, gathered at one representative
+// pixel of the block, and holds incident light Σ Φ / (π r²) for the joint-bilateral upsampling
+// in accumulate.wgsl, which applies each full-resolution pixel's own BSDF.
+#import bevy_rppm::common::{Photon, IterationParams, PI, gather_radius, splat_survives, splat_weight, subsample_representative}
 #import bevy_rppm::scene::{triangles, materials}
 #import bevy_rppm::bsdf::bsdf_eval
 
@@ -29,15 +32,19 @@ fn vertex(@builtin(vertex_index) vertex: u32, @builtin(instance_index) photon: u
         return out;
     }
     let corner = array<vec2<f32>, 6>(vec2(-1.0, -1.0), vec2(1.0, -1.0), vec2(-1.0, 1.0), vec2(-1.0, 1.0), vec2(1.0, -1.0), vec2(1.0, 1.0))[vertex];
-    // Half a quad in pixels: the radius, plus one pixel for the pixel's own extent.
-    let half = (params.splat_radius + 1.0) * 2.0 / vec2<f32>(params.size);
+    // Half a quad in pixels: the radius, plus one (target) pixel for the pixel's own extent.
+    let half = (params.splat_radius + f32(params.indirect_subsampling)) * 2.0 / vec2<f32>(params.size);
     out.clip = vec4<f32>(clip.xy / clip.w + corner * half, 0.0, 1.0);
     return out;
 }
 
 @fragment
 fn fragment(in: VertexOut) -> @location(0) vec4<f32> {
+#ifdef SUBSAMPLED
+    let pixel = subsample_representative(params, vec2<u32>(in.clip.xy));
+#else
     let pixel = vec2<i32>(in.clip.xy);
+#endif
     let gp = textureLoad(gbuffer_position, pixel, 0);
     if gp.w == 0.0 {
         discard;
@@ -47,14 +54,19 @@ fn fragment(in: VertexOut) -> @location(0) vec4<f32> {
     let radius = gather_radius(params, params.splat_radius, gn.w);
     let offset = p.position - gp.xyz;
     // Inside the gather disc, on this surface: near its plane and facing the same way.
-    if dot(offset, offset) > radius * radius || abs(dot(offset, gn.xyz)) > 0.1 * radius || dot(p.normal, gn.xyz) < 0.5 {
+    if dot(offset, offset) > radius * radius || abs(dot(offset, gn.xyz)) > params.kernel_flattening * radius || dot(p.normal, gn.xyz) < 0.5 {
         discard;
     }
     if !splat_survives(params, in.photon, u32(pixel.y) * params.size.x + u32(pixel.x)) {
         discard;
     }
+    let density = splat_weight(params) / (PI * radius * radius);
+#ifdef SUBSAMPLED
+    return vec4<f32>(p.flux * density, 0.0);
+#else
     let m = materials[triangles[u32(abs(gp.w)) - 1u].material];
     let wo = normalize(params.camera_position.xyz - gp.xyz);
     let f = bsdf_eval(m, gn.xyz, wo, p.incoming);
-    return vec4<f32>(f * p.flux * (splat_weight(params) / (PI * radius * radius)), 0.0);
+    return vec4<f32>(f * p.flux * density, 0.0);
+#endif
 }

@@ -1,14 +1,21 @@
 //! What the examples share: a window, or with `--headless --frames N --out FILE.png` an
-//! offscreen camera whose view is saved after N frames (for tests and screenshots), and a
-//! window title that shows the keys and the progress.
+//! offscreen camera whose view is saved after N frames (for tests and screenshots), and an
+//! on-screen overlay (O hides it) with the keys, the frame rate and the `rppm/` diagnostics.
 
 use std::path::PathBuf;
 
-use bevy::camera::RenderTarget;
+use bevy::camera::{Exposure, Hdr, RenderTarget};
+use bevy::core_pipeline::tonemapping::Tonemapping;
+use bevy::diagnostic::{DiagnosticsStore, FrameTimeDiagnosticsPlugin};
+use bevy::input::mouse::AccumulatedMouseMotion;
+use bevy::light::GlobalAmbientLight;
 use bevy::prelude::*;
+use bevy::world_serialization::WorldAssetRoot;
 use bevy::render::view::screenshot::{Screenshot, save_to_disk};
 
-use crate::{RppmPlugin, RppmStats};
+use crate::{PhotonMapping, RppmMode, RppmPlugin};
+use crate::diagnostics::{ITERATIONS, MEMORY_MIB, stage_path};
+use crate::timing::Stage;
 
 /// Command-line options every example takes.
 #[derive(Resource, Clone, Debug, Default)]
@@ -18,6 +25,8 @@ pub struct ExampleArgs {
     pub frames: u32,
     /// Where the headless view is saved (PNG).
     pub out: Option<PathBuf>,
+    /// Animated examples hold their animation at this time (seconds).
+    pub time: Option<f32>,
 }
 
 impl ExampleArgs {
@@ -47,6 +56,15 @@ impl ExampleArgs {
                             .unwrap_or_else(|| fail("--out needs a file name")),
                     );
                 }
+                "--time" => {
+                    i += 1;
+                    args.time = Some(
+                        argv.get(i)
+                            .and_then(|v| v.parse().ok())
+                            .filter(|t: &f32| t.is_finite())
+                            .unwrap_or_else(|| fail("--time needs a number of seconds")),
+                    );
+                }
                 other => fail(&format!("unknown option {other}")),
             }
             i += 1;
@@ -56,7 +74,7 @@ impl ExampleArgs {
 }
 
 fn fail(message: &str) -> ! {
-    eprintln!("error: {message}\nusage: [--headless] [--frames N] [--out FILE.png]");
+    eprintln!("error: {message}\nusage: [--headless] [--frames N] [--out FILE.png] [--time SECONDS]");
     std::process::exit(2);
 }
 
@@ -69,7 +87,7 @@ pub fn asset_root() -> PathBuf {
 #[derive(Component, Clone, Copy, Debug, Default)]
 pub struct ExampleCamera;
 
-/// Shown in the window title: what the keys do.
+/// Shown in the overlay: what the keys do.
 #[derive(Resource, Clone, Debug, Default)]
 pub struct ExampleKeys(pub &'static str);
 
@@ -98,11 +116,101 @@ pub fn example_app(title: &'static str, keys: &'static str, args: ExampleArgs) -
                     ..default()
                 }),
             RppmPlugin,
+            FrameTimeDiagnosticsPlugin::default(),
         ))
-        .add_systems(Update, show_progress);
+        .add_systems(Startup, spawn_overlay)
+        .add_systems(Update, update_overlay);
     }
     app.insert_resource(args).insert_resource(ExampleKeys(keys));
     app
+}
+
+/// Keys of [`gltf_example`].
+pub const GLTF_KEYS: &str = "G: GI  M: Full/Indirect  +/-: photons  R: restart  drag: orbit";
+
+/// What the camera of [`gltf_example`] orbits around.
+#[derive(Resource, Clone, Copy, Debug)]
+pub struct OrbitTarget(pub Vec3);
+
+/// An example that shows a glTF scene from `assets/` through its own camera, with photon
+/// mapping and the keys of [`GLTF_KEYS`]; the camera orbits `target` when dragged.
+pub fn gltf_example(title: &'static str, scene: &'static str, target: Vec3) -> App {
+    let mut app = example_app(title, GLTF_KEYS, ExampleArgs::from_env());
+    // Photon mapping replaces ambient light; the scenes' lights are a few candela.
+    app.insert_resource(GlobalAmbientLight::NONE)
+        .insert_resource(OrbitTarget(target))
+        .add_systems(
+            Startup,
+            move |mut commands: Commands, assets: Res<AssetServer>| {
+                let handle = assets.load(GltfAssetLabel::Scene(0).from_asset(scene));
+                commands.spawn(WorldAssetRoot(handle));
+            },
+        )
+        .add_systems(Update, (adopt_camera, gi_keys, orbit));
+    app
+}
+
+/// Gives the glTF camera photon mapping once the scene has spawned it.
+fn adopt_camera(
+    mut commands: Commands,
+    cameras: Query<Entity, (With<Camera3d>, Without<PhotonMapping>)>,
+) {
+    for camera in &cameras {
+        commands.entity(camera).insert((
+            PhotonMapping {
+                photons_per_iteration: 65_536,
+                ..default()
+            },
+            Hdr,
+            // A tonemapper that needs no lookup table (the crate leaves out Bevy's LUTs).
+            Tonemapping::AcesFitted,
+            // Exposure 1: radiance shown as it is (Bevy: 1 / (2^ev100 · 1.2)).
+            Exposure {
+                ev100: -(1.2f32).log2(),
+            },
+            ExampleCamera,
+        ));
+    }
+}
+
+/// G: GI on/off, M: Full/Indirect, + / −: photons per iteration, R: restart.
+fn gi_keys(keys: Res<ButtonInput<KeyCode>>, mut cameras: Query<&mut PhotonMapping>) {
+    for mut gi in &mut cameras {
+        if keys.just_pressed(KeyCode::KeyG) {
+            gi.enabled = !gi.enabled;
+        }
+        if keys.just_pressed(KeyCode::KeyM) {
+            gi.mode = match gi.mode {
+                RppmMode::Full => RppmMode::Indirect,
+                RppmMode::Indirect => RppmMode::Full,
+            };
+        }
+        if keys.just_pressed(KeyCode::Equal) || keys.just_pressed(KeyCode::NumpadAdd) {
+            gi.photons_per_iteration = (gi.photons_per_iteration * 2).min(1 << 22);
+        }
+        if keys.just_pressed(KeyCode::Minus) || keys.just_pressed(KeyCode::NumpadSubtract) {
+            gi.photons_per_iteration = (gi.photons_per_iteration / 2).max(1024);
+        }
+        if keys.just_pressed(KeyCode::KeyR) {
+            gi.set_changed();
+        }
+    }
+}
+
+fn orbit(
+    buttons: Res<ButtonInput<MouseButton>>,
+    motion: Res<AccumulatedMouseMotion>,
+    target: Res<OrbitTarget>,
+    mut cameras: Query<&mut Transform, With<ExampleCamera>>,
+) {
+    if !buttons.pressed(MouseButton::Left) || motion.delta == Vec2::ZERO {
+        return;
+    }
+    for mut transform in &mut cameras {
+        let yaw = Quat::from_rotation_y(-motion.delta.x * 0.005);
+        transform.translation = target.0 + yaw * (transform.translation - target.0);
+        transform.look_at(target.0, Vec3::Y);
+    }
 }
 
 fn offscreen_camera(
@@ -138,28 +246,63 @@ fn save_and_exit(
     }
 }
 
-fn show_progress(
+/// The overlay's text node.
+#[derive(Component)]
+struct Overlay;
+
+fn spawn_overlay(mut commands: Commands) {
+    commands.spawn((
+        Overlay,
+        Text::new(""),
+        TextFont {
+            font_size: FontSize::Px(14.0),
+            ..default()
+        },
+        TextColor(Color::WHITE),
+        BackgroundColor(Color::srgba(0.0, 0.0, 0.0, 0.6)),
+        Node {
+            position_type: PositionType::Absolute,
+            top: px(8),
+            left: px(8),
+            padding: px(6).all(),
+            ..default()
+        },
+    ));
+}
+
+/// Rewrites the overlay from `DiagnosticsStore`: keys, fps, iterations, memory, GPU ms of the
+/// stages that ran.
+fn update_overlay(
     keys: Res<ExampleKeys>,
-    stats: Res<RppmStats>,
+    input: Res<ButtonInput<KeyCode>>,
+    diagnostics: Res<DiagnosticsStore>,
     cameras: Query<&crate::PhotonMapping>,
-    mut windows: Query<&mut Window>,
+    mut overlay: Query<(&mut Text, &mut Visibility), With<Overlay>>,
 ) {
-    let Ok(mut window) = windows.single_mut() else {
+    let Ok((mut text, mut visibility)) = overlay.single_mut() else {
         return;
     };
-    let on = cameras.iter().any(|c| c.enabled);
-    let progress = stats
-        .views
-        .values()
-        .next()
-        .filter(|_| on)
-        .map(|s| {
-            let ms: f64 = s.stage_ms.values().sum();
-            format!("{} iterations, {ms:.1} GPU ms/frame", s.iteration)
-        })
-        .unwrap_or_else(|| "GI off".into());
-    let title = format!("{} — {progress}", keys.0);
-    if window.title != title {
-        window.title = title;
+    if input.just_pressed(KeyCode::KeyO) {
+        visibility.toggle_visible_hidden();
+    }
+    let value = |path: &bevy::diagnostic::DiagnosticPath| diagnostics.get(path).and_then(|d| d.value());
+    let fps = value(&FrameTimeDiagnosticsPlugin::FPS).unwrap_or(0.0);
+    let mut lines = vec![format!("{}   O: overlay", keys.0), format!("{fps:.1} fps")];
+    if cameras.iter().any(|c| c.enabled) {
+        lines.push(format!(
+            "{} iterations, {:.0} MiB held",
+            value(&ITERATIONS).unwrap_or(0.0),
+            value(&MEMORY_MIB).unwrap_or(0.0)
+        ));
+        lines.extend(Stage::ALL.iter().filter_map(|&stage| {
+            let ms = value(&stage_path(stage)).filter(|&ms| ms > 0.0)?;
+            Some(format!("{:<20}{ms:>8.2} GPU ms", stage.name()))
+        }));
+    } else {
+        lines.push("GI off: Bevy's own lighting".into());
+    }
+    let joined = lines.join("\n");
+    if text.0 != joined {
+        text.0 = joined;
     }
 }

@@ -93,6 +93,15 @@ pub fn offscreen_target(images: &mut Assets<Image>, width: u32, height: u32) -> 
 }
 
 /// When a headless render stops.
+/// What a render has reached, each time a new iteration comes back.
+pub struct Progress<'a> {
+    pub iteration: u32,
+    /// Wall-clock seconds since the first iteration came back.
+    pub seconds: f64,
+    pub budget: Budget,
+    pub image: &'a crate::RadianceImage,
+}
+
 #[derive(Clone, Copy, Debug)]
 pub enum Budget {
     Iterations(u32),
@@ -178,24 +187,41 @@ pub fn load_gltf(scene: &Path) -> Result<App, String> {
 /// Renders a glTF scene headless. Every failure is a one-line message.
 pub fn render_gltf(
     request: &RenderRequest,
-    mut progress: impl FnMut(u32, &Budget),
+    progress: impl FnMut(&Progress),
 ) -> Result<RenderResult, String> {
-    if request.width == 0 || request.height == 0 || request.width > 16384 || request.height > 16384
-    {
-        return Err(format!(
-            "image size {}x{} is outside 1..=16384",
-            request.width, request.height
-        ));
-    }
+    check_size(request)?;
     let mut app = load_gltf(&request.scene)?;
-    let camera_from_scene = attach_camera(&mut app, request)?;
+    render_loaded(&mut app, request, progress)
+}
+
+fn check_size(request: &RenderRequest) -> Result<(), String> {
+    let valid = 1..=16384;
+    if valid.contains(&request.width) && valid.contains(&request.height) {
+        return Ok(());
+    }
+    Err(format!(
+        "image size {}x{} is outside 1..=16384",
+        request.width, request.height
+    ))
+}
+
+/// Renders a scene that [`load_gltf`] loaded (and the caller may have changed since: scaled,
+/// relit) through its first camera, or a default one, as `request` asks.
+pub fn render_loaded(
+    app: &mut App,
+    request: &RenderRequest,
+    mut progress: impl FnMut(&Progress),
+) -> Result<RenderResult, String> {
+    check_size(request)?;
+    app.update(); // extraction sees the caller's changes
+    let camera_from_scene = attach_camera(app, request)?;
     let mut query = app
         .world_mut()
         .query_filtered::<Entity, With<PhotonMapping>>();
     let camera = query
         .single(app.world())
         .map_err(|e| format!("no camera to render from: {e}"))?;
-    run_until_done(&mut app, camera, request, &mut progress).map(|(image, stats, seconds)| {
+    run_until_done(app, camera, request, &mut progress).map(|(image, stats, seconds)| {
         let data = app.world().resource::<RppmScene>().data.clone();
         RenderResult {
             iterations: image.iteration,
@@ -305,7 +331,7 @@ fn run_until_done(
     app: &mut App,
     camera: Entity,
     request: &RenderRequest,
-    progress: &mut impl FnMut(u32, &Budget),
+    progress: &mut impl FnMut(&Progress),
 ) -> Result<(crate::RadianceImage, ViewStats, f64), String> {
     let mut first_iteration: Option<Instant> = None;
     let mut last_progress = (0u32, Instant::now());
@@ -340,16 +366,21 @@ fn run_until_done(
         if image.iteration > 0 && first_iteration.is_none() {
             first_iteration = Some(Instant::now());
         }
+        let seconds = first_iteration.map_or(0.0, |t| t.elapsed().as_secs_f64());
         if image.iteration != last_progress.0 {
             last_progress = (image.iteration, Instant::now());
-            progress(image.iteration, &request.budget);
+            progress(&Progress {
+                iteration: image.iteration,
+                seconds,
+                budget: request.budget,
+                image: &image,
+            });
         } else if last_progress.1.elapsed() > STALL {
             return Err(format!(
                 "rendering stalled at iteration {}",
                 image.iteration
             ));
         }
-        let seconds = first_iteration.map_or(0.0, |t| t.elapsed().as_secs_f64());
         let done = match request.budget {
             Budget::Iterations(n) => image.iteration >= n,
             Budget::Seconds(s) => image.iteration > 0 && seconds >= s,

@@ -79,22 +79,23 @@ pub fn tonemap_srgb8(rgb: [f32; 3]) -> [u8; 3] {
 
 /// Writes a tonemapped 8-bit sRGB PNG preview.
 pub fn write_png(path: &Path, image: &RgbImage) -> Result<(), String> {
-    let err = |e: &dyn std::fmt::Display| format!("cannot write {}: {e}", path.display());
-    let file = std::fs::File::create(path).map_err(|e| err(&e))?;
-    let mut encoder = png::Encoder::new(
-        std::io::BufWriter::new(file),
-        image.width as u32,
-        image.height as u32,
-    );
-    encoder.set_color(png::ColorType::Rgb);
-    encoder.set_depth(png::BitDepth::Eight);
     let bytes: Vec<u8> = image
         .pixels
         .iter()
         .flat_map(|&p| tonemap_srgb8(p))
         .collect();
+    write_rgb8_png(path, image.width as u32, image.height as u32, &bytes)
+}
+
+/// Writes 8-bit RGB rows as a PNG.
+pub fn write_rgb8_png(path: &Path, width: u32, height: u32, rgb: &[u8]) -> Result<(), String> {
+    let err = |e: &dyn std::fmt::Display| format!("cannot write {}: {e}", path.display());
+    let file = std::fs::File::create(path).map_err(|e| err(&e))?;
+    let mut encoder = png::Encoder::new(std::io::BufWriter::new(file), width, height);
+    encoder.set_color(png::ColorType::Rgb);
+    encoder.set_depth(png::BitDepth::Eight);
     let mut writer = encoder.write_header().map_err(|e| err(&e))?;
-    writer.write_image_data(&bytes).map_err(|e| err(&e))
+    writer.write_image_data(rgb).map_err(|e| err(&e))
 }
 
 /// mean((t − r)² / (r² + 0.01)) over all pixels and channels.

@@ -26,8 +26,10 @@ mod photons;
 mod pipelines;
 pub mod scene;
 mod settings;
+mod variants;
 mod shadows;
 pub mod timing;
+pub mod trade;
 mod view;
 
 use bevy::core_pipeline::schedule::{Core3d, Core3dSystems};
@@ -39,7 +41,8 @@ use bevy::shader::Shader;
 
 pub use output::{RadianceImage, RppmRadiance, RppmReadback, RppmStats, ViewStats};
 pub use scene::{RppmScene, SceneData};
-pub use settings::{PhotonMapping, RppmDebugView, RppmMode};
+pub use settings::{PhotonMapping, RppmDebugView, RppmFastForward, RppmMode, RppmPreset};
+pub use view::{next_radius2, radius2_after};
 
 /// Adds photon mapping to every camera that has a [`PhotonMapping`] component.
 pub struct RppmPlugin;

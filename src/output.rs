@@ -41,6 +41,8 @@ pub struct ViewStats {
     /// Iterations accumulated since the last reset.
     pub iteration: u32,
     pub iterations_this_frame: u32,
+    /// Knaus–Zwicker gather radius of the next iteration, in pixels.
+    pub splat_radius_pixels: f64,
     /// Whether the GPU has timestamp queries; without them `stage_ms` stays zero.
     pub gpu_timing: bool,
     /// GPU milliseconds per stage, summed over the iterations of the last timed frame.
@@ -66,6 +68,9 @@ pub struct ViewStats {
     pub importons: u32,
     /// The passes each iteration runs: only those the scene and settings need.
     pub passes: Vec<String>,
+    /// Scattering code paths compiled into the tracing stages, from the scene's materials
+    /// (`GLOSSY`, `MIRRORS`, `REFRACTION`).
+    pub shader_paths: Vec<String>,
 }
 
 /// Stats of every photon-mapping camera, by camera entity.

@@ -14,6 +14,7 @@ use bevy::shader::Shader;
 use crate::cubemap::CubemapPipelines;
 use crate::pipelines::{RppmPipelines, RppmShaders};
 use crate::timing::{Stage, StageTimer};
+use crate::variants::Variants;
 use crate::view::IterationParams;
 
 /// Bytes of one stored photon (`Photon` in common.wgsl).
@@ -39,11 +40,22 @@ pub struct PhotonPipelines {
     splat_layout: BindGroupLayoutDescriptor,
     accumulate_layout: BindGroupLayoutDescriptor,
     indirect_layout: BindGroupLayoutDescriptor,
-    trace: CachedComputePipelineId,
-    splat: CachedRenderPipelineId,
-    accumulate: CachedComputePipelineId,
-    accumulate_importons: CachedComputePipelineId,
-    indirect_splat: CachedComputePipelineId,
+    /// By the scene's scattering paths (`PathFeatures::defs`).
+    trace: Variants<ComputePipelineDescriptor>,
+    /// Plain or SUBSAMPLED.
+    splat: Variants<RenderPipelineDescriptor>,
+    /// By IMPORTONS and SUBSAMPLED.
+    accumulate: Variants<ComputePipelineDescriptor>,
+    indirect_splat: Variants<ComputePipelineDescriptor>,
+}
+
+/// The photon stages' pipelines one view runs with, by its scene and settings.
+#[derive(Clone, Copy)]
+pub struct PhotonStageIds {
+    pub trace: Option<CachedComputePipelineId>,
+    pub splat: Option<CachedRenderPipelineId>,
+    pub accumulate: CachedComputePipelineId,
+    pub indirect_splat: Option<CachedComputePipelineId>,
 }
 
 fn params_entry() -> BindGroupLayoutEntryBuilder {
@@ -53,7 +65,6 @@ fn params_entry() -> BindGroupLayoutEntryBuilder {
 pub(crate) fn init_photon_pipelines(
     mut commands: Commands,
     device: Res<RenderDevice>,
-    cache: Res<PipelineCache>,
     shaders: Res<RppmShaders>,
     rppm: Res<RppmPipelines>,
     cubemap: Res<CubemapPipelines>,
@@ -92,6 +103,8 @@ pub(crate) fn init_photon_pipelines(
                 texture_2d(unfilterable),
                 storage_buffer_sized(false, None),
                 storage_buffer_read_only_sized(false, None),
+                texture_2d(unfilterable),
+                texture_2d(unfilterable),
             ),
         ),
     );
@@ -111,27 +124,26 @@ pub(crate) fn init_photon_pipelines(
         ),
     );
     // Tracing stages: scene, iteration constants, their own group, the deep cubemap.
-    let tracing =
-        |label: &'static str, own: &BindGroupLayoutDescriptor, shader: &Handle<Shader>| {
-            cache.queue_compute_pipeline(ComputePipelineDescriptor {
-                label: Some(label.into()),
-                layout: vec![
-                    rppm.scene_layout.clone(),
-                    rppm.params_layout.clone(),
-                    own.clone(),
-                    cubemap.trace_layout.clone(),
-                ],
-                shader: shader.clone(),
-                ..default()
-            })
-        };
+    let tracing = |label: &'static str, own: &BindGroupLayoutDescriptor, shader: &Handle<Shader>| {
+        Variants::new(ComputePipelineDescriptor {
+            label: Some(label.into()),
+            layout: vec![
+                rppm.scene_layout.clone(),
+                rppm.params_layout.clone(),
+                own.clone(),
+                cubemap.trace_layout.clone(),
+            ],
+            shader: shader.clone(),
+            ..default()
+        })
+    };
     let trace = tracing("rppm_photon_trace", &store_layout, &shaders.photon);
     let additive = BlendComponent {
         src_factor: BlendFactor::One,
         dst_factor: BlendFactor::One,
         operation: BlendOperation::Add,
     };
-    let splat = cache.queue_render_pipeline(RenderPipelineDescriptor {
+    let splat = Variants::new(RenderPipelineDescriptor {
         label: Some("rppm_splat".into()),
         layout: vec![rppm.scene_layout.clone(), splat_layout.clone()],
         vertex: VertexState {
@@ -152,25 +164,17 @@ pub(crate) fn init_photon_pipelines(
         }),
         ..default()
     });
-    let accumulate = |importons: bool| {
-        cache.queue_compute_pipeline(ComputePipelineDescriptor {
-            label: Some("rppm_accumulate".into()),
-            layout: vec![accumulate_layout.clone()],
-            shader: shaders.accumulate.clone(),
-            shader_defs: if importons {
-                vec!["IMPORTONS".into()]
-            } else {
-                vec![]
-            },
-            ..default()
-        })
-    };
+    let accumulate = Variants::new(ComputePipelineDescriptor {
+        label: Some("rppm_accumulate".into()),
+        layout: vec![rppm.scene_layout.clone(), accumulate_layout.clone()],
+        shader: shaders.accumulate.clone(),
+        ..default()
+    });
     let indirect_splat = tracing(
         "rppm_indirect_splat",
         &indirect_layout,
         &shaders.indirect_splat,
     );
-    let (accumulate, accumulate_importons) = (accumulate(false), accumulate(true));
     commands.insert_resource(PhotonPipelines {
         splat_format,
         store_layout,
@@ -180,7 +184,6 @@ pub(crate) fn init_photon_pipelines(
         trace,
         splat,
         accumulate,
-        accumulate_importons,
         indirect_splat,
     });
 }
@@ -198,6 +201,9 @@ pub struct PhotonTargets {
     importon_radiance: Buffer,
     indirect_group: Option<BindGroup>,
     splats: TextureView,
+    /// Texels of the splat target (the view's size over the subsampling).
+    splat_size: UVec2,
+    subsampling: u32,
     accumulate_group: BindGroup,
     store: Option<PhotonStore>,
 }
@@ -241,6 +247,8 @@ pub struct TargetInputs<'a> {
     /// Deep-cubemap tiles importons register in; 0 when no camera path goes past the
     /// G-buffer (no specular surfaces, or max eye depth 1).
     pub importon_tiles: u32,
+    /// Photons splat on every n-th pixel in x and y (1, 2 or 4).
+    pub subsampling: u32,
 }
 
 impl PhotonTargets {
@@ -251,6 +259,7 @@ impl PhotonTargets {
         inputs: TargetInputs,
     ) -> Self {
         let pixels = inputs.size.x as u64 * inputs.size.y as u64;
+        let splat_size = inputs.size.map(|v| v.div_ceil(inputs.subsampling));
         let samples = device.create_buffer(&BufferDescriptor {
             label: Some("rppm_samples"),
             size: pixels * 16,
@@ -261,8 +270,8 @@ impl PhotonTargets {
             .create_texture(&TextureDescriptor {
                 label: Some("rppm_splats"),
                 size: Extent3d {
-                    width: inputs.size.x,
-                    height: inputs.size.y,
+                    width: splat_size.x,
+                    height: splat_size.y,
                     depth_or_array_layers: 1,
                 },
                 mip_level_count: 1,
@@ -301,6 +310,8 @@ impl PhotonTargets {
                 &splats,
                 inputs.radiance.as_entire_binding(),
                 importon_radiance.as_entire_binding(),
+                inputs.gbuffer_position,
+                inputs.gbuffer_normal,
             )),
         );
         let store = (inputs.photon_capacity > 0).then(|| {
@@ -365,6 +376,8 @@ impl PhotonTargets {
             importon_radiance,
             indirect_group,
             splats,
+            splat_size,
+            subsampling: inputs.subsampling,
             accumulate_group,
             store,
         }
@@ -376,10 +389,10 @@ impl PhotonTargets {
     }
 
     pub fn memory(&self) -> Vec<(&'static str, u64)> {
-        let pixels = self.samples.size() / 16;
+        let splat_texels = self.splat_size.x as u64 * self.splat_size.y as u64;
         let mut memory = vec![
             ("samples", self.samples.size()),
-            ("splats", pixels * 16),
+            ("splats", splat_texels * 16),
             ("importons", self.importons.size()),
             ("importon_heads", self.importon_heads.size()),
             ("importon_radiance", self.importon_radiance.size()),
@@ -416,8 +429,10 @@ impl PhotonTargets {
         pipeline: Option<&RenderPipeline>,
         scene_group: &BindGroup,
         offset: u32,
+        view_size: UVec2,
         timer: &mut StageTimer,
     ) {
+        let size = view_size.as_vec2() / self.subsampling as f32;
         let mut pass = encoder.begin_render_pass(&RenderPassDescriptor {
             label: Some("rppm_splat"),
             color_attachments: &[Some(RenderPassColorAttachment {
@@ -435,6 +450,9 @@ impl PhotonTargets {
             multiview_mask: None,
         });
         if let (Some(pipeline), Some(store)) = (pipeline, &self.store) {
+            // The view's pixels over the subsampling (fractional where it does not divide), so
+            // that clip space maps onto whole blocks of pixels.
+            pass.set_viewport(0.0, 0.0, size.x, size.y, 0.0, 1.0);
             pass.set_pipeline(pipeline);
             pass.set_bind_group(0, scene_group, &[]);
             pass.set_bind_group(1, &store.splat_group, &[offset]);
@@ -478,6 +496,7 @@ impl PhotonTargets {
         &self,
         encoder: &mut CommandEncoder,
         pipeline: &ComputePipeline,
+        scene_group: &BindGroup,
         size: UVec2,
         offset: u32,
         timer: &mut StageTimer,
@@ -487,32 +506,34 @@ impl PhotonTargets {
             timestamp_writes: timer.compute_pass(Stage::Accumulate),
         });
         pass.set_pipeline(pipeline);
-        pass.set_bind_group(0, &self.accumulate_group, &[offset]);
+        pass.set_bind_group(0, scene_group, &[]);
+        pass.set_bind_group(1, &self.accumulate_group, &[offset]);
         pass.dispatch_workgroups(size.x.div_ceil(8), size.y.div_ceil(8), 1);
     }
 }
 
 impl PhotonPipelines {
-    pub fn get<'a>(
-        &self,
-        cache: &'a PipelineCache,
+    /// The pipelines for a scene with these scattering paths (no photon stages when it emits
+    /// no photons), with or without importons and subsampled splats; queued on first use.
+    pub fn stage_ids(
+        &mut self,
+        cache: &PipelineCache,
+        paths: Option<&[&'static str]>,
         importons: bool,
-    ) -> (
-        Option<&'a ComputePipeline>,
-        Option<&'a RenderPipeline>,
-        Option<&'a ComputePipeline>,
-        Option<&'a ComputePipeline>,
-    ) {
-        let accumulate = if importons {
-            self.accumulate_importons
-        } else {
-            self.accumulate
-        };
-        (
-            cache.get_compute_pipeline(self.trace),
-            cache.get_render_pipeline(self.splat),
-            cache.get_compute_pipeline(accumulate),
-            cache.get_compute_pipeline(self.indirect_splat),
-        )
+        subsampled: bool,
+    ) -> PhotonStageIds {
+        let subsampled = if subsampled { &["SUBSAMPLED"][..] } else { &[] };
+        let mut accumulate_defs = subsampled.to_vec();
+        if importons {
+            accumulate_defs.push("IMPORTONS");
+        }
+        PhotonStageIds {
+            trace: paths.map(|paths| self.trace.get(cache, paths)),
+            splat: paths.map(|_| self.splat.get(cache, subsampled)),
+            accumulate: self.accumulate.get(cache, &accumulate_defs),
+            indirect_splat: paths
+                .filter(|_| importons)
+                .map(|_| self.indirect_splat.get(cache, &[])),
+        }
     }
 }

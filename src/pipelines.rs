@@ -12,6 +12,7 @@ use bevy::render::render_resource::*;
 use bevy::shader::Shader;
 
 use crate::shadows::SHADOW_FORMAT;
+use crate::variants::Variants;
 use crate::view::IterationParams;
 
 pub const GBUFFER_FORMAT: TextureFormat = TextureFormat::Rgba32Float;
@@ -84,8 +85,9 @@ pub struct RppmPipelines {
     pub shadow: CachedRenderPipelineId,
     pub gbuffer: CachedRenderPipelineId,
     pub local_illumination: CachedComputePipelineId,
-    /// Local illumination that also follows camera paths through specular surfaces.
-    pub local_importons: CachedComputePipelineId,
+    /// Local illumination that also follows camera paths through specular surfaces, by the
+    /// scene's specular paths (MIRRORS, REFRACTION); queued on first use.
+    pub local_importons: Variants<ComputePipelineDescriptor>,
     output_shader: Handle<Shader>,
     output: HashMap<(TextureFormat, bool), CachedRenderPipelineId>,
 }
@@ -172,27 +174,21 @@ impl RppmPipelines {
             depth_stencil: Some(depth_state(DEPTH_FORMAT, CompareFunction::Greater)),
             ..default()
         });
-        let local = |importons: bool| {
-            let mut layout = vec![
+        let local = ComputePipelineDescriptor {
+            label: Some("rppm_local_illumination_pipeline".into()),
+            layout: vec![
                 scene_layout.clone(),
                 params_layout.clone(),
                 local_layout.clone(),
-            ];
-            let mut shader_defs = Vec::new();
-            if importons {
-                layout.push(crate::cubemap::trace_layout());
-                shader_defs.push("IMPORTONS".into());
-            }
-            cache.queue_compute_pipeline(ComputePipelineDescriptor {
-                label: Some("rppm_local_illumination_pipeline".into()),
-                layout,
-                shader: shaders.local_illumination.clone(),
-                shader_defs,
-                ..default()
-            })
+            ],
+            shader: shaders.local_illumination.clone(),
+            ..default()
         };
-        let local_illumination = local(false);
-        let local_importons = local(true);
+        let local_illumination = cache.queue_compute_pipeline(local.clone());
+        let mut importons = local;
+        importons.layout.push(crate::cubemap::trace_layout());
+        importons.shader_defs.push("IMPORTONS".into());
+        let local_importons = Variants::new(importons);
         Self {
             scene_layout,
             params_layout,

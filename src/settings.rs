@@ -82,8 +82,29 @@ pub struct PhotonMapping {
     /// Edge length in texels of each face of a light's shadow cube (or a directional light's
     /// shadow map). Range 16..=8192, default 512.
     pub shadow_map_resolution: u32,
+    /// Thickness of the photon gather kernel along the surface normal, as a fraction of its
+    /// radius: ISPM's flattened photon volume, which stops light leaking across thin walls
+    /// and into corners. Range 0.01..=1 (1: a sphere), default 0.1.
+    pub kernel_flattening: f32,
+    /// Photons are splatted onto every n-th pixel in x and y, and the gathered incident light
+    /// is upsampled with a joint-bilateral filter on depth and normal (ISPM). The BSDF is
+    /// applied per full-resolution pixel (exact for diffuse surfaces; glossy ones take their
+    /// lobe at normal incidence). 1 (default, every pixel), 2 or 4.
+    pub indirect_subsampling: u32,
     /// A debug image instead of the estimate. Default [`RppmDebugView::None`].
     pub debug_view: RppmDebugView,
+}
+
+/// Settings chosen from the speed/accuracy measurements of `rppm bench trade` (see the
+/// README): each is the Pareto-best setting for its time budget on the Cornell scenes.
+#[derive(Reflect, Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum RppmPreset {
+    /// Interactive preview: a usable image after about a second.
+    Preview,
+    /// The best image after about ten seconds.
+    Balanced,
+    /// Lowest error after a minute and more.
+    Reference,
 }
 
 impl Default for PhotonMapping {
@@ -103,7 +124,26 @@ impl Default for PhotonMapping {
             max_iterations: None,
             splat_russian_roulette: false,
             shadow_map_resolution: 512,
+            kernel_flattening: 0.1,
+            indirect_subsampling: 1,
             debug_view: RppmDebugView::None,
+        }
+    }
+}
+
+impl From<RppmPreset> for PhotonMapping {
+    fn from(preset: RppmPreset) -> Self {
+        let base = PhotonMapping::default();
+        match preset {
+            RppmPreset::Preview => PhotonMapping {
+                photons_per_iteration: 65_536,
+                ..base
+            },
+            RppmPreset::Balanced => PhotonMapping {
+                photons_per_iteration: 65_536,
+                ..base
+            },
+            RppmPreset::Reference => base,
         }
     }
 }
@@ -145,18 +185,19 @@ impl PhotonMapping {
             &mut notes,
         );
         clamp_u32(&mut out.bins, 1, 64, "bins", &mut notes);
-        let tile = match out.cubemap_tile_size {
-            0..=1 => 1,
-            2 | 3 => 2,
-            _ => 4,
-        };
-        if tile != out.cubemap_tile_size {
-            notes.push(format!(
-                "PhotonMapping::cubemap_tile_size = {} is not 1, 2 or 4; using {tile}",
-                out.cubemap_tile_size
-            ));
-            out.cubemap_tile_size = tile;
-        }
+        round_to_power_of_two(&mut out.cubemap_tile_size, "cubemap_tile_size", &mut notes);
+        round_to_power_of_two(
+            &mut out.indirect_subsampling,
+            "indirect_subsampling",
+            &mut notes,
+        );
+        clamp_f32(
+            &mut out.kernel_flattening,
+            0.01,
+            1.0,
+            "kernel_flattening",
+            &mut notes,
+        );
         clamp_u32(
             &mut out.iterations_per_frame,
             1,
@@ -172,6 +213,21 @@ impl PhotonMapping {
             &mut notes,
         );
         (out, notes)
+    }
+}
+
+/// Rounds to 1, 2 or 4.
+fn round_to_power_of_two(v: &mut u32, name: &str, notes: &mut Vec<String>) {
+    let c = match *v {
+        0..=1 => 1,
+        2 | 3 => 2,
+        _ => 4,
+    };
+    if c != *v {
+        notes.push(format!(
+            "PhotonMapping::{name} = {v} is not 1, 2 or 4; using {c}"
+        ));
+        *v = c;
     }
 }
 
@@ -200,22 +256,30 @@ impl SyncComponent for PhotonMapping {
     type Target = ExtractedRppm;
 }
 
+/// Jumps a camera's progressive estimate to this iteration, with the Knaus–Zwicker radius
+/// shrunk as that many iterations would have (the running mean keeps what it holds), once per
+/// new value: for checking the numbers far along the sequence without running it.
+#[derive(Component, Clone, Copy, Debug, PartialEq, Eq)]
+pub struct RppmFastForward(pub u32);
+
 impl ExtractComponent for PhotonMapping {
     type QueryData = (
         &'static PhotonMapping,
         &'static ViewEpoch,
         Has<RppmReadback>,
+        Option<&'static RppmFastForward>,
     );
     type QueryFilter = ();
     type Out = ExtractedRppm;
 
     fn extract_component(
-        (settings, epoch, readback): QueryItem<'_, '_, Self::QueryData>,
+        (settings, epoch, readback, fast_forward): QueryItem<'_, '_, Self::QueryData>,
     ) -> Option<ExtractedRppm> {
         settings.enabled.then(|| ExtractedRppm {
             settings: settings.clone(),
             view_epoch: epoch.epoch,
             readback,
+            fast_forward: fast_forward.map(|f| f.0),
         })
     }
 }

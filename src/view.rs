@@ -16,7 +16,10 @@ use bytemuck::{Pod, Zeroable};
 use crate::cubemap::{CubemapConfig, CubemapPipelines, DeepCubemap};
 use crate::debug_view::DebugViewPipelines;
 use crate::output::{RadianceImage, RenderMessage, RenderSender, ViewStats, read_back};
-use crate::photons::{PHOTON_BYTES, PhotonPipelines, PhotonTargets, TargetInputs, TracingGroups};
+use crate::photons::{
+    PHOTON_BYTES, PhotonPipelines, PhotonStageIds, PhotonTargets, TargetInputs, TracingGroups,
+};
+use crate::variants::PathFeatures;
 use crate::pipelines::{DEPTH_FORMAT, GBUFFER_FORMAT, RppmPipelines};
 use crate::scene::gpu::SceneBuffers;
 use crate::scene::{GpuTriangle, SceneData};
@@ -27,7 +30,7 @@ use crate::timing::{Stage, StageTimer};
 /// Byte stride between per-iteration slots of the params buffer (dynamic-offset alignment).
 const PARAMS_STRIDE: u64 = 512;
 
-/// Per-iteration constants (`IterationParams` in common.wgsl, 288 bytes).
+/// Per-iteration constants (`IterationParams` in common.wgsl, 304 bytes).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
 pub struct IterationParams {
@@ -57,6 +60,9 @@ pub struct IterationParams {
     pub direct_photons: u32,
     pub indirect_only: u32,
     pub scene_sphere: [f32; 4],
+    pub kernel_flattening: f32,
+    pub indirect_subsampling: u32,
+    pub pad: [u32; 2],
 }
 
 /// The camera's settings and change counter, in the render world.
@@ -65,6 +71,7 @@ pub struct ExtractedRppm {
     pub settings: PhotonMapping,
     pub view_epoch: u64,
     pub readback: bool,
+    pub fast_forward: Option<u32>,
 }
 
 /// What forces the view's GPU resources to be made anew.
@@ -77,6 +84,8 @@ struct ResourceKey {
     photon_capacity: u32,
     /// Cubemap tiles importons register in; 0 when camera paths end at the G-buffer.
     importon_tiles: u32,
+    /// Photons splat on every n-th pixel (the splat target's size follows).
+    subsampling: u32,
 }
 
 pub struct ViewState {
@@ -88,6 +97,8 @@ pub struct ViewState {
     frame: (u32, u32),
     /// Squared gather radius in pixels for the next iteration (Knaus–Zwicker sequence).
     radius2: f64,
+    /// The last `RppmFastForward` applied.
+    fast_forward: Option<u32>,
     /// Photons emitted per iteration this frame (0: no photon passes).
     photons: u32,
     /// Whether camera paths go past the G-buffer this frame (importon tracing and indirect
@@ -106,6 +117,11 @@ pub struct ViewState {
     /// (nodes used, nodes lost) of the last build read back.
     cubemap_nodes: (u32, u32),
     output_pipeline: Option<CachedRenderPipelineId>,
+    /// Local illumination and photon stages for this scene's paths and these settings.
+    local_pipeline: CachedComputePipelineId,
+    photon_stages: Option<PhotonStageIds>,
+    /// Shader defs of the scattering paths the tracing stages were built with.
+    paths: Vec<&'static str>,
     gbuffer_position: TextureView,
     gbuffer_normal: TextureView,
     gbuffer_depth: TextureView,
@@ -127,6 +143,7 @@ pub struct ViewState {
 /// disables it) drops its entry, which frees its GPU memory.
 #[derive(Resource, Default)]
 pub struct RppmViews(HashMap<Entity, ViewState>);
+
 
 fn target(
     device: &RenderDevice,
@@ -199,6 +216,7 @@ impl ViewState {
                 gbuffer_normal: &gbuffer_normal,
                 photon_capacity: key.photon_capacity,
                 importon_tiles: key.importon_tiles,
+                subsampling: key.subsampling,
             },
         );
         let params_group = device.create_bind_group(
@@ -227,6 +245,7 @@ impl ViewState {
             iteration: 0,
             frame: (0, 0),
             radius2: 0.0,
+            fast_forward: None,
             photons: 0,
             importons: false,
             photon_targets,
@@ -238,6 +257,9 @@ impl ViewState {
             cubemap_capacity: 0,
             cubemap_nodes: (0, 0),
             output_pipeline: None,
+            local_pipeline: pipelines.local_illumination,
+            photon_stages: None,
+            paths: Vec::new(),
             gbuffer_position,
             gbuffer_normal,
             gbuffer_depth,
@@ -442,6 +464,9 @@ fn iteration_params(
             let (centre, radius) = data.bounding_sphere();
             centre.extend(radius.max(1e-6)).into()
         },
+        kernel_flattening: 0.1,
+        indirect_subsampling: 1,
+        pad: [0; 2],
     }
 }
 
@@ -470,15 +495,30 @@ fn output_pipeline(
 }
 
 /// Whether every pipeline of an iteration is ready, or the first one that failed to build.
-/// Photons the view's store must hold: every photon can be stored once per bounce. Capped by
-/// the GPU's largest storage binding; 0 when nothing emits.
+/// Photons the view's store must hold: a photon is stored at each non-specular hit after its
+/// first (direct light is the local stage's), at most `max_photon_depth - 1` times, and goes on
+/// after a hit with probability at most p (the scene's largest albedo), so the store holds the
+/// expected Σ pʲ stores per photon with a margin. Capped by the GPU's largest storage binding;
+/// 0 when nothing emits or no photon can be stored.
 fn photon_capacity(settings: &PhotonMapping, scene: &SceneData, device: &RenderDevice) -> u32 {
-    if scene.light_cdf.is_empty() || settings.photons_per_iteration == 0 {
+    let direct = settings.debug_view == RppmDebugView::DirectPhotons;
+    let stores = if direct { 1 } else { settings.max_photon_depth - 1 };
+    if scene.light_cdf.is_empty() || settings.photons_per_iteration == 0 || stores == 0 {
         return 0;
     }
-    let wanted = settings.photons_per_iteration as u64 * settings.max_photon_depth as u64;
+    let photons = settings.photons_per_iteration as f64;
+    let wanted = if direct {
+        photons
+    } else {
+        let p = scene.max_scatter_probability() as f64;
+        let expected: f64 = (1..=stores).map(|j| p.powi(j as i32)).sum();
+        // 4 standard deviations of a binomial count over the photons, and never more than
+        // every photon stored at every bounce.
+        let margin = 4.0 * (photons * stores as f64).sqrt() + 1024.0;
+        (photons * expected * 1.1 + margin).min(photons * stores as f64)
+    };
     let limit = device.limits().max_storage_buffer_binding_size / PHOTON_BYTES;
-    wanted.min(limit).min(u32::MAX as u64) as u32
+    (wanted.ceil() as u64).min(limit).min(u32::MAX as u64) as u32
 }
 
 /// Tiles of the view's cubemap, when camera paths go past the G-buffer; else 0.
@@ -501,20 +541,53 @@ pub fn next_radius2(radius2: f64, iteration: u32, alpha: f32) -> f64 {
     radius2 * (i + alpha as f64) / (i + 1.0)
 }
 
+/// r² after `iterations` Knaus–Zwicker steps from `initial`.
+pub fn radius2_after(initial: f64, iterations: u32, alpha: f32) -> f64 {
+    (0..iterations).fold(initial, |r2, i| next_radius2(r2, i, alpha))
+}
+
 fn pipelines_ready(pipelines: &RppmPipelines, cache: &PipelineCache) -> Result<bool, String> {
-    let states = [
+    readiness([
         cache.get_render_pipeline_state(pipelines.shadow),
         cache.get_render_pipeline_state(pipelines.gbuffer),
         cache.get_compute_pipeline_state(pipelines.local_illumination),
-    ];
+    ])
+}
+
+/// Whether every pipeline is compiled; an error when one failed to build.
+fn readiness<'a>(states: impl IntoIterator<Item = &'a CachedPipelineState>) -> Result<bool, String> {
+    let mut ready = true;
     for state in states {
-        if let CachedPipelineState::Err(e) = state {
-            return Err(format!("a bevy_rppm pipeline failed to build: {e}"));
+        match state {
+            CachedPipelineState::Err(e) => {
+                return Err(format!("a bevy_rppm pipeline failed to build: {e}"));
+            }
+            CachedPipelineState::Ok(_) => {}
+            _ => ready = false,
         }
     }
-    Ok(states
-        .iter()
-        .all(|s| matches!(s, CachedPipelineState::Ok(_))))
+    Ok(ready)
+}
+
+/// Whether the stage variants this view selected are compiled.
+fn stages_ready(state: &ViewState, cache: &PipelineCache) -> Result<bool, String> {
+    let Some(stages) = state.photon_stages else {
+        return Ok(false);
+    };
+    let compute = [
+        Some(state.local_pipeline),
+        Some(stages.accumulate),
+        stages.trace,
+        stages.indirect_splat,
+    ];
+    let splat = stages.splat.map(|id| cache.get_render_pipeline_state(id));
+    readiness(
+        compute
+            .into_iter()
+            .flatten()
+            .map(|id| cache.get_compute_pipeline_state(id))
+            .chain(splat),
+    )
 }
 
 /// Makes or keeps each view's resources, resets accumulation on change, and writes the
@@ -534,7 +607,7 @@ pub(crate) fn prepare_views(
     cache: Res<PipelineCache>,
     mut pipelines: ResMut<RppmPipelines>,
     cubemap_pipelines: Res<CubemapPipelines>,
-    photon_pipelines: Res<PhotonPipelines>,
+    mut photon_pipelines: ResMut<PhotonPipelines>,
     mut states: ResMut<RppmViews>,
     mut warned_indirect: Local<bool>,
 ) {
@@ -558,6 +631,7 @@ pub(crate) fn prepare_views(
             shadow_resolution: settings.shadow_map_resolution,
             photon_capacity: photon_capacity(settings, &scene.data, &device),
             importon_tiles: importon_tiles(settings, &scene.data),
+            subsampling: settings.indirect_subsampling,
         };
         let fresh = || {
             ViewState::new(
@@ -583,6 +657,12 @@ pub(crate) fn prepare_views(
         }
         if state.iteration == 0 {
             state.radius2 = (settings.initial_radius_pixels as f64).powi(2);
+        }
+        if let Some(target) = rppm.fast_forward.filter(|&f| state.fast_forward != Some(f)) {
+            state.fast_forward = Some(target);
+            let initial = (settings.initial_radius_pixels as f64).powi(2);
+            state.radius2 = radius2_after(initial, target, settings.alpha);
+            state.iteration = target;
         }
         let estimate = matches!(
             settings.debug_view,
@@ -618,6 +698,15 @@ pub(crate) fn prepare_views(
         ) {
             state.error = Some(e);
         }
+        // Importons need the cubemap bound; without one (its buffers refused) none are made.
+        state.importons &= state.cubemap.is_some();
+        select_stage_pipelines(
+            state,
+            &scene.data,
+            &cache,
+            &mut pipelines,
+            &mut photon_pipelines,
+        );
         state.output_pipeline = output_pipeline(
             &mut pipelines,
             &cache,
@@ -626,6 +715,13 @@ pub(crate) fn prepare_views(
             view_target,
             &mut warned_indirect,
         );
+        let ready = match stages_ready(state, &cache) {
+            Ok(view_ready) => ready && view_ready,
+            Err(e) => {
+                state.error = Some(e);
+                false
+            }
+        };
         let base = state.iteration;
         let budget = settings
             .max_iterations
@@ -646,6 +742,8 @@ pub(crate) fn prepare_views(
             params.splat_russian_roulette = settings.splat_russian_roulette as u32;
             params.direct_photons = (settings.debug_view == RppmDebugView::DirectPhotons) as u32;
             params.indirect_only = (settings.mode == RppmMode::Indirect) as u32;
+            params.kernel_flattening = settings.kernel_flattening;
+            params.indirect_subsampling = settings.indirect_subsampling;
             if slot < count {
                 state.radius2 = next_radius2(state.radius2, base + slot, settings.alpha);
             }
@@ -670,6 +768,36 @@ pub(crate) fn prepare_views(
     states.0.retain(|entity, _| alive.contains(entity));
 }
 
+/// The variants of the local-illumination and photon stages this view runs: only the
+/// scattering paths its scene's materials have, importons only when camera paths go on.
+fn select_stage_pipelines(
+    state: &mut ViewState,
+    scene: &SceneData,
+    cache: &PipelineCache,
+    pipelines: &mut RppmPipelines,
+    photon_pipelines: &mut PhotonPipelines,
+) {
+    state.paths = PathFeatures::of(scene).defs();
+    let specular: Vec<_> = state
+        .paths
+        .iter()
+        .copied()
+        .filter(|&d| d != "GLOSSY")
+        .collect();
+    state.local_pipeline = if state.importons {
+        pipelines.local_importons.get(cache, &specular)
+    } else {
+        pipelines.local_illumination
+    };
+    let traced = state.photons > 0 && state.cubemap.is_some();
+    state.photon_stages = Some(photon_pipelines.stage_ids(
+        cache,
+        traced.then_some(&state.paths[..]),
+        state.importons,
+        state.key.subsampling > 1,
+    ));
+}
+
 /// Makes, keeps or drops the view's deep cubemap, and centres it on the camera.
 #[allow(clippy::too_many_arguments)]
 fn prepare_cubemap(
@@ -686,10 +814,25 @@ fn prepare_cubemap(
         state.cubemap = None;
         return Ok(());
     };
-    let capacity = state.cubemap_capacity.max(DeepCubemap::initial_capacity(
-        config,
-        scene.triangle_count(),
-    ));
+    let limits = device.limits();
+    let limit = limits
+        .max_storage_buffer_binding_size
+        .min(limits.max_buffer_size);
+    let fitted = config.fitted(limit, limits.max_texture_dimension_2d);
+    if fitted != config {
+        warn_once!(
+            "bevy_rppm: a {}² deep cubemap with {} bins does not fit this GPU's buffers; \
+             using {}²",
+            config.resolution,
+            config.bins,
+            fitted.resolution
+        );
+    }
+    let config = fitted;
+    let capacity = state
+        .cubemap_capacity
+        .max(DeepCubemap::initial_capacity(config, scene.triangle_count()))
+        .min((limit / 8) as u32);
     let stale = state
         .cubemap
         .as_ref()
@@ -729,7 +872,6 @@ pub(crate) fn rppm_node(
     pipelines: Res<RppmPipelines>,
     cubemap_pipelines: Res<CubemapPipelines>,
     debug_pipelines: Res<DebugViewPipelines>,
-    photon_pipelines: Res<PhotonPipelines>,
     cache: Res<PipelineCache>,
     mut ctx: RenderContext,
 ) {
@@ -737,25 +879,22 @@ pub(crate) fn rppm_node(
     let (Some(scene), Some(state)) = (scene, states.0.get_mut(&main.id())) else {
         return;
     };
-    // Importons need the cubemap bound; without one (its buffers refused) the plain variant runs.
-    state.importons &= state.cubemap.is_some();
-    let local = if state.importons {
-        pipelines.local_importons
-    } else {
-        pipelines.local_illumination
+    let Some(stages) = state.photon_stages else {
+        return;
     };
-    let (Some(shadow), Some(gbuffer), Some(local)) = (
+    let (Some(shadow), Some(gbuffer), Some(local), Some(accumulate)) = (
         cache.get_render_pipeline(pipelines.shadow),
         cache.get_render_pipeline(pipelines.gbuffer),
-        cache.get_compute_pipeline(local),
+        cache.get_compute_pipeline(state.local_pipeline),
+        cache.get_compute_pipeline(stages.accumulate),
     ) else {
         return;
     };
-    let (photon, splat, Some(accumulate), indirect_splat) =
-        photon_pipelines.get(&cache, state.importons)
-    else {
-        return;
-    };
+    let photon = stages.trace.and_then(|id| cache.get_compute_pipeline(id));
+    let splat = stages.splat.and_then(|id| cache.get_render_pipeline(id));
+    let indirect_splat = stages
+        .indirect_splat
+        .and_then(|id| cache.get_compute_pipeline(id));
     let node = NodePipelines {
         cache: &cache,
         cubemap: &cubemap_pipelines,
@@ -896,9 +1035,14 @@ fn encode_estimate(
 ) {
     let traced = traces_photons(state, node);
     let splat = if traced { node.splat } else { None };
-    state
-        .photon_targets
-        .encode_splat(encoder, splat, &state.scene_group, offset, &mut state.timer);
+    state.photon_targets.encode_splat(
+        encoder,
+        splat,
+        &state.scene_group,
+        offset,
+        state.key.size,
+        &mut state.timer,
+    );
     if let (true, true, Some(cubemap), Some(indirect)) =
         (traced, state.importons, &state.cubemap, node.indirect_splat)
     {
@@ -920,6 +1064,7 @@ fn encode_estimate(
     state.photon_targets.encode_accumulate(
         encoder,
         node.accumulate,
+        &state.scene_group,
         state.key.size,
         offset,
         &mut state.timer,
@@ -1138,8 +1283,40 @@ pub(crate) fn report_views(
                 photons_stored: state.photons_stored,
                 importons: state.importons_made,
                 passes: passes(state),
+                splat_radius_pixels: state.radius2.sqrt(),
+                shader_paths: state.paths.iter().map(|p| p.to_string()).collect(),
                 cubemap_overflow: state.cubemap_nodes.1,
             },
         ));
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// r² after n steps behaves as r₀² n^(α−1) / Γ(1+α): the ratio between two far points of
+    /// the sequence is (n₂/n₁)^(α−1), with no underflow, NaN or growth on the way.
+    #[test]
+    fn radius_decay_stays_finite_and_follows_its_power_law_over_1e8_iterations() {
+        for alpha in [1e-4_f32, 0.01, 0.7, 0.999, 1.0] {
+            let r2_6 = radius2_after(16.0, 1_000_000, alpha);
+            let r2_8 = (1_000_000..100_000_000).fold(r2_6, |r2, i| next_radius2(r2, i, alpha));
+            for r2 in [r2_6, r2_8] {
+                assert!(r2.is_finite() && r2 > 0.0 && r2 <= 16.0, "α {alpha}: r² {r2}");
+            }
+            let expected = 100f64.powf(alpha as f64 - 1.0);
+            let ratio = r2_8 / r2_6;
+            assert!(
+                (ratio / expected - 1.0).abs() < 1e-4,
+                "α {alpha}: r² ratio {ratio} vs {expected}"
+            );
+        }
+    }
+
+    #[test]
+    fn radius_keeps_its_size_at_alpha_one() {
+        assert_eq!(radius2_after(16.0, 1000, 1.0), 16.0);
+        assert_eq!(radius2_after(16.0, 0, 0.7), 16.0);
     }
 }

@@ -569,7 +569,7 @@ fn render_asset(
         budget: Budget::Iterations(iterations),
         settings,
     };
-    render_gltf(&request, |_, _| {}).unwrap_or_else(|e| panic!("{e}"))
+    render_gltf(&request, |_| {}).unwrap_or_else(|e| panic!("{e}"))
 }
 
 fn render_box(settings: PhotonMapping, size: u32, iterations: u32) -> RgbImage {
@@ -1061,7 +1061,12 @@ fn example_binary(name: &str) -> PathBuf {
 #[test]
 fn examples_run_headless_and_save_their_view() {
     check_gpu_adapter().unwrap_or_else(|hint| panic!("{hint}"));
-    for (name, frames) in [("toggle", "12"), ("cornell", "12"), ("pool", "3")] {
+    for (name, frames) in [
+        ("toggle", "12"),
+        ("cornell", "12"),
+        ("bunny", "12"),
+        ("pool", "3"),
+    ] {
         let out = temp(&format!("example_{name}.png"));
         let run = Command::new(example_binary(name))
             .args(["--headless", "--frames", frames, "--out"])
@@ -1091,4 +1096,306 @@ fn examples_run_headless_and_save_their_view() {
             "{name}: the saved view is nearly black"
         );
     }
+}
+
+/// Runs frames until the camera has accumulated `n` iterations (at most 100 frames).
+fn until_iterations(app: &mut App, camera: Entity, n: u32) {
+    for _ in 0..100 {
+        if iteration(app, camera) >= n {
+            return;
+        }
+        app.update();
+    }
+    panic!("fewer than {n} iterations after 100 frames");
+}
+
+fn radiance(app: &App, camera: Entity) -> bevy_rppm::RadianceImage {
+    app.world().resource::<RppmRadiance>().images[&camera].clone()
+}
+
+fn assert_finite(image: &bevy_rppm::RadianceImage, what: &str) {
+    let bad = image
+        .pixels
+        .iter()
+        .filter(|p| p[..3].iter().any(|v| !v.is_finite() || *v < 0.0))
+        .count();
+    assert_eq!(bad, 0, "{what}: {bad} pixels are NaN, infinite or negative");
+}
+
+#[test]
+fn a_target_resized_to_zero_and_back_keeps_rendering() {
+    use bevy::camera::RenderTarget;
+    let mut app = gpu_app();
+    let (camera, _) = lit_plane(&mut app, 1000.0, 2.0, 32);
+    until_iterations(&mut app, camera, 2);
+    let Some(RenderTarget::Image(target)) = app.world().get::<RenderTarget>(camera).cloned()
+    else {
+        panic!("the camera renders to an image");
+    };
+    let resize = |app: &mut App, w: u32, h: u32| {
+        let mut images = app.world_mut().resource_mut::<Assets<Image>>();
+        let mut image = images.get_mut(&target.handle).unwrap();
+        image.resize(bevy::render::render_resource::Extent3d {
+            width: w,
+            height: h,
+            depth_or_array_layers: 1,
+        });
+    };
+    // A window resized to 0×0: Bevy drops the camera's render view (bevy_render's camera
+    // extraction skips zero-sized targets; a 0×0 image target cannot be made at all), the
+    // same path as an inactive camera. Nothing renders, nothing panics.
+    let active = |app: &mut App, on: bool| {
+        app.world_mut().get_mut::<Camera>(camera).unwrap().is_active = on;
+    };
+    active(&mut app, false);
+    frames(&mut app, 3);
+    active(&mut app, true);
+    resize(&mut app, 48, 40);
+    for _ in 0..40 {
+        app.update();
+        let image = radiance(&app, camera);
+        if (image.width, image.height) == (48, 40) && image.iteration >= 2 {
+            assert_finite(&image, "after resizing back");
+            let lit = image.pixels.iter().filter(|p| p[1] > 0.0).count();
+            assert!(lit > 48 * 40 / 2, "only {lit} lit pixels after the resize");
+            return;
+        }
+    }
+    panic!("no 48x40 estimate came back after the resize");
+}
+
+#[test]
+fn radius_and_mean_stay_finite_fast_forwarded_to_1e8_iterations() {
+    for alpha in [1e-4f32, 0.7, 1.0] {
+        let mut app = gpu_app();
+        let settings = PhotonMapping {
+            alpha,
+            ..default()
+        };
+        let (camera, _) = plane_scene(
+            &mut app,
+            (
+                PointLight {
+                    intensity: 2000.0,
+                    ..default()
+                },
+                Transform::from_xyz(0.0, 1.5, 0.0),
+            ),
+            24,
+            settings.clone(),
+        );
+        until_iterations(&mut app, camera, 2);
+        for target in [1_000_000u32, 100_000_000] {
+            let ff = bevy_rppm::RppmFastForward(target);
+            app.world_mut().entity_mut(camera).insert(ff);
+            until_iterations(&mut app, camera, target + 2);
+            let stats = app.world().resource::<RppmStats>().views[&camera].clone();
+            let radius = stats.splat_radius_pixels;
+            let expected = bevy_rppm::radius2_after(16.0, stats.iteration, alpha).sqrt();
+            eprintln!("α {alpha}: iteration {}, radius {radius:.3e} px", stats.iteration);
+            assert!(radius.is_finite() && radius > 0.0 && radius <= 4.0);
+            assert!((radius / expected - 1.0).abs() < 1e-9, "{radius} vs {expected}");
+            assert_finite(&radiance(&app, camera), &format!("α {alpha} at {target}"));
+        }
+    }
+}
+
+/// Every knob at both ends of its range, on the shipped Cornell box: finite, no error.
+#[test]
+fn extreme_settings_render_finite_images() {
+    let base = PhotonMapping {
+        photons_per_iteration: 4096,
+        ..default()
+    };
+    let cases: Vec<(&str, PhotonMapping)> = vec![
+        ("0 photons", PhotonMapping { photons_per_iteration: 0, ..base.clone() }),
+        ("1 photon", PhotonMapping { photons_per_iteration: 1, ..base.clone() }),
+        ("photon depth 1", PhotonMapping { max_photon_depth: 1, ..base.clone() }),
+        ("photon depth 64", PhotonMapping { max_photon_depth: 64, ..base.clone() }),
+        ("eye depth 64", PhotonMapping { max_eye_depth: 64, ..base.clone() }),
+        ("cubemap 16", PhotonMapping { cubemap_resolution: 16, ..base.clone() }),
+        ("cubemap max", PhotonMapping { cubemap_resolution: 4096, ..base.clone() }),
+        ("bins 1", PhotonMapping { bins: 1, ..base.clone() }),
+        ("bins 64", PhotonMapping { bins: 64, ..base.clone() }),
+        ("tile 4", PhotonMapping { cubemap_tile_size: 4, ..base.clone() }),
+        ("alpha 1e-4", PhotonMapping { alpha: 1e-4, ..base.clone() }),
+        ("radius 0.25 px", PhotonMapping { initial_radius_pixels: 0.25, ..base.clone() }),
+        ("radius 256 px", PhotonMapping { initial_radius_pixels: 256.0, ..base.clone() }),
+        ("flattening 0.01", PhotonMapping { kernel_flattening: 0.01, ..base.clone() }),
+        ("subsampling 4", PhotonMapping { indirect_subsampling: 4, ..base.clone() }),
+    ];
+    for (name, settings) in cases {
+        let r = render_asset(settings, 24, 24, 3);
+        eprintln!(
+            "{name}: mean {:.4}, passes {:?}, {} MiB",
+            r.image.mean(),
+            r.stats.passes,
+            r.stats.memory.values().sum::<u64>() >> 20
+        );
+        assert_eq!(bad_pixels(&r.image), 0, "{name}");
+        assert!(r.stats.error.is_none(), "{name}: {:?}", r.stats.error);
+        assert!(r.image.mean() > 0.0, "{name}: black image");
+    }
+}
+
+/// Renders the shipped Cornell box with its root scaled by `scale` and its lights' power
+/// multiplied by `power`.
+fn render_transformed_box(scale: f32, power: f32, size: u32) -> RgbImage {
+    use bevy::world_serialization::WorldAssetRoot;
+    use bevy_rppm::headless::{Budget, RenderRequest, load_gltf, render_loaded};
+    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/cornell_box.gltf");
+    let mut app = load_gltf(&scene).unwrap_or_else(|e| panic!("{e}"));
+    let world = app.world_mut();
+    let mut roots = world.query_filtered::<&mut Transform, With<WorldAssetRoot>>();
+    for mut t in roots.iter_mut(world) {
+        t.scale = Vec3::splat(scale);
+    }
+    let mut lights = world.query::<&mut PointLight>();
+    for mut light in lights.iter_mut(world) {
+        light.intensity *= power;
+        light.range *= scale;
+    }
+    let request = RenderRequest {
+        scene,
+        width: size,
+        height: size,
+        budget: Budget::Iterations(16),
+        settings: PhotonMapping {
+            photons_per_iteration: 16_384,
+            ..default()
+        },
+    };
+    render_loaded(&mut app, &request, |_| {})
+        .unwrap_or_else(|e| panic!("{e}"))
+        .image
+}
+
+fn scaled(image: &RgbImage, k: f32) -> RgbImage {
+    RgbImage {
+        pixels: image.pixels.iter().map(|p| p.map(|v| v * k)).collect(),
+        ..image.clone()
+    }
+}
+
+/// Radiance is invariant under scaling the scene when a point light's intensity (W/sr)
+/// scales with the area (E ∝ I/d²), and linear in the light's power.
+#[test]
+fn scene_scale_and_light_power_extremes_match_the_reference() {
+    use bevy_rppm::image_io::relmse;
+    let assets = Path::new(env!("CARGO_MANIFEST_DIR")).join("assets");
+    let reference = downsample(&read_exr(&assets.join("cornell_box.ref.exr")).unwrap(), 4);
+    let unit = relmse(&render_transformed_box(1.0, 1.0, 64), &reference).unwrap();
+    for (scale, power) in [(1e-3f32, 1.0f32), (1e4, 1.0), (1.0, 1e-6), (1.0, 1e9)] {
+        // Same intensity over an s-times larger scene: radiance falls by s².
+        let image = render_transformed_box(scale, power, 64);
+        assert_eq!(bad_pixels(&image), 0, "scale {scale}, power {power}");
+        let back = scaled(&image, scale * scale / power);
+        let e = relmse(&back, &reference).unwrap();
+        eprintln!("scale {scale:e} m, power ×{power:e}: relMSE {e:.4} (scale 1: {unit:.4})");
+        assert!(e < unit * 1.5 + 0.005, "relMSE {e} vs {unit} at scale 1");
+    }
+}
+
+/// A camera inside a closed box, rays grazing a plane, coplanar overlapping triangles and
+/// degenerate ones: finite images, no error.
+#[test]
+fn camera_inside_geometry_and_grazing_coplanar_triangles_stay_finite() {
+    let mut app = gpu_app();
+    let (camera, _) = lit_plane(&mut app, 1000.0, 1.5, 24);
+    let world = app.world_mut();
+    let material = matte(&mut world.resource_mut::<Assets<StandardMaterial>>(), 0.5);
+    let twin = world.resource_mut::<Assets<Mesh>>().add(quad(5.0, None, true));
+    world.spawn((Mesh3d(twin), MeshMaterial3d(material.clone())));
+    let sliver = {
+        let mut mesh = Mesh::new(PrimitiveTopology::TriangleList, RenderAssetUsages::default());
+        let p = [[0.0, 0.01, 0.0], [1.0, 0.01, 0.0], [2.0, 0.01, 1e-7]];
+        mesh.insert_attribute(Mesh::ATTRIBUTE_POSITION, p.to_vec());
+        world.resource_mut::<Assets<Mesh>>().add(mesh)
+    };
+    world.spawn((Mesh3d(sliver), MeshMaterial3d(material.clone())));
+    let cube = world.resource_mut::<Assets<Mesh>>().add(Cuboid::new(1.0, 1.0, 1.0));
+    world.spawn((
+        Mesh3d(cube),
+        MeshMaterial3d(material),
+        Transform::from_xyz(0.0, 0.6, 0.0),
+    ));
+    // Inside the cube, then level with the plane looking along it.
+    let poses = [
+        Transform::from_xyz(0.0, 0.6, 0.0).looking_at(Vec3::new(0.3, 0.6, 0.2), Vec3::Y),
+        Transform::from_xyz(-4.0, 1e-4, 0.0).looking_at(Vec3::new(4.0, 1e-4, 0.0), Vec3::Y),
+    ];
+    for pose in poses {
+        *app.world_mut().get_mut::<Transform>(camera).unwrap() = pose;
+        frames(&mut app, 2);
+        until_iterations(&mut app, camera, 2);
+        let stats = app.world().resource::<RppmStats>().views[&camera].clone();
+        assert!(stats.error.is_none(), "{:?}", stats.error);
+        assert!(stats.iteration >= 2, "iteration {}", stats.iteration);
+        assert_finite(&radiance(&app, camera), &format!("camera at {pose:?}"));
+    }
+}
+
+/// Passes and shader paths follow the scene and settings: a matte plane compiles no
+/// specular path, depth 1 runs no photon pass, eye depth 1 no importons; glass adds
+/// refraction.
+#[test]
+fn only_the_passes_and_code_paths_the_scene_needs_run() {
+    let passes = |settings: PhotonMapping, glass: bool| {
+        let mut app = gpu_app();
+        let (camera, _) = plane_scene(
+            &mut app,
+            (PointLight::default(), Transform::from_xyz(0.0, 1.5, 0.0)),
+            16,
+            settings,
+        );
+        if glass {
+            let world = app.world_mut();
+            let material = world
+                .resource_mut::<Assets<StandardMaterial>>()
+                .add(StandardMaterial {
+                    specular_transmission: 1.0,
+                    perceptual_roughness: 0.0,
+                    ..default()
+                });
+            let ball = world.resource_mut::<Assets<Mesh>>().add(Sphere::new(0.4));
+            world.spawn((
+                Mesh3d(ball),
+                MeshMaterial3d(material),
+                Transform::from_xyz(0.0, 0.5, 0.0),
+            ));
+        }
+        until_iterations(&mut app, camera, 2);
+        let stats = app.world().resource::<RppmStats>().views[&camera].clone();
+        assert!(stats.error.is_none(), "{stats:?}");
+        (stats.passes, stats.shader_paths, stats.memory)
+    };
+    let (plain, paths, memory) = passes(PhotonMapping::default(), false);
+    assert!(paths.is_empty(), "a matte plane needs no specular path: {paths:?}");
+    assert!(plain.contains(&"photon_trace".to_string()), "{plain:?}");
+    assert!(!plain.contains(&"importon_tracing".to_string()), "{plain:?}");
+    // Matte albedo 0.8: the store holds Σ 0.8ʲ ≈ 4 photons per emitted one, not 7.
+    let store = memory["photons"] as f64 / (262_144.0 * 64.0);
+    assert!(store < 5.0, "photon store holds {store:.2} photons per emitted photon");
+    let (one_bounce, _, memory) = passes(
+        PhotonMapping {
+            max_photon_depth: 1,
+            ..default()
+        },
+        false,
+    );
+    assert!(!one_bounce.contains(&"photon_trace".to_string()), "{one_bounce:?}");
+    assert!(!memory.contains_key("photons"));
+    let (glass, paths, _) = passes(PhotonMapping::default(), true);
+    assert!(paths.contains(&"REFRACTION".to_string()), "{paths:?}");
+    assert!(glass.contains(&"importon_tracing".to_string()), "{glass:?}");
+    assert!(glass.contains(&"indirect_splat".to_string()), "{glass:?}");
+    let (no_eye, _, _) = passes(
+        PhotonMapping {
+            max_eye_depth: 1,
+            ..default()
+        },
+        true,
+    );
+    assert!(!no_eye.contains(&"importon_tracing".to_string()), "{no_eye:?}");
+    assert!(!no_eye.contains(&"indirect_splat".to_string()), "{no_eye:?}");
 }

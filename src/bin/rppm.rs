@@ -15,13 +15,16 @@ use bevy_rppm::cubemap::CubemapConfig;
 use bevy_rppm::cubemap::bench::DirtBenchRow;
 use bevy_rppm::headless::{Budget, RenderRequest, RenderResult, bench_dirt, render_gltf};
 use bevy_rppm::image_io::{bad_pixels, energy_ratio, read_exr, relmse, write_exr, write_png};
-use bevy_rppm::{PhotonMapping, RppmDebugView};
+use bevy_rppm::trade::{TradeRequest, best_at, pareto_front, run_trade, write_csv};
+use bevy_rppm::{PhotonMapping, RppmDebugView, RppmPreset};
 
 const USAGE: &str = "usage: rppm render SCENE.gltf [--width W] [--height H] \
 [--iterations N | --time-budget SECONDS] [--out FILE.exr|FILE.png]... [--stats FILE.json]
                    [--photons N] [--photon-depth N] [--radius PIXELS] [--cubemap RESOLUTION] [--splat-rr]
-                   [--debug-view gbuffer-normals|cubemap-normals|direct-photons]
+                   [--debug-view gbuffer-normals|cubemap-normals|direct-photons] [--preset preview|balanced|reference]
+                   [--alpha A] [--bins N] [--tile 1|2|4] [--eye-depth N] [--flattening F] [--subsampling 1|2|4]
        rppm compare TEST.exr REFERENCE.exr
+       rppm bench trade SCENE.gltf --reference REF.exr [--budget SECONDS] [--out DIR] [--knobs photons,cubemap,...]
        rppm bench dirt SCENE.gltf [--json] [--rays N] [--timing-rays N] \
 [--resolutions 64,128,256,512] [--bins 4,8,16,32] [--tile 1|2|4]";
 
@@ -47,8 +50,13 @@ fn main() -> ExitCode {
                 }
             };
         }
-        Some("bench") if argv.get(1).map(String::as_str) == Some("dirt") => {
-            return match parse_bench(&argv[2..]).and_then(|b| bench(&b)) {
+        Some("bench") => {
+            let result = match argv.get(1).map(String::as_str) {
+                Some("dirt") => parse_bench(&argv[2..]).and_then(|b| bench(&b)),
+                Some("trade") => parse_trade(&argv[2..]).and_then(|t| trade(&t)),
+                _ => Err(format!("bench what? use 'bench dirt' or 'bench trade'\n{USAGE}")),
+            };
+            return match result {
                 Ok(()) => ExitCode::SUCCESS,
                 Err(message) => {
                     eprintln!("rppm: error: {message}");
@@ -134,6 +142,26 @@ fn parse_render(args: &[String]) -> Result<Args, String> {
             "--photon-depth" => settings.max_photon_depth = number(value(args, i, flag)?, flag)?,
             "--radius" => settings.initial_radius_pixels = number(value(args, i, flag)?, flag)?,
             "--cubemap" => settings.cubemap_resolution = number(value(args, i, flag)?, flag)?,
+            "--alpha" => settings.alpha = number(value(args, i, flag)?, flag)?,
+            "--bins" => settings.bins = number(value(args, i, flag)?, flag)?,
+            "--tile" => settings.cubemap_tile_size = number(value(args, i, flag)?, flag)?,
+            "--eye-depth" => settings.max_eye_depth = number(value(args, i, flag)?, flag)?,
+            "--flattening" => settings.kernel_flattening = number(value(args, i, flag)?, flag)?,
+            "--subsampling" => {
+                settings.indirect_subsampling = number(value(args, i, flag)?, flag)?
+            }
+            "--preset" => {
+                settings = PhotonMapping::from(match value(args, i, flag)? {
+                    "preview" => RppmPreset::Preview,
+                    "balanced" => RppmPreset::Balanced,
+                    "reference" => RppmPreset::Reference,
+                    other => {
+                        return Err(format!(
+                            "--preset {other}: use preview, balanced or reference"
+                        ));
+                    }
+                })
+            }
             "--splat-rr" => {
                 settings.splat_russian_roulette = true;
                 i += 1;
@@ -198,10 +226,11 @@ fn output_path(text: &str) -> Result<PathBuf, String> {
 
 fn run(args: &Args) -> Result<(), String> {
     let started = std::time::Instant::now();
-    let result = render_gltf(&args.request, |iteration, budget| {
-        let line = match budget {
+    let result = render_gltf(&args.request, |progress| {
+        let iteration = progress.iteration;
+        let line = match progress.budget {
             Budget::Iterations(n) => {
-                let filled = (iteration as usize * 30) / (*n as usize).max(1);
+                let filled = (iteration as usize * 30) / (n as usize).max(1);
                 format!(
                     "[{:<30}] {iteration}/{n} iterations",
                     "#".repeat(filled.min(30))
@@ -278,6 +307,7 @@ fn stats_json(args: &Args, r: &RenderResult, total_seconds: f64) -> serde_json::
         "photons_stored": r.stats.photons_stored,
         "importons": r.stats.importons,
         "passes": r.stats.passes,
+        "shader_paths": r.stats.shader_paths,
         "mean_rgb": mean_rgb(&r.image),
     })
 }
@@ -453,5 +483,88 @@ fn compare(args: &[String]) -> Result<(), String> {
         "bad_pixels": bad_pixels(&test),
     });
     println!("{json}");
+    Ok(())
+}
+
+struct TradeArgs {
+    request: TradeRequest,
+    out: PathBuf,
+}
+
+fn parse_trade(args: &[String]) -> Result<TradeArgs, String> {
+    let (mut scene, mut reference) = (None, None);
+    let mut budget = 20.0f64;
+    let mut out = PathBuf::from("out/trade");
+    let mut only = Vec::new();
+    let mut i = 0;
+    while i < args.len() {
+        let flag = args[i].as_str();
+        match flag {
+            "--reference" => reference = Some(PathBuf::from(value(args, i, flag)?)),
+            "--budget" => budget = number(value(args, i, flag)?, flag)?,
+            "--out" => out = PathBuf::from(value(args, i, flag)?),
+            "--knobs" => only = value(args, i, flag)?.split(',').map(String::from).collect(),
+            _ if flag.starts_with("--") => return Err(format!("unknown option {flag}\n{USAGE}")),
+            _ if scene.is_none() => {
+                scene = Some(PathBuf::from(flag));
+                i += 1;
+                continue;
+            }
+            _ => return Err(format!("unexpected argument '{flag}'\n{USAGE}")),
+        }
+        i += 2;
+    }
+    if !(budget.is_finite() && budget > 0.0) {
+        return Err("--budget must be a positive number of seconds".into());
+    }
+    let base = PhotonMapping::default();
+    let names: Vec<&str> = bevy_rppm::trade::knobs(&base).iter().map(|k| k.name).collect();
+    if let Some(unknown) = only.iter().find(|k| !names.contains(&k.as_str())) {
+        return Err(format!("--knobs: no knob '{unknown}'; knobs: {}", names.join(",")));
+    }
+    let scene = scene.ok_or_else(|| format!("no scene given\n{USAGE}"))?;
+    let reference = reference.ok_or_else(|| format!("--reference REF.exr is required\n{USAGE}"))?;
+    Ok(TradeArgs {
+        request: TradeRequest {
+            scene,
+            reference: read_exr(&reference)?,
+            budget_seconds: budget,
+            base,
+            only,
+        },
+        out,
+    })
+}
+
+/// Sweeps the knobs, writes the CSVs and plots, and prints the best setting per budget.
+fn trade(t: &TradeArgs) -> Result<(), String> {
+    std::fs::create_dir_all(&t.out)
+        .map_err(|e| format!("cannot create {}: {e}", t.out.display()))?;
+    let runs = run_trade(&t.request, |line| eprintln!("{line}"));
+    if runs.iter().all(|r| r.error.is_some()) {
+        return Err(format!(
+            "every run failed: {}",
+            runs.first().and_then(|r| r.error.clone()).unwrap_or_default()
+        ));
+    }
+    write_csv(&runs, &t.out)?;
+    let front = pareto_front(&runs);
+    for path in bevy_rppm::trade::plot::write_plots(&runs, &front, &t.out)? {
+        eprintln!("wrote {path}");
+    }
+    eprintln!("wrote {}/samples.csv and runs.csv", t.out.display());
+    println!("budget_s  best setting          iterations  relMSE");
+    let budget = t.request.budget_seconds;
+    let budgets = [1.0, 2.0, 5.0, 10.0, budget];
+    for b in budgets.into_iter().filter(|&b| b <= budget) {
+        if let Some((run, sample)) = best_at(&runs, b) {
+            println!(
+                "{b:>8.1}  {:<20}  {:>10}  {:.5}",
+                format!("{}={}", run.knob, run.value),
+                sample.iteration,
+                sample.relmse
+            );
+        }
+    }
     Ok(())
 }

@@ -32,6 +32,17 @@ pub struct CubemapConfig {
 }
 
 impl CubemapConfig {
+    /// This configuration at the largest resolution (halving down to 16) whose faces fit the
+    /// GPU's largest render target and whose tile-list heads fit one buffer binding.
+    pub fn fitted(mut self, limit_bytes: u64, max_dimension: u32) -> Self {
+        // The largest per-tile buffer: list heads (4 bytes a bin) or bounds (8 bytes).
+        let heads = |c: &Self| 6 * (c.grid() as u64).pow(2) * (c.bins as u64 * 4).max(8);
+        while self.resolution > 16 && (heads(&self) > limit_bytes || self.resolution > max_dimension) {
+            self.resolution /= 2;
+        }
+        self
+    }
+
     /// Tiles along each face's edge.
     pub fn grid(&self) -> u32 {
         (self.resolution / self.tile_size.max(1)).max(1)

@@ -146,6 +146,30 @@ impl SceneData {
     }
 }
 
+impl SceneData {
+    /// The largest probability that a photon goes on after a hit, over the scene's materials
+    /// (the Russian roulette of photon.wgsl: diffuse, glossy, mirror and glass albedos).
+    pub fn max_scatter_probability(&self) -> f32 {
+        self.materials
+            .iter()
+            .map(|m| {
+                let rgb = |c: [f32; 4]| [c[0], c[1], c[2]];
+                let delta = m.perceptual_roughness < 0.02;
+                let layer = 0.16 * m.reflectance * m.reflectance;
+                let diffuse = (1.0 - m.metallic) * (1.0 - m.specular_transmission) * (1.0 - layer);
+                let base = luminance(rgb(m.base_color));
+                let f0 = layer * (1.0 - m.metallic) + base * m.metallic;
+                let scatter = if delta {
+                    base * m.metallic + m.specular_transmission * (1.0 - m.metallic)
+                } else {
+                    f0
+                };
+                (diffuse * base + scatter).min(1.0)
+            })
+            .fold(0.0, f32::max)
+    }
+}
+
 /// The extracted scene and the epoch that counts its changes. Any change to meshes, materials,
 /// lights or transforms increments `epoch`, which restarts progressive accumulation.
 #[derive(Resource, Clone, Default, ExtractResource)]

@@ -96,7 +96,7 @@ pub fn offscreen_target(images: &mut Assets<Image>, width: u32, height: u32) -> 
 /// What a render has reached, each time a new iteration comes back.
 pub struct Progress<'a> {
     pub iteration: u32,
-    /// Wall-clock seconds since the first iteration came back.
+    /// Wall-clock seconds since the frame that rendered the first iteration.
     pub seconds: f64,
     pub budget: Budget,
     pub image: &'a crate::RadianceImage,
@@ -335,7 +335,12 @@ fn run_until_done(
 ) -> Result<(crate::RadianceImage, ViewStats, f64), String> {
     let mut first_iteration: Option<Instant> = None;
     let mut last_progress = (0u32, Instant::now());
+    // The clock starts with the frame before the first iteration came back: the one that
+    // rendered it (its result is read back a frame later).
+    let mut previous_frame = Instant::now();
     loop {
+        let rendering_frame = previous_frame;
+        previous_frame = Instant::now();
         app.update();
         let world = app.world();
         let error = world
@@ -364,7 +369,7 @@ fn run_until_done(
             .cloned()
             .unwrap_or_default();
         if image.iteration > 0 && first_iteration.is_none() {
-            first_iteration = Some(Instant::now());
+            first_iteration = Some(rendering_frame);
         }
         let seconds = first_iteration.map_or(0.0, |t| t.elapsed().as_secs_f64());
         if image.iteration != last_progress.0 {

@@ -39,6 +39,11 @@ use bevy::render::extract_resource::ExtractResourcePlugin;
 use bevy::render::{Render, RenderApp, RenderStartup, RenderSystems};
 use bevy::shader::Shader;
 
+/// The README's code, compiled by `cargo test --doc`.
+#[doc = include_str!("../README.md")]
+#[cfg(doctest)]
+pub struct ReadmeDoctests;
+
 pub use output::{RadianceImage, RppmRadiance, RppmReadback, RppmStats, ViewStats};
 pub use scene::{RppmScene, SceneData};
 pub use settings::{PhotonMapping, RppmDebugView, RppmFastForward, RppmMode, RppmPreset};

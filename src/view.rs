@@ -1245,15 +1245,20 @@ pub(crate) fn report_views(
         let mut memory = scene_memory.clone();
         memory.extend(state.memory());
         if let Some(cubemap) = &state.cubemap {
-            // The list counters need a GPU round trip: only frames that wait anyway read them.
-            if state.readback_pending
-                && let Some(bytes) = read_back(&device, &queue, cubemap.counters())
-            {
-                let counters: &[u32] = bytemuck::cast_slice(&bytes);
-                state.cubemap_nodes = (counters[0].min(cubemap.params.node_capacity), counters[1]);
-                if counters[1] > 0 {
-                    state.cubemap_capacity =
-                        (counters[0] as u64 * 5 / 4).min(u32::MAX as u64 / 2) as u32;
+            // Frames that wait for the GPU anyway read this build's counters; others take an
+            // earlier build's when its non-blocking read-back arrives.
+            let counters = if state.readback_pending {
+                read_back(&device, &queue, cubemap.counters()).map(|bytes| {
+                    let c: &[u32] = bytemuck::cast_slice(&bytes);
+                    [c[0], c[1]]
+                })
+            } else {
+                cubemap.poll_counters(&device)
+            };
+            if let Some([used, lost]) = counters {
+                state.cubemap_nodes = (used.min(cubemap.params.node_capacity), lost);
+                if lost > 0 {
+                    state.cubemap_capacity = (used as u64 * 5 / 4).min(u32::MAX as u64 / 2) as u32;
                 }
             }
         }

@@ -1399,3 +1399,25 @@ fn only_the_passes_and_code_paths_the_scene_needs_run() {
     assert!(!no_eye.contains(&"importon_tracing".to_string()), "{no_eye:?}");
     assert!(!no_eye.contains(&"indirect_splat".to_string()), "{no_eye:?}");
 }
+
+/// Without `RppmReadback` (every game) the deep cubemap's lists still grow until nothing
+/// overflows: their counters come back without a stall.
+#[test]
+fn cubemap_lists_grow_without_a_blocking_read_back() {
+    let mut app = gpu_app();
+    let (camera, _) = lit_plane(&mut app, 1000.0, 2.0, 32);
+    app.world_mut().entity_mut(camera).remove::<RppmReadback>();
+    let mut seen = Vec::new();
+    for _ in 0..60 {
+        app.update();
+        let Some(stats) = app.world().resource::<RppmStats>().views.get(&camera) else {
+            continue;
+        };
+        seen.push((stats.cubemap_nodes, stats.cubemap_overflow));
+        if stats.cubemap_nodes > 0 && stats.cubemap_overflow == 0 && seen.iter().any(|s| s.1 > 0) {
+            eprintln!("cubemap (nodes, overflow) per frame: {seen:?}");
+            return;
+        }
+    }
+    panic!("the lists never grew to hold every entry: {seen:?}");
+}

@@ -24,7 +24,7 @@ const USAGE: &str = "usage: rppm render SCENE.gltf [--width W] [--height H] \
                    [--debug-view gbuffer-normals|cubemap-normals|direct-photons] [--preset preview|balanced|reference]
                    [--alpha A] [--bins N] [--tile 1|2|4] [--eye-depth N] [--flattening F] [--subsampling 1|2|4]
        rppm compare TEST.exr REFERENCE.exr
-       rppm bench trade SCENE.gltf --reference REF.exr [--budget SECONDS] [--out DIR] [--knobs photons,cubemap,...]
+       rppm bench trade SCENE.gltf --reference REF.exr [--budget SECONDS] [--out DIR] [--knobs photons,cubemap,...] [--photons N]
        rppm bench dirt SCENE.gltf [--json] [--rays N] [--timing-rays N] \
 [--resolutions 64,128,256,512] [--bins 4,8,16,32] [--tile 1|2|4]";
 
@@ -180,13 +180,10 @@ fn parse_render(args: &[String]) -> Result<Args, String> {
                     }
                 }
             }
-            _ if flag.starts_with("--") => return Err(format!("unknown option {flag}\n{USAGE}")),
-            _ if scene.is_none() => {
-                scene = Some(PathBuf::from(flag));
-                i += 1;
+            _ => {
+                i += positional(flag, &mut scene)?;
                 continue;
             }
-            _ => return Err(format!("unexpected argument '{flag}'\n{USAGE}")),
         }
         i += 2;
     }
@@ -202,6 +199,19 @@ fn parse_render(args: &[String]) -> Result<Args, String> {
         outputs,
         stats,
     })
+}
+
+/// A bare argument: the scene, once; anything else (an unknown option, a second scene) is an
+/// error. Returns the arguments it used.
+fn positional(flag: &str, scene: &mut Option<PathBuf>) -> Result<usize, String> {
+    if flag.starts_with("--") {
+        return Err(format!("unknown option {flag}\n{USAGE}"));
+    }
+    if scene.is_some() {
+        return Err(format!("unexpected argument '{flag}'\n{USAGE}"));
+    }
+    *scene = Some(PathBuf::from(flag));
+    Ok(1)
 }
 
 fn set_budget(current: Option<Budget>, new: Budget) -> Result<Option<Budget>, String> {
@@ -373,12 +383,7 @@ fn parse_bench(args: &[String]) -> Result<BenchArgs, String> {
             "--resolutions" => b.resolutions = list(value(args, i, flag)?, flag)?,
             "--bins" => b.bins = list(value(args, i, flag)?, flag)?,
             "--tile" => b.tile = number(value(args, i, flag)?, flag)?,
-            _ if flag.starts_with("--") => return Err(format!("unknown option {flag}\n{USAGE}")),
-            _ if scene.is_none() => {
-                scene = Some(PathBuf::from(flag));
-                step = 1;
-            }
-            _ => return Err(format!("unexpected argument '{flag}'\n{USAGE}")),
+            _ => step = positional(flag, &mut scene)?,
         }
         i += step;
     }
@@ -496,6 +501,7 @@ fn parse_trade(args: &[String]) -> Result<TradeArgs, String> {
     let mut budget = 20.0f64;
     let mut out = PathBuf::from("out/trade");
     let mut only = Vec::new();
+    let mut base = PhotonMapping::default();
     let mut i = 0;
     while i < args.len() {
         let flag = args[i].as_str();
@@ -504,20 +510,17 @@ fn parse_trade(args: &[String]) -> Result<TradeArgs, String> {
             "--budget" => budget = number(value(args, i, flag)?, flag)?,
             "--out" => out = PathBuf::from(value(args, i, flag)?),
             "--knobs" => only = value(args, i, flag)?.split(',').map(String::from).collect(),
-            _ if flag.starts_with("--") => return Err(format!("unknown option {flag}\n{USAGE}")),
-            _ if scene.is_none() => {
-                scene = Some(PathBuf::from(flag));
-                i += 1;
+            "--photons" => base.photons_per_iteration = number(value(args, i, flag)?, flag)?,
+            _ => {
+                i += positional(flag, &mut scene)?;
                 continue;
             }
-            _ => return Err(format!("unexpected argument '{flag}'\n{USAGE}")),
         }
         i += 2;
     }
     if !(budget.is_finite() && budget > 0.0) {
         return Err("--budget must be a positive number of seconds".into());
     }
-    let base = PhotonMapping::default();
     let names: Vec<&str> = bevy_rppm::trade::knobs(&base).iter().map(|k| k.name).collect();
     if let Some(unknown) = only.iter().find(|k| !names.contains(&k.as_str())) {
         return Err(format!("--knobs: no knob '{unknown}'; knobs: {}", names.join(",")));

@@ -16,6 +16,7 @@ use bevy::render::render_resource::*;
 use bevy::render::renderer::{RenderDevice, RenderQueue};
 use bytemuck::{Pod, Zeroable};
 
+use crate::output::AsyncReadback;
 use crate::pipelines::RppmShaders;
 use crate::scene::gpu::SceneBuffers;
 use crate::timing::{Stage, StageTimer};
@@ -222,6 +223,8 @@ pub struct DeepCubemap {
     heads: Buffer,
     nodes: Buffer,
     counters: Buffer,
+    /// The counters on their way back without a stall, so lists grow in every app.
+    counter_probe: AsyncReadback,
     hierarchy: Buffer,
     levels: Buffer,
     atlas: TextureView,
@@ -364,6 +367,7 @@ impl DeepCubemap {
             heads,
             nodes,
             counters,
+            counter_probe: AsyncReadback::new(device, 16),
             hierarchy,
             levels,
             atlas,
@@ -411,6 +415,13 @@ impl DeepCubemap {
     /// The buffer holding (nodes used, nodes that did not fit).
     pub fn counters(&self) -> &Buffer {
         &self.counters
+    }
+
+    /// The list counters of an earlier build, when their non-blocking read-back has arrived.
+    pub fn poll_counters(&self, device: &RenderDevice) -> Option<[u32; 2]> {
+        let bytes = self.counter_probe.poll(device)?;
+        let counters: &[u32] = bytemuck::cast_slice(&bytes);
+        Some([counters[0], counters[1]])
     }
 
     /// Records the whole build: clear, tile bounds, list insertion, hierarchy.
@@ -470,6 +481,8 @@ impl DeepCubemap {
             pass.set_bind_group(2, &self.level_group, &[level * LEVEL_STRIDE as u32]);
             pass.dispatch_workgroups((6 * cells * cells).div_ceil(64), 1, 1);
         }
+        drop(pass);
+        self.counter_probe.encode_copy(encoder, &self.counters);
     }
 }
 

@@ -77,7 +77,7 @@ pub fn knobs(base: &PhotonMapping) -> Vec<Knob> {
 #[derive(Clone, Copy, Debug)]
 pub struct Sample {
     pub iteration: u32,
-    /// Wall-clock seconds since the first iteration came back.
+    /// Wall-clock seconds since the frame that rendered the first iteration.
     pub seconds: f64,
     /// Against the reference; NaN where the estimate is not comparable (mode Indirect leaves
     /// the first hit's direct light to Bevy).

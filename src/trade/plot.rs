@@ -61,6 +61,15 @@ fn plot(path: &Path, title: &str, runs: &[&Run], front: &[(f64, f64)]) -> Result
     crate::image_io::write_rgb8_png(path, w, h, &rgb)
 }
 
+/// A tick label without float noise: 0.5, 2, 20, 1e3.
+fn compact(v: f64) -> String {
+    match v {
+        v if v >= 1000.0 => format!("{v:.0e}"),
+        v if v >= 1.0 => format!("{}", v.round()),
+        v => format!("{}", (v * 100.0).round() / 100.0),
+    }
+}
+
 /// Positive, finite extent of `values`, widened a little; (1, 10) when there is none.
 fn log_range(values: impl Iterator<Item = f64>) -> std::ops::Range<f64> {
     let (lo, hi) = values
@@ -101,6 +110,7 @@ fn panel<DB: DrawingBackend>(
         .configure_mesh()
         .x_desc(x_label)
         .y_desc("relMSE")
+        .x_label_formatter(&|v| compact(*v))
         .y_label_formatter(&|v| format!("{v:.0e}"))
         .draw()
         .map_err(err)?;

@@ -25,9 +25,9 @@ fn main() {
         "G: GI on/off  P: pause water",
         ExampleArgs::from_env(),
     )
-        .add_systems(Startup, setup)
-        .add_systems(Update, (waves, toggle))
-        .run();
+    .add_systems(Startup, setup)
+    .add_systems(Update, (waves, toggle))
+    .run();
 }
 
 fn setup(

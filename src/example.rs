@@ -10,12 +10,12 @@ use bevy::diagnostic::{DiagnosticsStore, FrameTimeDiagnosticsPlugin};
 use bevy::input::mouse::AccumulatedMouseMotion;
 use bevy::light::GlobalAmbientLight;
 use bevy::prelude::*;
-use bevy::world_serialization::WorldAssetRoot;
 use bevy::render::view::screenshot::{Screenshot, save_to_disk};
+use bevy::world_serialization::WorldAssetRoot;
 
-use crate::{PhotonMapping, RppmMode, RppmPlugin};
 use crate::diagnostics::{ITERATIONS, MEMORY_MIB, stage_path};
 use crate::timing::Stage;
+use crate::{PhotonMapping, RppmMode, RppmPlugin};
 
 /// Command-line options every example takes.
 #[derive(Resource, Clone, Debug, Default)]
@@ -74,7 +74,9 @@ impl ExampleArgs {
 }
 
 fn fail(message: &str) -> ! {
-    eprintln!("error: {message}\nusage: [--headless] [--frames N] [--out FILE.png] [--time SECONDS]");
+    eprintln!(
+        "error: {message}\nusage: [--headless] [--frames N] [--out FILE.png] [--time SECONDS]"
+    );
     std::process::exit(2);
 }
 
@@ -285,7 +287,8 @@ fn update_overlay(
     if input.just_pressed(KeyCode::KeyO) {
         visibility.toggle_visible_hidden();
     }
-    let value = |path: &bevy::diagnostic::DiagnosticPath| diagnostics.get(path).and_then(|d| d.value());
+    let value =
+        |path: &bevy::diagnostic::DiagnosticPath| diagnostics.get(path).and_then(|d| d.value());
     let fps = value(&FrameTimeDiagnosticsPlugin::FPS).unwrap_or(0.0);
     let mut lines = vec![format!("{}   O: overlay", keys.0), format!("{fps:.1} fps")];
     if cameras.iter().any(|c| c.enabled) {

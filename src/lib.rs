@@ -26,10 +26,10 @@ mod photons;
 mod pipelines;
 pub mod scene;
 mod settings;
-mod variants;
 mod shadows;
 pub mod timing;
 pub mod trade;
+mod variants;
 mod view;
 
 use bevy::core_pipeline::schedule::{Core3d, Core3dSystems};

@@ -124,19 +124,20 @@ pub(crate) fn init_photon_pipelines(
         ),
     );
     // Tracing stages: scene, iteration constants, their own group, the deep cubemap.
-    let tracing = |label: &'static str, own: &BindGroupLayoutDescriptor, shader: &Handle<Shader>| {
-        Variants::new(ComputePipelineDescriptor {
-            label: Some(label.into()),
-            layout: vec![
-                rppm.scene_layout.clone(),
-                rppm.params_layout.clone(),
-                own.clone(),
-                cubemap.trace_layout.clone(),
-            ],
-            shader: shader.clone(),
-            ..default()
-        })
-    };
+    let tracing =
+        |label: &'static str, own: &BindGroupLayoutDescriptor, shader: &Handle<Shader>| {
+            Variants::new(ComputePipelineDescriptor {
+                label: Some(label.into()),
+                layout: vec![
+                    rppm.scene_layout.clone(),
+                    rppm.params_layout.clone(),
+                    own.clone(),
+                    cubemap.trace_layout.clone(),
+                ],
+                shader: shader.clone(),
+                ..default()
+            })
+        };
     let trace = tracing("rppm_photon_trace", &store_layout, &shaders.photon);
     let additive = BlendComponent {
         src_factor: BlendFactor::One,

@@ -19,13 +19,13 @@ use crate::output::{RadianceImage, RenderMessage, RenderSender, ViewStats, read_
 use crate::photons::{
     PHOTON_BYTES, PhotonPipelines, PhotonStageIds, PhotonTargets, TargetInputs, TracingGroups,
 };
-use crate::variants::PathFeatures;
 use crate::pipelines::{DEPTH_FORMAT, GBUFFER_FORMAT, RppmPipelines};
 use crate::scene::gpu::SceneBuffers;
 use crate::scene::{GpuTriangle, SceneData};
 use crate::settings::{PhotonMapping, RppmDebugView, RppmMode};
 use crate::shadows::{self, ShadowMaps};
 use crate::timing::{Stage, StageTimer};
+use crate::variants::PathFeatures;
 
 /// Byte stride between per-iteration slots of the params buffer (dynamic-offset alignment).
 const PARAMS_STRIDE: u64 = 512;
@@ -143,7 +143,6 @@ pub struct ViewState {
 /// disables it) drops its entry, which frees its GPU memory.
 #[derive(Resource, Default)]
 pub struct RppmViews(HashMap<Entity, ViewState>);
-
 
 fn target(
     device: &RenderDevice,
@@ -502,7 +501,11 @@ fn output_pipeline(
 /// 0 when nothing emits or no photon can be stored.
 fn photon_capacity(settings: &PhotonMapping, scene: &SceneData, device: &RenderDevice) -> u32 {
     let direct = settings.debug_view == RppmDebugView::DirectPhotons;
-    let stores = if direct { 1 } else { settings.max_photon_depth - 1 };
+    let stores = if direct {
+        1
+    } else {
+        settings.max_photon_depth - 1
+    };
     if scene.light_cdf.is_empty() || settings.photons_per_iteration == 0 || stores == 0 {
         return 0;
     }
@@ -555,7 +558,9 @@ fn pipelines_ready(pipelines: &RppmPipelines, cache: &PipelineCache) -> Result<b
 }
 
 /// Whether every pipeline is compiled; an error when one failed to build.
-fn readiness<'a>(states: impl IntoIterator<Item = &'a CachedPipelineState>) -> Result<bool, String> {
+fn readiness<'a>(
+    states: impl IntoIterator<Item = &'a CachedPipelineState>,
+) -> Result<bool, String> {
     let mut ready = true;
     for state in states {
         match state {
@@ -831,7 +836,10 @@ fn prepare_cubemap(
     let config = fitted;
     let capacity = state
         .cubemap_capacity
-        .max(DeepCubemap::initial_capacity(config, scene.triangle_count()))
+        .max(DeepCubemap::initial_capacity(
+            config,
+            scene.triangle_count(),
+        ))
         .min((limit / 8) as u32);
     let stale = state
         .cubemap
@@ -1308,7 +1316,10 @@ mod tests {
             let r2_6 = radius2_after(16.0, 1_000_000, alpha);
             let r2_8 = (1_000_000..100_000_000).fold(r2_6, |r2, i| next_radius2(r2, i, alpha));
             for r2 in [r2_6, r2_8] {
-                assert!(r2.is_finite() && r2 > 0.0 && r2 <= 16.0, "α {alpha}: r² {r2}");
+                assert!(
+                    r2.is_finite() && r2 > 0.0 && r2 <= 16.0,
+                    "α {alpha}: r² {r2}"
+                );
             }
             let expected = 100f64.powf(alpha as f64 - 1.0);
             let ratio = r2_8 / r2_6;

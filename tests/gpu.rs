@@ -1128,8 +1128,7 @@ fn a_target_resized_to_zero_and_back_keeps_rendering() {
     let mut app = gpu_app();
     let (camera, _) = lit_plane(&mut app, 1000.0, 2.0, 32);
     until_iterations(&mut app, camera, 2);
-    let Some(RenderTarget::Image(target)) = app.world().get::<RenderTarget>(camera).cloned()
-    else {
+    let Some(RenderTarget::Image(target)) = app.world().get::<RenderTarget>(camera).cloned() else {
         panic!("the camera renders to an image");
     };
     let resize = |app: &mut App, w: u32, h: u32| {
@@ -1168,10 +1167,7 @@ fn a_target_resized_to_zero_and_back_keeps_rendering() {
 fn radius_and_mean_stay_finite_fast_forwarded_to_1e8_iterations() {
     for alpha in [1e-4f32, 0.7, 1.0] {
         let mut app = gpu_app();
-        let settings = PhotonMapping {
-            alpha,
-            ..default()
-        };
+        let settings = PhotonMapping { alpha, ..default() };
         let (camera, _) = plane_scene(
             &mut app,
             (
@@ -1192,9 +1188,15 @@ fn radius_and_mean_stay_finite_fast_forwarded_to_1e8_iterations() {
             let stats = app.world().resource::<RppmStats>().views[&camera].clone();
             let radius = stats.splat_radius_pixels;
             let expected = bevy_rppm::radius2_after(16.0, stats.iteration, alpha).sqrt();
-            eprintln!("α {alpha}: iteration {}, radius {radius:.3e} px", stats.iteration);
+            eprintln!(
+                "α {alpha}: iteration {}, radius {radius:.3e} px",
+                stats.iteration
+            );
             assert!(radius.is_finite() && radius > 0.0 && radius <= 4.0);
-            assert!((radius / expected - 1.0).abs() < 1e-9, "{radius} vs {expected}");
+            assert!(
+                (radius / expected - 1.0).abs() < 1e-9,
+                "{radius} vs {expected}"
+            );
             assert_finite(&radiance(&app, camera), &format!("α {alpha} at {target}"));
         }
     }
@@ -1208,21 +1210,111 @@ fn extreme_settings_render_finite_images() {
         ..default()
     };
     let cases: Vec<(&str, PhotonMapping)> = vec![
-        ("0 photons", PhotonMapping { photons_per_iteration: 0, ..base.clone() }),
-        ("1 photon", PhotonMapping { photons_per_iteration: 1, ..base.clone() }),
-        ("photon depth 1", PhotonMapping { max_photon_depth: 1, ..base.clone() }),
-        ("photon depth 64", PhotonMapping { max_photon_depth: 64, ..base.clone() }),
-        ("eye depth 64", PhotonMapping { max_eye_depth: 64, ..base.clone() }),
-        ("cubemap 16", PhotonMapping { cubemap_resolution: 16, ..base.clone() }),
-        ("cubemap max", PhotonMapping { cubemap_resolution: 4096, ..base.clone() }),
-        ("bins 1", PhotonMapping { bins: 1, ..base.clone() }),
-        ("bins 64", PhotonMapping { bins: 64, ..base.clone() }),
-        ("tile 4", PhotonMapping { cubemap_tile_size: 4, ..base.clone() }),
-        ("alpha 1e-4", PhotonMapping { alpha: 1e-4, ..base.clone() }),
-        ("radius 0.25 px", PhotonMapping { initial_radius_pixels: 0.25, ..base.clone() }),
-        ("radius 256 px", PhotonMapping { initial_radius_pixels: 256.0, ..base.clone() }),
-        ("flattening 0.01", PhotonMapping { kernel_flattening: 0.01, ..base.clone() }),
-        ("subsampling 4", PhotonMapping { indirect_subsampling: 4, ..base.clone() }),
+        (
+            "0 photons",
+            PhotonMapping {
+                photons_per_iteration: 0,
+                ..base.clone()
+            },
+        ),
+        (
+            "1 photon",
+            PhotonMapping {
+                photons_per_iteration: 1,
+                ..base.clone()
+            },
+        ),
+        (
+            "photon depth 1",
+            PhotonMapping {
+                max_photon_depth: 1,
+                ..base.clone()
+            },
+        ),
+        (
+            "photon depth 64",
+            PhotonMapping {
+                max_photon_depth: 64,
+                ..base.clone()
+            },
+        ),
+        (
+            "eye depth 64",
+            PhotonMapping {
+                max_eye_depth: 64,
+                ..base.clone()
+            },
+        ),
+        (
+            "cubemap 16",
+            PhotonMapping {
+                cubemap_resolution: 16,
+                ..base.clone()
+            },
+        ),
+        (
+            "cubemap max",
+            PhotonMapping {
+                cubemap_resolution: 4096,
+                ..base.clone()
+            },
+        ),
+        (
+            "bins 1",
+            PhotonMapping {
+                bins: 1,
+                ..base.clone()
+            },
+        ),
+        (
+            "bins 64",
+            PhotonMapping {
+                bins: 64,
+                ..base.clone()
+            },
+        ),
+        (
+            "tile 4",
+            PhotonMapping {
+                cubemap_tile_size: 4,
+                ..base.clone()
+            },
+        ),
+        (
+            "alpha 1e-4",
+            PhotonMapping {
+                alpha: 1e-4,
+                ..base.clone()
+            },
+        ),
+        (
+            "radius 0.25 px",
+            PhotonMapping {
+                initial_radius_pixels: 0.25,
+                ..base.clone()
+            },
+        ),
+        (
+            "radius 256 px",
+            PhotonMapping {
+                initial_radius_pixels: 256.0,
+                ..base.clone()
+            },
+        ),
+        (
+            "flattening 0.01",
+            PhotonMapping {
+                kernel_flattening: 0.01,
+                ..base.clone()
+            },
+        ),
+        (
+            "subsampling 4",
+            PhotonMapping {
+                indirect_subsampling: 4,
+                ..base.clone()
+            },
+        ),
     ];
     for (name, settings) in cases {
         let r = render_asset(settings, 24, 24, 3);
@@ -1304,16 +1396,23 @@ fn camera_inside_geometry_and_grazing_coplanar_triangles_stay_finite() {
     let (camera, _) = lit_plane(&mut app, 1000.0, 1.5, 24);
     let world = app.world_mut();
     let material = matte(&mut world.resource_mut::<Assets<StandardMaterial>>(), 0.5);
-    let twin = world.resource_mut::<Assets<Mesh>>().add(quad(5.0, None, true));
+    let twin = world
+        .resource_mut::<Assets<Mesh>>()
+        .add(quad(5.0, None, true));
     world.spawn((Mesh3d(twin), MeshMaterial3d(material.clone())));
     let sliver = {
-        let mut mesh = Mesh::new(PrimitiveTopology::TriangleList, RenderAssetUsages::default());
+        let mut mesh = Mesh::new(
+            PrimitiveTopology::TriangleList,
+            RenderAssetUsages::default(),
+        );
         let p = [[0.0, 0.01, 0.0], [1.0, 0.01, 0.0], [2.0, 0.01, 1e-7]];
         mesh.insert_attribute(Mesh::ATTRIBUTE_POSITION, p.to_vec());
         world.resource_mut::<Assets<Mesh>>().add(mesh)
     };
     world.spawn((Mesh3d(sliver), MeshMaterial3d(material.clone())));
-    let cube = world.resource_mut::<Assets<Mesh>>().add(Cuboid::new(1.0, 1.0, 1.0));
+    let cube = world
+        .resource_mut::<Assets<Mesh>>()
+        .add(Cuboid::new(1.0, 1.0, 1.0));
     world.spawn((
         Mesh3d(cube),
         MeshMaterial3d(material),
@@ -1370,12 +1469,21 @@ fn only_the_passes_and_code_paths_the_scene_needs_run() {
         (stats.passes, stats.shader_paths, stats.memory)
     };
     let (plain, paths, memory) = passes(PhotonMapping::default(), false);
-    assert!(paths.is_empty(), "a matte plane needs no specular path: {paths:?}");
+    assert!(
+        paths.is_empty(),
+        "a matte plane needs no specular path: {paths:?}"
+    );
     assert!(plain.contains(&"photon_trace".to_string()), "{plain:?}");
-    assert!(!plain.contains(&"importon_tracing".to_string()), "{plain:?}");
+    assert!(
+        !plain.contains(&"importon_tracing".to_string()),
+        "{plain:?}"
+    );
     // Matte albedo 0.8: the store holds Σ 0.8ʲ ≈ 4 photons per emitted one, not 7.
     let store = memory["photons"] as f64 / (262_144.0 * 64.0);
-    assert!(store < 5.0, "photon store holds {store:.2} photons per emitted photon");
+    assert!(
+        store < 5.0,
+        "photon store holds {store:.2} photons per emitted photon"
+    );
     let (one_bounce, _, memory) = passes(
         PhotonMapping {
             max_photon_depth: 1,
@@ -1383,7 +1491,10 @@ fn only_the_passes_and_code_paths_the_scene_needs_run() {
         },
         false,
     );
-    assert!(!one_bounce.contains(&"photon_trace".to_string()), "{one_bounce:?}");
+    assert!(
+        !one_bounce.contains(&"photon_trace".to_string()),
+        "{one_bounce:?}"
+    );
     assert!(!memory.contains_key("photons"));
     let (glass, paths, _) = passes(PhotonMapping::default(), true);
     assert!(paths.contains(&"REFRACTION".to_string()), "{paths:?}");
@@ -1396,8 +1507,14 @@ fn only_the_passes_and_code_paths_the_scene_needs_run() {
         },
         true,
     );
-    assert!(!no_eye.contains(&"importon_tracing".to_string()), "{no_eye:?}");
-    assert!(!no_eye.contains(&"indirect_splat".to_string()), "{no_eye:?}");
+    assert!(
+        !no_eye.contains(&"importon_tracing".to_string()),
+        "{no_eye:?}"
+    );
+    assert!(
+        !no_eye.contains(&"indirect_splat".to_string()),
+        "{no_eye:?}"
+    );
 }
 
 /// Without `RppmReadback` (every game) the deep cubemap's lists still grow until nothing

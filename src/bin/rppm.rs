@@ -54,7 +54,9 @@ fn main() -> ExitCode {
             let result = match argv.get(1).map(String::as_str) {
                 Some("dirt") => parse_bench(&argv[2..]).and_then(|b| bench(&b)),
                 Some("trade") => parse_trade(&argv[2..]).and_then(|t| trade(&t)),
-                _ => Err(format!("bench what? use 'bench dirt' or 'bench trade'\n{USAGE}")),
+                _ => Err(format!(
+                    "bench what? use 'bench dirt' or 'bench trade'\n{USAGE}"
+                )),
             };
             return match result {
                 Ok(()) => ExitCode::SUCCESS,
@@ -147,9 +149,7 @@ fn parse_render(args: &[String]) -> Result<Args, String> {
             "--tile" => settings.cubemap_tile_size = number(value(args, i, flag)?, flag)?,
             "--eye-depth" => settings.max_eye_depth = number(value(args, i, flag)?, flag)?,
             "--flattening" => settings.kernel_flattening = number(value(args, i, flag)?, flag)?,
-            "--subsampling" => {
-                settings.indirect_subsampling = number(value(args, i, flag)?, flag)?
-            }
+            "--subsampling" => settings.indirect_subsampling = number(value(args, i, flag)?, flag)?,
             "--preset" => {
                 settings = PhotonMapping::from(match value(args, i, flag)? {
                     "preview" => RppmPreset::Preview,
@@ -521,9 +521,15 @@ fn parse_trade(args: &[String]) -> Result<TradeArgs, String> {
     if !(budget.is_finite() && budget > 0.0) {
         return Err("--budget must be a positive number of seconds".into());
     }
-    let names: Vec<&str> = bevy_rppm::trade::knobs(&base).iter().map(|k| k.name).collect();
+    let names: Vec<&str> = bevy_rppm::trade::knobs(&base)
+        .iter()
+        .map(|k| k.name)
+        .collect();
     if let Some(unknown) = only.iter().find(|k| !names.contains(&k.as_str())) {
-        return Err(format!("--knobs: no knob '{unknown}'; knobs: {}", names.join(",")));
+        return Err(format!(
+            "--knobs: no knob '{unknown}'; knobs: {}",
+            names.join(",")
+        ));
     }
     let scene = scene.ok_or_else(|| format!("no scene given\n{USAGE}"))?;
     let reference = reference.ok_or_else(|| format!("--reference REF.exr is required\n{USAGE}"))?;
@@ -547,7 +553,9 @@ fn trade(t: &TradeArgs) -> Result<(), String> {
     if runs.iter().all(|r| r.error.is_some()) {
         return Err(format!(
             "every run failed: {}",
-            runs.first().and_then(|r| r.error.clone()).unwrap_or_default()
+            runs.first()
+                .and_then(|r| r.error.clone())
+                .unwrap_or_default()
         ));
     }
     write_csv(&runs, &t.out)?;

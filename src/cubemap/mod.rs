@@ -38,7 +38,9 @@ impl CubemapConfig {
     pub fn fitted(mut self, limit_bytes: u64, max_dimension: u32) -> Self {
         // The largest per-tile buffer: list heads (4 bytes a bin) or bounds (8 bytes).
         let heads = |c: &Self| 6 * (c.grid() as u64).pow(2) * (c.bins as u64 * 4).max(8);
-        while self.resolution > 16 && (heads(&self) > limit_bytes || self.resolution > max_dimension) {
+        while self.resolution > 16
+            && (heads(&self) > limit_bytes || self.resolution > max_dimension)
+        {
             self.resolution /= 2;
         }
         self

@@ -152,7 +152,10 @@ pub fn run_trade(request: &TradeRequest, mut log: impl FnMut(&str)) -> Vec<Run> 
                 run.value,
                 last.map_or(0, |s| s.iteration),
                 last.map_or(f64::NAN, |s| s.relmse),
-                run.error.as_deref().map(|e| format!("  error: {e}")).unwrap_or_default()
+                run.error
+                    .as_deref()
+                    .map(|e| format!("  error: {e}"))
+                    .unwrap_or_default()
             ));
             runs.push(run);
         }
@@ -263,7 +266,11 @@ pub fn write_csv(runs: &[Run], dir: &Path) -> Result<(), String> {
     writeln!(
         table,
         "knob,value,iterations,seconds,relmse,memory_mib,{},error",
-        stages.iter().map(|s| format!("gpu_ms_{s}")).collect::<Vec<_>>().join(",")
+        stages
+            .iter()
+            .map(|s| format!("gpu_ms_{s}"))
+            .collect::<Vec<_>>()
+            .join(",")
     )
     .map_err(io)?;
     for run in runs {

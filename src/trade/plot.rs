@@ -54,8 +54,22 @@ fn plot(path: &Path, title: &str, runs: &[&Run], front: &[(f64, f64)]) -> Result
         let (left, right) = root.split_horizontally(w / 2);
         let by_time = |s: &Sample| s.seconds;
         let by_iteration = |s: &Sample| s.iteration as f64;
-        panel(&left, &format!("{title}: relMSE vs wall time"), "seconds", runs, by_time, front)?;
-        panel(&right, &format!("{title}: relMSE vs iterations"), "iterations", runs, by_iteration, &[])?;
+        panel(
+            &left,
+            &format!("{title}: relMSE vs wall time"),
+            "seconds",
+            runs,
+            by_time,
+            front,
+        )?;
+        panel(
+            &right,
+            &format!("{title}: relMSE vs iterations"),
+            "iterations",
+            runs,
+            by_iteration,
+            &[],
+        )?;
         root.present().map_err(err)?;
     }
     crate::image_io::write_rgb8_png(path, w, h, &rgb)
@@ -96,7 +110,11 @@ fn panel<DB: DrawingBackend>(
             .filter(|(a, b)| *a > 0.0 && b.is_finite() && *b > 0.0)
             .collect()
     };
-    let all: Vec<(f64, f64)> = runs.iter().flat_map(|r| points(r)).chain(front.iter().copied()).collect();
+    let all: Vec<(f64, f64)> = runs
+        .iter()
+        .flat_map(|r| points(r))
+        .chain(front.iter().copied())
+        .collect();
     let xs = log_range(all.iter().map(|p| p.0));
     let ys = log_range(all.iter().map(|p| p.1));
     let mut chart = ChartBuilder::on(area)
@@ -125,11 +143,16 @@ fn panel<DB: DrawingBackend>(
             .draw_series(LineSeries::new(points(run), colour.stroke_width(2)))
             .map_err(err)?
             .label(label)
-            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], colour.stroke_width(2)));
+            .legend(move |(x, y)| {
+                PathElement::new(vec![(x, y), (x + 18, y)], colour.stroke_width(2))
+            });
     }
     if !front.is_empty() {
         chart
-            .draw_series(LineSeries::new(front.iter().copied(), BLACK.stroke_width(1)))
+            .draw_series(LineSeries::new(
+                front.iter().copied(),
+                BLACK.stroke_width(1),
+            ))
             .map_err(err)?
             .label("Pareto front")
             .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], BLACK));
@@ -146,4 +169,3 @@ fn panel<DB: DrawingBackend>(
     }
     Ok(())
 }
-

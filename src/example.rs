@@ -148,8 +148,22 @@ pub fn gltf_example(title: &'static str, scene: &'static str, target: Vec3) -> A
                 commands.spawn(WorldAssetRoot(handle));
             },
         )
-        .add_systems(Update, (adopt_camera, gi_keys, orbit));
+        .add_systems(Update, (adopt_camera, cast_shadows, gi_keys, orbit));
     app
+}
+
+/// glTF lights come without Bevy shadows; mode Indirect shows Bevy's direct light, so give
+/// them shadows as our local stage has.
+fn cast_shadows(
+    mut points: Query<&mut PointLight, Added<PointLight>>,
+    mut spots: Query<&mut SpotLight, Added<SpotLight>>,
+) {
+    for mut light in &mut points {
+        light.shadow_maps_enabled = true;
+    }
+    for mut light in &mut spots {
+        light.shadow_maps_enabled = true;
+    }
 }
 
 /// Gives the glTF camera photon mapping once the scene has spawned it.

@@ -13,7 +13,7 @@
 @group(2) @binding(1) var<storage, read> photon_count: array<u32, 4>;
 @group(2) @binding(2) var<storage, read> importons: array<Importon>;
 @group(2) @binding(3) var<storage, read> importon_heads: array<u32>;
-@group(2) @binding(4) var<storage, read> importon_stats: array<u32, 4>;
+@group(2) @binding(4) var<storage, read> importon_stats: array<u32, 8>;
 // Per pixel rgb (+ pad) as f32 bits, summed with compare-exchange.
 @group(2) @binding(5) var<storage, read_write> importon_radiance: array<atomic<u32>>;
 

@@ -18,8 +18,9 @@
 #ifdef IMPORTONS
 @group(2) @binding(4) var<storage, read_write> importons: array<Importon>;
 @group(2) @binding(5) var<storage, read_write> importon_heads: array<atomic<u32>>;
-// [0]: largest importon radius (f32 bits), [1]: importons made.
-@group(2) @binding(6) var<storage, read_write> importon_stats: array<atomic<u32>, 4>;
+// [0]: largest importon radius (f32 bits), [1]: importons made, [4..7]: the indirect
+// splat's dispatch (x set here, once an importon exists).
+@group(2) @binding(6) var<storage, read_write> importon_stats: array<atomic<u32>, 8>;
 
 // Whether a material only reflects or refracts specularly (no diffuse, no rough lobe).
 fn is_specular(m: Material) -> bool {
@@ -90,6 +91,7 @@ fn follow_camera_path(pixel: u32, x0: vec3<f32>, n0: vec3<f32>, m0: Material, tr
             importons[pixel].next = atomicExchange(&importon_heads[tile.index], pixel + 1u);
             atomicMax(&importon_stats[0], bitcast<u32>(radius));
             atomicAdd(&importon_stats[1], 1u);
+            atomicMax(&importon_stats[4], (params.photon_capacity + 63u) / 64u);
             return throughput * surface_light(m, x, n, -d, front);
         }
         bounce = specular_bounce(m, d, n, front, &rng);

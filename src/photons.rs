@@ -17,6 +17,9 @@ use crate::timing::{Stage, StageTimer};
 use crate::variants::Variants;
 use crate::view::IterationParams;
 
+/// Byte offset of the indirect splat's dispatch arguments in the importon stats buffer.
+const IMPORTON_DISPATCH: u64 = 16;
+
 /// Bytes of one stored photon (`Photon` in common.wgsl).
 pub const PHOTON_BYTES: u64 = 64;
 /// The per-iteration splat sums: thousands of photons can overlap a pixel, and half floats
@@ -295,11 +298,15 @@ impl PhotonTargets {
         let per_pixel = |bytes: u64| if with_importons { pixels * bytes } else { 0 };
         let importons = storage("rppm_importons", per_pixel(64));
         let importon_heads = storage("rppm_importon_heads", inputs.importon_tiles as u64 * 4);
-        let importon_stats = device.create_buffer(&BufferDescriptor {
+        // [largest radius, importons made, -, -, dispatch x, y, z, -]: the local stage sets the
+        // indirect splat's workgroup count only when it makes an importon.
+        let importon_stats = device.create_buffer_with_data(&BufferInitDescriptor {
             label: Some("rppm_importon_stats"),
-            size: 16,
-            usage: BufferUsages::STORAGE | BufferUsages::COPY_DST | BufferUsages::COPY_SRC,
-            mapped_at_creation: false,
+            contents: bytemuck::cast_slice(&[0u32, 0, 0, 0, 0, 1, 1, 0]),
+            usage: BufferUsages::STORAGE
+                | BufferUsages::COPY_DST
+                | BufferUsages::COPY_SRC
+                | BufferUsages::INDIRECT,
         });
         let importon_radiance = storage("rppm_importon_radiance", per_pixel(16));
         let accumulate_group = device.create_bind_group(
@@ -463,22 +470,20 @@ impl PhotonTargets {
 
     /// Empties the importon lists and gathered light before an iteration's camera paths.
     pub fn encode_importon_clear(&self, encoder: &mut CommandEncoder) {
-        for buffer in [
-            &self.importon_heads,
-            &self.importon_stats,
-            &self.importon_radiance,
-        ] {
+        for buffer in [&self.importon_heads, &self.importon_radiance] {
             encoder.clear_buffer(buffer, 0, None);
         }
+        // The stats and the dispatch's x; its y and z stay 1.
+        encoder.clear_buffer(&self.importon_stats, 0, Some(IMPORTON_DISPATCH + 4));
     }
 
     /// Indirect splatting: stored photons against the importons in the cubemap's tiles.
+    /// Dispatched indirectly: no workgroup runs when no importon was made this iteration.
     pub fn encode_indirect_splat(
         &self,
         encoder: &mut CommandEncoder,
         pipeline: &ComputePipeline,
         groups: &TracingGroups,
-        capacity: u32,
         timer: &mut StageTimer,
     ) {
         let Some(group) = &self.indirect_group else {
@@ -489,7 +494,7 @@ impl PhotonTargets {
             timestamp_writes: timer.compute_pass(Stage::IndirectSplat),
         });
         groups.bind(&mut pass, pipeline, group);
-        pass.dispatch_workgroups(capacity.div_ceil(64), 1, 1);
+        pass.dispatch_workgroups_indirect(&self.importon_stats, IMPORTON_DISPATCH);
     }
 
     /// Adds the splats to the local sample and folds it into the running estimate.

@@ -1060,14 +1060,9 @@ fn encode_estimate(
             offset,
             cubemap: &cubemap.trace_group,
         };
-        let capacity = state.key.photon_capacity;
-        state.photon_targets.encode_indirect_splat(
-            encoder,
-            indirect,
-            &groups,
-            capacity,
-            &mut state.timer,
-        );
+        state
+            .photon_targets
+            .encode_indirect_splat(encoder, indirect, &groups, &mut state.timer);
     }
     state.photon_targets.encode_accumulate(
         encoder,

@@ -9,3 +9,8 @@
 @group(0) @binding(3) var<storage, read> lights: array<Light>;
 @group(0) @binding(4) var<storage, read> emitters: array<Emitter>;
 @group(0) @binding(5) var<storage, read> light_cdf: array<f32>;
+
+// The material of a camera G-buffer texel, whose w holds ±(triangle + 1).
+fn gbuffer_material(w: f32) -> Material {
+    return materials[triangles[u32(abs(w)) - 1u].material];
+}

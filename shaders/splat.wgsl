@@ -6,7 +6,7 @@
 // pixel of the block, and holds incident light Σ Φ / (π r²) for the joint-bilateral upsampling
 // in accumulate.wgsl, which applies each full-resolution pixel's own BSDF.
 #import bevy_rppm::common::{Photon, IterationParams, PI, gather_radius, splat_survives, splat_weight, subsample_representative}
-#import bevy_rppm::scene::{triangles, materials}
+#import bevy_rppm::scene::gbuffer_material
 #import bevy_rppm::bsdf::bsdf_eval
 
 @group(1) @binding(0) var<uniform> params: IterationParams;
@@ -64,7 +64,7 @@ fn fragment(in: VertexOut) -> @location(0) vec4<f32> {
 #ifdef SUBSAMPLED
     return vec4<f32>(p.flux * density, 0.0);
 #else
-    let m = materials[triangles[u32(abs(gp.w)) - 1u].material];
+    let m = gbuffer_material(gp.w);
     let wo = normalize(params.camera_position.xyz - gp.xyz);
     let f = bsdf_eval(m, gn.xyz, wo, p.incoming);
     return vec4<f32>(f * p.flux * density, 0.0);

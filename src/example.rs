@@ -36,41 +36,33 @@ impl ExampleArgs {
             frames: 60,
             ..default()
         };
-        let argv: Vec<String> = std::env::args().skip(1).collect();
-        let mut i = 0;
-        while i < argv.len() {
-            match argv[i].as_str() {
+        let mut argv = std::env::args().skip(1);
+        while let Some(flag) = argv.next() {
+            let mut value = |what: &str| {
+                argv.next()
+                    .unwrap_or_else(|| fail(&format!("{flag} needs {what}")))
+            };
+            match flag.as_str() {
                 "--headless" => args.headless = true,
-                "--frames" => {
-                    i += 1;
-                    args.frames = argv
-                        .get(i)
-                        .and_then(|v| v.parse().ok())
-                        .unwrap_or_else(|| fail("--frames needs a number of frames"));
-                }
-                "--out" => {
-                    i += 1;
-                    args.out = Some(
-                        argv.get(i)
-                            .map(PathBuf::from)
-                            .unwrap_or_else(|| fail("--out needs a file name")),
-                    );
-                }
+                "--frames" => args.frames = number(&value("a number of frames")),
+                "--out" => args.out = Some(PathBuf::from(value("a file name"))),
                 "--time" => {
-                    i += 1;
-                    args.time = Some(
-                        argv.get(i)
-                            .and_then(|v| v.parse().ok())
-                            .filter(|t: &f32| t.is_finite())
-                            .unwrap_or_else(|| fail("--time needs a number of seconds")),
-                    );
+                    let t: f32 = number(&value("a number of seconds"));
+                    if !t.is_finite() {
+                        fail("--time needs a finite number of seconds");
+                    }
+                    args.time = Some(t);
                 }
                 other => fail(&format!("unknown option {other}")),
             }
-            i += 1;
         }
         args
     }
+}
+
+fn number<T: std::str::FromStr>(text: &str) -> T {
+    text.parse()
+        .unwrap_or_else(|_| fail(&format!("'{text}' is not a valid number")))
 }
 
 fn fail(message: &str) -> ! {

@@ -43,7 +43,7 @@ pub struct PhotonPipelines {
     splat_layout: BindGroupLayoutDescriptor,
     accumulate_layout: BindGroupLayoutDescriptor,
     indirect_layout: BindGroupLayoutDescriptor,
-    /// By the scene's scattering paths (`PathFeatures::defs`).
+    /// By the scene's scattering paths (`SceneData::path_features`).
     trace: Variants<ComputePipelineDescriptor>,
     /// Plain or SUBSAMPLED.
     splat: Variants<RenderPipelineDescriptor>,

@@ -1,5 +1,6 @@
 //! Pipelines queued the first time a set of shader defs is asked for, so that a scene compiles
-//! and runs only the code paths it contains (no glass: no refraction branch).
+//! and runs only the code paths it contains (no glass: no refraction branch; the defs come
+//! from `SceneData::path_features`).
 
 use bevy::platform::collections::HashMap;
 use bevy::render::render_resource::{
@@ -8,8 +9,6 @@ use bevy::render::render_resource::{
 };
 
 use bevy::shader::ShaderDefVal;
-
-use crate::scene::SceneData;
 
 /// A pipeline descriptor that can be queued with extra shader defs.
 pub trait Variant: Clone {
@@ -63,47 +62,5 @@ impl<D: Variant> Variants<D> {
             .ids
             .entry(defs.to_vec())
             .or_insert_with(|| self.base.queue(cache, defs))
-    }
-}
-
-/// Which scattering code paths the scene's materials need (shader defs of the tracing stages).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
-pub struct PathFeatures {
-    /// A rough GGX lobe (any material with a specular layer and roughness ≥ 0.02).
-    pub glossy: bool,
-    /// Perfect mirrors (smooth metals).
-    pub mirrors: bool,
-    /// Smooth glass (transmission on a smooth dielectric).
-    pub refraction: bool,
-}
-
-/// Below this perceptual roughness a lobe is a delta (`DELTA_ROUGHNESS` in bsdf.wgsl).
-const DELTA_ROUGHNESS: f32 = 0.02;
-
-impl PathFeatures {
-    pub fn of(scene: &SceneData) -> Self {
-        let mut features = Self::default();
-        for m in &scene.materials {
-            let colour = m.base_color[..3].iter().any(|&c| c > 0.0);
-            if m.perceptual_roughness >= DELTA_ROUGHNESS {
-                features.glossy |= m.reflectance > 0.0 || (m.metallic > 0.0 && colour);
-            } else {
-                features.mirrors |= m.metallic > 0.0 && colour;
-                features.refraction |= m.specular_transmission * (1.0 - m.metallic) > 0.0;
-            }
-        }
-        features
-    }
-
-    /// The shader defs naming these paths.
-    pub fn defs(self) -> Vec<&'static str> {
-        [
-            (self.glossy, "GLOSSY"),
-            (self.mirrors, "MIRRORS"),
-            (self.refraction, "REFRACTION"),
-        ]
-        .into_iter()
-        .filter_map(|(on, def)| on.then_some(def))
-        .collect()
     }
 }

@@ -25,7 +25,6 @@ use crate::scene::{GpuTriangle, SceneData};
 use crate::settings::{PhotonMapping, RppmDebugView, RppmMode};
 use crate::shadows::{self, ShadowMaps};
 use crate::timing::{Stage, StageTimer};
-use crate::variants::PathFeatures;
 
 /// Byte stride between per-iteration slots of the params buffer (dynamic-offset alignment).
 const PARAMS_STRIDE: u64 = 512;
@@ -120,8 +119,6 @@ pub struct ViewState {
     /// Local illumination and photon stages for this scene's paths and these settings.
     local_pipeline: CachedComputePipelineId,
     photon_stages: Option<PhotonStageIds>,
-    /// Shader defs of the scattering paths the tracing stages were built with.
-    paths: Vec<&'static str>,
     gbuffer_position: TextureView,
     gbuffer_normal: TextureView,
     gbuffer_depth: TextureView,
@@ -258,7 +255,6 @@ impl ViewState {
             output_pipeline: None,
             local_pipeline: pipelines.local_illumination,
             photon_stages: None,
-            paths: Vec::new(),
             gbuffer_position,
             gbuffer_normal,
             gbuffer_depth,
@@ -499,21 +495,21 @@ fn output_pipeline(
 /// after a hit with probability at most p (the scene's largest albedo), so the store holds the
 /// expected Σ pʲ stores per photon with a margin. Capped by the GPU's largest storage binding;
 /// 0 when nothing emits or no photon can be stored.
-fn photon_capacity(settings: &PhotonMapping, scene: &SceneData, device: &RenderDevice) -> u32 {
+fn photon_capacity(settings: &PhotonMapping, scene: &SceneBuffers, device: &RenderDevice) -> u32 {
     let direct = settings.debug_view == RppmDebugView::DirectPhotons;
     let stores = if direct {
         1
     } else {
         settings.max_photon_depth - 1
     };
-    if scene.light_cdf.is_empty() || settings.photons_per_iteration == 0 || stores == 0 {
+    if scene.data.light_cdf.is_empty() || settings.photons_per_iteration == 0 || stores == 0 {
         return 0;
     }
     let photons = settings.photons_per_iteration as f64;
     let wanted = if direct {
         photons
     } else {
-        let p = scene.max_scatter_probability() as f64;
+        let p = scene.max_scatter as f64;
         let expected: f64 = (1..=stores).map(|j| p.powi(j as i32)).sum();
         // 4 standard deviations of a binomial count over the photons, and never more than
         // every photon stored at every bounce.
@@ -634,7 +630,7 @@ pub(crate) fn prepare_views(
             size,
             slots: settings.iterations_per_frame,
             shadow_resolution: settings.shadow_map_resolution,
-            photon_capacity: photon_capacity(settings, &scene.data, &device),
+            photon_capacity: photon_capacity(settings, scene, &device),
             importon_tiles: importon_tiles(settings, &scene.data),
             subsampling: settings.indirect_subsampling,
         };
@@ -705,13 +701,7 @@ pub(crate) fn prepare_views(
         }
         // Importons need the cubemap bound; without one (its buffers refused) none are made.
         state.importons &= state.cubemap.is_some();
-        select_stage_pipelines(
-            state,
-            &scene.data,
-            &cache,
-            &mut pipelines,
-            &mut photon_pipelines,
-        );
+        select_stage_pipelines(state, scene, &cache, &mut pipelines, &mut photon_pipelines);
         state.output_pipeline = output_pipeline(
             &mut pipelines,
             &cache,
@@ -777,27 +767,20 @@ pub(crate) fn prepare_views(
 /// scattering paths its scene's materials have, importons only when camera paths go on.
 fn select_stage_pipelines(
     state: &mut ViewState,
-    scene: &SceneData,
+    scene: &SceneBuffers,
     cache: &PipelineCache,
     pipelines: &mut RppmPipelines,
     photon_pipelines: &mut PhotonPipelines,
 ) {
-    state.paths = PathFeatures::of(scene).defs();
-    let specular: Vec<_> = state
-        .paths
-        .iter()
-        .copied()
-        .filter(|&d| d != "GLOSSY")
-        .collect();
     state.local_pipeline = if state.importons {
-        pipelines.local_importons.get(cache, &specular)
+        pipelines.local_importons.get(cache, &scene.specular_paths)
     } else {
         pipelines.local_illumination
     };
     let traced = state.photons > 0 && state.cubemap.is_some();
     state.photon_stages = Some(photon_pipelines.stage_ids(
         cache,
-        traced.then_some(&state.paths[..]),
+        traced.then_some(&scene.paths[..]),
         state.importons,
         state.key.subsampling > 1,
     ));
@@ -1206,6 +1189,10 @@ pub(crate) fn report_views(
     sender: Res<RenderSender>,
 ) {
     let scene_epoch = scene.as_ref().map_or(0, |s| s.epoch);
+    let scene_paths: Vec<String> = scene
+        .as_ref()
+        .map(|s| s.paths.iter().map(|p| p.to_string()).collect())
+        .unwrap_or_default();
     let scene_memory: Vec<(String, u64)> = scene
         .as_ref()
         .map(|s| {
@@ -1292,7 +1279,7 @@ pub(crate) fn report_views(
                 importons: state.importons_made,
                 passes: passes(state),
                 splat_radius_pixels: state.radius2.sqrt(),
-                shader_paths: state.paths.iter().map(|p| p.to_string()).collect(),
+                shader_paths: scene_paths.clone(),
                 cubemap_overflow: state.cubemap_nodes.1,
             },
         ));

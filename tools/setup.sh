@@ -3,9 +3,12 @@
 # driver. Machines without a GPU get Mesa's software Vulkan (lavapipe).
 set -euo pipefail
 
+# An ICD manifest in either standard place, and the loader. (`grep -q` would stop reading
+# early and fail the pipe under pipefail; `ls` of two globs fails when one place is empty.)
 have_vulkan_driver() {
-    ls /usr/share/vulkan/icd.d/*.json /etc/vulkan/icd.d/*.json >/dev/null 2>&1 &&
-        ldconfig -p 2>/dev/null | grep -q 'libvulkan\.so\.1'
+    compgen -G '/usr/share/vulkan/icd.d/*.json' >/dev/null ||
+        compgen -G '/etc/vulkan/icd.d/*.json' >/dev/null || return 1
+    ldconfig -p 2>/dev/null | grep 'libvulkan\.so\.1' >/dev/null
 }
 
 if ! have_vulkan_driver; then

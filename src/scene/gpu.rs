@@ -22,6 +22,12 @@ pub struct SceneBuffers {
     pub lights: Buffer,
     pub emitters: Buffer,
     pub light_cdf: Buffer,
+    /// Shader defs of the scattering paths the materials have, and those of them the camera
+    /// paths follow (the specular ones); made once per scene change.
+    pub paths: Vec<&'static str>,
+    pub specular_paths: Vec<&'static str>,
+    /// The largest probability a photon goes on after a hit (sizes the photon store).
+    pub max_scatter: f32,
 }
 
 impl SceneBuffers {
@@ -109,9 +115,13 @@ pub(crate) fn upload_scene(
         commands.remove_resource::<SceneBuffers>();
         return;
     }
+    let paths = data.path_features();
     commands.insert_resource(SceneBuffers {
         epoch: scene.epoch,
         data: data.clone(),
+        specular_paths: paths.iter().copied().filter(|&d| d != "GLOSSY").collect(),
+        paths,
+        max_scatter: data.max_scatter_probability(),
         triangles: storage_buffer(&device, "rppm_triangles", &data.triangles),
         materials: storage_buffer(&device, "rppm_materials", &data.materials),
         lights: storage_buffer(&device, "rppm_lights", &data.lights),

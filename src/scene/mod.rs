@@ -141,12 +141,33 @@ impl SceneData {
         self.materials.iter().any(|m| {
             let diffuse = (1.0 - m.metallic) * (1.0 - m.specular_transmission);
             let albedo = luminance([m.base_color[0], m.base_color[1], m.base_color[2]]);
-            m.perceptual_roughness < 0.02 && diffuse * albedo <= 0.0
+            m.perceptual_roughness < DELTA_ROUGHNESS && diffuse * albedo <= 0.0
         })
     }
-}
 
-impl SceneData {
+    /// Which scattering lobes the scene's materials have: the shader defs of the tracing
+    /// stages (`GLOSSY`, `MIRRORS`, `REFRACTION`), so a scene compiles only its own paths.
+    pub fn path_features(&self) -> Vec<&'static str> {
+        let (mut glossy, mut mirrors, mut refraction) = (false, false, false);
+        for m in &self.materials {
+            let colour = m.base_color[..3].iter().any(|&c| c > 0.0);
+            if m.perceptual_roughness >= DELTA_ROUGHNESS {
+                glossy |= m.reflectance > 0.0 || (m.metallic > 0.0 && colour);
+            } else {
+                mirrors |= m.metallic > 0.0 && colour;
+                refraction |= m.specular_transmission * (1.0 - m.metallic) > 0.0;
+            }
+        }
+        [
+            (glossy, "GLOSSY"),
+            (mirrors, "MIRRORS"),
+            (refraction, "REFRACTION"),
+        ]
+        .into_iter()
+        .filter_map(|(on, def)| on.then_some(def))
+        .collect()
+    }
+
     /// The largest probability that a photon goes on after a hit, over the scene's materials
     /// (the Russian roulette of photon.wgsl: diffuse, glossy, mirror and glass albedos).
     pub fn max_scatter_probability(&self) -> f32 {
@@ -154,7 +175,7 @@ impl SceneData {
             .iter()
             .map(|m| {
                 let rgb = |c: [f32; 4]| [c[0], c[1], c[2]];
-                let delta = m.perceptual_roughness < 0.02;
+                let delta = m.perceptual_roughness < DELTA_ROUGHNESS;
                 let layer = 0.16 * m.reflectance * m.reflectance;
                 let diffuse = (1.0 - m.metallic) * (1.0 - m.specular_transmission) * (1.0 - layer);
                 let base = luminance(rgb(m.base_color));
@@ -169,6 +190,9 @@ impl SceneData {
             .fold(0.0, f32::max)
     }
 }
+
+/// Below this perceptual roughness a lobe is a delta (`DELTA_ROUGHNESS` in bsdf.wgsl).
+const DELTA_ROUGHNESS: f32 = 0.02;
 
 /// The extracted scene and the epoch that counts its changes. Any change to meshes, materials,
 /// lights or transforms increments `epoch`, which restarts progressive accumulation.

@@ -106,7 +106,7 @@ impl Run {
     }
 
     pub fn comparable(&self) -> bool {
-        self.settings.mode == RppmMode::Full && self.error.is_none()
+        comparable_mode(&self.settings) && self.error.is_none()
     }
 
     /// Mean GPU milliseconds per iteration of each stage.
@@ -177,7 +177,7 @@ fn render_run(
         budget: Budget::Seconds(request.budget_seconds),
         settings: settings.clone(),
     };
-    let comparable = settings.mode == RppmMode::Full;
+    let comparable = comparable_mode(&settings);
     let mut samples = Vec::new();
     let result = render_gltf(&render, |p| {
         let image = RgbImage::from_rgba(p.image.width, p.image.height, &p.image.pixels);
@@ -204,6 +204,12 @@ fn render_run(
         stats,
         error,
     }
+}
+
+/// Whether the estimate holds the whole image (mode Indirect leaves first-hit direct light to
+/// Bevy, so it cannot be compared with a reference).
+fn comparable_mode(settings: &PhotonMapping) -> bool {
+    settings.mode == RppmMode::Full
 }
 
 /// The lower envelope of (seconds, relMSE) over every comparable run: for each time, the

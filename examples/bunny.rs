@@ -3,8 +3,10 @@
 //! `assets/glass_bunny.gltf`, made by `tools/bunny_gltf.py` from the npm package `bunny`.
 //! Keys: G GI on/off, M Full/Indirect mode, + / − photons per iteration, R restart, O overlay;
 //! drag the mouse to orbit. `--headless --frames N --out FILE.png` renders offscreen instead.
+mod common;
+
 use bevy::prelude::*;
-use bevy_rppm::example::gltf_example;
+use common::gltf_example;
 
 fn main() {
     gltf_example(

@@ -4,12 +4,14 @@
 //! Keys: G GI on/off, P pause the water (PPM then converges), O overlay.
 //! `--headless --frames N --out FILE.png` renders offscreen instead; `--time T` holds the
 //! water at T seconds.
+mod common;
+
 use bevy::asset::RenderAssetUsages;
 use bevy::core_pipeline::tonemapping::Tonemapping;
 use bevy::mesh::{Indices, PrimitiveTopology, VertexAttributeValues};
 use bevy::prelude::*;
 use bevy_rppm::PhotonMapping;
-use bevy_rppm::example::{ExampleArgs, ExampleCamera, example_app};
+use common::{ExampleArgs, ExampleCamera, example_app};
 
 /// Water grid cells along each side, and the pool's half width and depth in metres.
 const CELLS: usize = 48;

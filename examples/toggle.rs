@@ -1,8 +1,10 @@
 //! The smallest game with photon mapping: a lit room, and G switches global illumination on
 //! and off. `--headless --frames N --out FILE.png` renders offscreen instead of in a window.
+mod common;
+
 use bevy::prelude::*;
 use bevy_rppm::PhotonMapping;
-use bevy_rppm::example::{ExampleArgs, ExampleCamera, example_app};
+use common::{ExampleArgs, ExampleCamera, example_app};
 
 fn main() {
     example_app("bevy_rppm: toggle", "G: GI on/off", ExampleArgs::from_env())

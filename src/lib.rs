@@ -14,29 +14,35 @@
 //!     })
 //!     .run();
 //! ```
+//!
+//! One module per stage of an iteration, in the paper's words, each with its WGSL under
+//! `shaders/<stage>/`: [`scene`] extraction → [`cubemap`] (the deep cubemap) → [`shadows`]
+//! (direct light) → [`gbuffer`] → [`importons`] (eye paths) → [`photons`] → [`splat`] →
+//! [`indirect_splat`] → [`accumulate`] → [`output`]. [`settings`], [`ppm`] (pure maths),
+//! [`shaders`] and [`stats`] are leaves; [`view`] holds what every stage of a camera shares;
+//! `graph` prepares each camera's state and records the iterations.
 
+pub mod accumulate;
 pub mod cubemap;
-mod debug_view;
-pub mod diagnostics;
-pub mod example;
-pub mod headless;
-pub mod image_io;
-mod output;
-mod photons;
-mod pipelines;
+#[cfg(feature = "debug")]
+pub mod debug;
+pub mod gbuffer;
+mod graph;
+pub mod importons;
+pub mod indirect_splat;
+pub mod output;
+pub mod photons;
+pub mod ppm;
 pub mod scene;
-mod settings;
-mod shadows;
-pub mod timing;
-pub mod trade;
-mod variants;
-mod view;
+pub mod settings;
+pub mod shaders;
+pub mod shadows;
+pub mod splat;
+pub mod stats;
+pub mod view;
 
-use bevy::core_pipeline::schedule::{Core3d, Core3dSystems};
 use bevy::prelude::*;
-use bevy::render::extract_component::ExtractComponentPlugin;
-use bevy::render::extract_resource::ExtractResourcePlugin;
-use bevy::render::{Render, RenderApp, RenderStartup, RenderSystems};
+use bevy::render::RenderApp;
 use bevy::shader::Shader;
 
 /// The README's code, compiled by `cargo test --doc`.
@@ -44,10 +50,12 @@ use bevy::shader::Shader;
 #[cfg(doctest)]
 pub struct ReadmeDoctests;
 
-pub use output::{RadianceImage, RppmRadiance, RppmReadback, RppmStats, ViewStats};
+pub use ppm::{next_radius2, radius2_after};
 pub use scene::{RppmScene, SceneData};
-pub use settings::{PhotonMapping, RppmDebugView, RppmFastForward, RppmMode, RppmPreset};
-pub use view::{next_radius2, radius2_after};
+pub use settings::{
+    PhotonMapping, RppmDebugView, RppmFastForward, RppmMode, RppmPreset, RppmReadback, ViewEpoch,
+};
+pub use stats::{RadianceImage, RppmRadiance, RppmStats, ViewStats};
 
 /// Adds photon mapping to every camera that has a [`PhotonMapping`] component.
 pub struct RppmPlugin;
@@ -60,59 +68,103 @@ impl Plugin for RppmPlugin {
             );
             return;
         };
-        let shaders = pipelines::RppmShaders::load(&mut shader_assets);
-        let (sender, receiver) = crossbeam_channel::unbounded();
-        app.register_type::<PhotonMapping>()
-            .register_type::<RppmReadback>()
-            .add_plugins((
-                scene::SceneExtractionPlugin,
-                ExtractComponentPlugin::<PhotonMapping>::default(),
-                ExtractResourcePlugin::<RppmScene>::default(),
-                ExtractResourcePlugin::<cubemap::bench::DirtBenchRequest>::default(),
-            ))
-            .init_resource::<cubemap::bench::DirtBenchResults>()
-            .init_resource::<RppmStats>()
-            .init_resource::<RppmRadiance>()
-            .insert_resource(output::MainReceiver(receiver))
-            .add_systems(PreUpdate, output::receive_reports)
-            .add_systems(PostUpdate, settings::validate_settings);
-        diagnostics::register(app);
-        let Some(render_app) = app.get_sub_app_mut(RenderApp) else {
-            return;
-        };
-        render_app
-            .insert_resource(shaders)
-            .insert_resource(output::RenderSender(sender))
-            .init_resource::<view::RppmViews>()
-            .add_systems(
-                RenderStartup,
-                (
-                    pipelines::init_pipelines,
-                    cubemap::init_cubemap_pipelines,
-                    cubemap::bench::init_bench_pipelines,
-                    debug_view::init_debug_view_pipelines,
-                    photons::init_photon_pipelines,
-                )
-                    .chain(),
-            )
-            .add_systems(
-                Render,
-                (scene::gpu::upload_scene, view::prepare_views)
-                    .chain()
-                    .in_set(RenderSystems::PrepareResources),
-            )
-            .add_systems(Render, view::report_views.after(RenderSystems::Render))
-            .add_systems(
-                Render,
-                cubemap::bench::run_dirt_bench
-                    .after(RenderSystems::PrepareResources)
-                    .before(RenderSystems::Render),
-            )
-            .add_systems(
-                Core3d,
-                view::rppm_node
-                    .after(Core3dSystems::MainPass)
-                    .before(Core3dSystems::EarlyPostProcess),
+        let shaders = shaders::RppmShaders::load(&mut shader_assets);
+        if let Some(render_app) = app.get_sub_app_mut(RenderApp) {
+            render_app.insert_resource(shaders);
+        }
+        app.add_plugins((
+            stats::StatsPlugin,
+            scene::ScenePlugin,
+            view::ViewPlugin,
+            (
+                shadows::ShadowsPlugin,
+                gbuffer::GBufferPlugin,
+                cubemap::CubemapPlugin,
+                importons::ImportonsPlugin,
+                photons::PhotonsPlugin,
+                splat::SplatPlugin,
+                indirect_splat::IndirectSplatPlugin,
+                accumulate::AccumulatePlugin,
+                output::OutputPlugin,
+            ),
+            graph::GraphPlugin,
+        ));
+        #[cfg(feature = "debug")]
+        app.add_plugins(debug::DebugPlugin);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use std::collections::{BTreeMap, BTreeSet};
+    use std::path::Path;
+
+    /// Every source file under `dir`, with its path relative to `src/`.
+    fn sources(dir: &Path, out: &mut Vec<(String, String)>) {
+        let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+        for entry in std::fs::read_dir(dir).unwrap().flatten() {
+            let path = entry.path();
+            if path.is_dir() {
+                sources(&path, out);
+            } else if path.extension().is_some_and(|e| e == "rs") {
+                let relative = path.strip_prefix(&root).unwrap().display().to_string();
+                out.push((relative, std::fs::read_to_string(&path).unwrap()));
+            }
+        }
+    }
+
+    /// The house rules: top-level modules depend on each other one way (no cycle among the
+    /// `crate::` references), and no file is over 500 lines.
+    #[test]
+    fn modules_depend_one_way_and_files_stay_small() {
+        let mut files = Vec::new();
+        sources(
+            &Path::new(env!("CARGO_MANIFEST_DIR")).join("src"),
+            &mut files,
+        );
+        let mut graph: BTreeMap<String, BTreeSet<String>> = BTreeMap::new();
+        for (path, text) in &files {
+            assert!(
+                text.lines().count() <= 500,
+                "{path} has {} lines",
+                text.lines().count()
             );
+            let module = path.split(['/', '.']).next().unwrap().to_string();
+            if module == "lib" {
+                continue;
+            }
+            let uses = graph.entry(module.clone()).or_default();
+            for part in text.split("crate::").skip(1) {
+                let name: String = part
+                    .chars()
+                    .take_while(|c| c.is_ascii_lowercase() || *c == '_')
+                    .collect();
+                if !name.is_empty() && name != module {
+                    uses.insert(name);
+                }
+            }
+        }
+        // Depth-first search for a back edge.
+        fn visit(
+            node: &str,
+            graph: &BTreeMap<String, BTreeSet<String>>,
+            path: &mut Vec<String>,
+            done: &mut BTreeSet<String>,
+        ) {
+            if done.contains(node) {
+                return;
+            }
+            assert!(!path.iter().any(|p| p == node), "cycle: {path:?} -> {node}");
+            path.push(node.to_string());
+            for next in graph.get(node).into_iter().flatten() {
+                visit(next, graph, path, done);
+            }
+            path.pop();
+            done.insert(node.to_string());
+        }
+        let mut done = BTreeSet::new();
+        for node in graph.keys() {
+            visit(node, &graph, &mut Vec::new(), &mut done);
+        }
     }
 }

@@ -1,13 +1,7 @@
-//! The camera component that turns photon mapping on, and the checks on its values.
+//! The camera components that turn photon mapping on and shape it, and the checks on their
+//! values. A leaf: nothing else of the crate is used here.
 
-use bevy::ecs::query::QueryItem;
 use bevy::prelude::*;
-use bevy::render::extract_component::ExtractComponent;
-use bevy::render::sync_component::SyncComponent;
-
-use crate::output::RppmReadback;
-use crate::scene::ViewEpoch;
-use crate::view::ExtractedRppm;
 
 /// What the photon-mapped image does to the view.
 #[derive(Reflect, Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
@@ -22,7 +16,8 @@ pub enum RppmMode {
     Indirect,
 }
 
-/// Images for checking the pipeline by eye; `None` renders the estimate.
+/// Images for checking the pipeline by eye; `None` renders the estimate. The others need the
+/// crate's `debug` feature (without it they are clamped to `None` with a warning).
 #[derive(Reflect, Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 #[reflect(Default, Clone, PartialEq, Hash)]
 pub enum RppmDebugView {
@@ -224,6 +219,13 @@ impl PhotonMapping {
             "shadow_map_resolution",
             &mut notes,
         );
+        if !cfg!(feature = "debug") && out.debug_view != RppmDebugView::None {
+            notes.push(format!(
+                "PhotonMapping::debug_view = {:?} needs bevy_rppm's `debug` feature; using None",
+                out.debug_view
+            ));
+            out.debug_view = RppmDebugView::None;
+        }
         (out, notes)
     }
 }
@@ -264,8 +266,27 @@ fn clamp_f32(v: &mut f32, lo: f32, hi: f32, name: &str, notes: &mut Vec<String>)
     }
 }
 
-impl SyncComponent for PhotonMapping {
-    type Target = ExtractedRppm;
+/// Add to a `PhotonMapping` camera to receive its raw linear radiance (no exposure, no
+/// tonemapping) in [`RppmRadiance`](crate::RppmRadiance) every frame. Each read-back waits for
+/// the GPU, so add it only when you need the pixels.
+#[derive(Component, Reflect, Clone, Copy, Debug, Default)]
+#[reflect(Component, Default)]
+pub struct RppmReadback;
+
+/// Per-camera change counter: the camera's transform, projection, target size or settings.
+/// A new epoch restarts the camera's progressive estimate.
+#[derive(Component, Clone, Copy, Debug, Default, PartialEq)]
+pub struct ViewEpoch {
+    pub epoch: u64,
+    pub(crate) key: Option<ViewKey>,
+}
+
+/// What a camera's epoch follows.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct ViewKey {
+    pub world_from_view: Mat4,
+    pub clip_from_view: Mat4,
+    pub target: Option<UVec2>,
 }
 
 /// Jumps a camera's progressive estimate to this iteration, with the Knaus–Zwicker radius
@@ -273,28 +294,6 @@ impl SyncComponent for PhotonMapping {
 /// new value: for checking the numbers far along the sequence without running it.
 #[derive(Component, Clone, Copy, Debug, PartialEq, Eq)]
 pub struct RppmFastForward(pub u32);
-
-impl ExtractComponent for PhotonMapping {
-    type QueryData = (
-        &'static PhotonMapping,
-        &'static ViewEpoch,
-        Has<RppmReadback>,
-        Option<&'static RppmFastForward>,
-    );
-    type QueryFilter = ();
-    type Out = ExtractedRppm;
-
-    fn extract_component(
-        (settings, epoch, readback, fast_forward): QueryItem<'_, '_, Self::QueryData>,
-    ) -> Option<ExtractedRppm> {
-        settings.enabled.then(|| ExtractedRppm {
-            settings: settings.clone(),
-            view_epoch: epoch.epoch,
-            readback,
-            fast_forward: fast_forward.map(|f| f.0),
-        })
-    }
-}
 
 /// Clamps changed settings in place and warns once per change.
 pub(crate) fn validate_settings(mut cameras: Query<&mut PhotonMapping, Changed<PhotonMapping>>) {

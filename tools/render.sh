@@ -4,4 +4,4 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash tools/setup.sh
-cargo run --bin rppm -- "$@"
+cargo run -p bevy_rppm_cli --bin rppm -- "$@"

@@ -1,0 +1,253 @@
+//! The command line: commands, flags and their checks (clap), and the render settings they
+//! give.
+
+use std::path::{Path, PathBuf};
+
+use bevy_rppm::{PhotonMapping, RppmDebugView, RppmPreset};
+use bevy_rppm_cli::headless::{Budget, RenderRequest};
+use clap::{Args, Parser, Subcommand, ValueEnum};
+
+/// Rasterisation-based progressive photon mapping, headless. With no command, renders the
+/// default scene (the Cornell box, 256², 32 iterations of 65 536 photons) to
+/// out/cornell_box.{exr,png,json}.
+#[derive(Parser)]
+#[command(name = "rppm", bin_name = "rppm", version)]
+pub struct Cli {
+    #[command(subcommand)]
+    pub command: Option<Command>,
+}
+
+#[derive(Subcommand)]
+pub enum Command {
+    /// Render a glTF scene: raw linear radiance (EXR), a tonemapped preview (PNG), stats (JSON).
+    Render(RenderArgs),
+    /// relMSE, energy ratio and bad pixels of a test image against a reference (EXR, as in
+    /// shared/docs/CONVENTIONS.md), as one JSON line.
+    Compare { test: PathBuf, reference: PathBuf },
+    /// Benchmarks.
+    #[command(subcommand)]
+    Bench(BenchCommand),
+}
+
+#[derive(Subcommand)]
+pub enum BenchCommand {
+    /// Deep-cubemap (DIRT) traversal against brute force: agreement, build and trace time,
+    /// memory, per cubemap setting.
+    Dirt(DirtArgs),
+    /// Every knob's speed/accuracy trade against a reference: CSVs, plots, the best setting
+    /// per time budget.
+    Trade(TradeArgs),
+    /// Draws the trade's plots again from the samples.csv a `bench trade` wrote in DIR.
+    Plot {
+        /// The folder holding samples.csv; the plots are written beside it.
+        dir: PathBuf,
+    },
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+pub enum Preset {
+    Preview,
+    Balanced,
+    Reference,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+pub enum DebugView {
+    GbufferNormals,
+    CubemapNormals,
+    DirectPhotons,
+}
+
+#[derive(Args)]
+pub struct RenderArgs {
+    /// The glTF (or GLB) scene; its first camera is used, or a default one.
+    pub scene: PathBuf,
+    /// Image width in pixels (1..=16384).
+    #[arg(long, default_value_t = 512)]
+    pub width: u32,
+    /// Image height in pixels (1..=16384).
+    #[arg(long, default_value_t = 512)]
+    pub height: u32,
+    /// Stop after this many iterations (default 16).
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..), conflicts_with = "time_budget")]
+    pub iterations: Option<u32>,
+    /// Stop after this many seconds of rendering (from the first iteration).
+    #[arg(long, value_parser = positive_seconds)]
+    pub time_budget: Option<f64>,
+    /// Write the image here (.exr: raw radiance; .png: preview); repeatable.
+    #[arg(long, value_parser = image_path)]
+    pub out: Vec<PathBuf>,
+    /// Write the stats JSON here.
+    #[arg(long)]
+    pub stats: Option<PathBuf>,
+    /// Start from a measured preset; the flags below override it.
+    #[arg(long, value_enum)]
+    pub preset: Option<Preset>,
+    /// Photons per iteration.
+    #[arg(long)]
+    pub photons: Option<u32>,
+    /// Bounces a photon may take.
+    #[arg(long)]
+    pub photon_depth: Option<u32>,
+    /// Bounces a camera path may take (1: the G-buffer only).
+    #[arg(long)]
+    pub eye_depth: Option<u32>,
+    /// Initial gather radius in pixels.
+    #[arg(long)]
+    pub radius: Option<f32>,
+    /// Knaus–Zwicker α.
+    #[arg(long)]
+    pub alpha: Option<f32>,
+    /// Deep-cubemap face resolution.
+    #[arg(long)]
+    pub cubemap: Option<u32>,
+    /// Depth bins per cubemap tile.
+    #[arg(long)]
+    pub bins: Option<u32>,
+    /// Cubemap tile size in pixels (1, 2 or 4).
+    #[arg(long)]
+    pub tile: Option<u32>,
+    /// Gather-kernel thickness along the normal, over its radius.
+    #[arg(long)]
+    pub flattening: Option<f32>,
+    /// Splat photons on every n-th pixel (1, 2 or 4).
+    #[arg(long)]
+    pub subsampling: Option<u32>,
+    /// Russian roulette on splat fragments.
+    #[arg(long)]
+    pub splat_rr: bool,
+    /// A debug image instead of the estimate.
+    #[arg(long, value_enum)]
+    pub debug_view: Option<DebugView>,
+}
+
+#[derive(Args)]
+pub struct DirtArgs {
+    pub scene: PathBuf,
+    /// Print JSON instead of a table.
+    #[arg(long)]
+    pub json: bool,
+    /// Rays compared with brute force.
+    #[arg(long, default_value_t = 1 << 16, value_parser = clap::value_parser!(u32).range(1..=1 << 24))]
+    pub rays: u32,
+    /// Rays traced for the timing.
+    #[arg(long, default_value_t = 1 << 20, value_parser = clap::value_parser!(u32).range(1..=1 << 26))]
+    pub timing_rays: u32,
+    /// Face resolutions to sweep (16..=4096).
+    #[arg(long, value_delimiter = ',', default_values_t = [64u32, 128, 256, 512], value_parser = clap::value_parser!(u32).range(16..=4096))]
+    pub resolutions: Vec<u32>,
+    /// Depth bins to sweep (1..=64).
+    #[arg(long, value_delimiter = ',', default_values_t = [4u32, 8, 16, 32], value_parser = clap::value_parser!(u32).range(1..=64))]
+    pub bins: Vec<u32>,
+    /// Tile size (1, 2 or 4).
+    #[arg(long, default_value_t = 1, value_parser = tile_size)]
+    pub tile: u32,
+}
+
+#[derive(Args)]
+pub struct TradeArgs {
+    pub scene: PathBuf,
+    /// The reference image (EXR) at the size to render.
+    #[arg(long)]
+    pub reference: PathBuf,
+    /// Seconds each setting renders.
+    #[arg(long, default_value_t = 20.0, value_parser = positive_seconds)]
+    pub budget: f64,
+    /// Where the CSVs and plots go.
+    #[arg(long, default_value = "out/trade")]
+    pub out: PathBuf,
+    /// Only these knobs (comma-separated; default all).
+    #[arg(long, value_delimiter = ',')]
+    pub knobs: Vec<String>,
+    /// The base setting's photons per iteration.
+    #[arg(long)]
+    pub photons: Option<u32>,
+}
+
+pub fn positive_seconds(text: &str) -> Result<f64, String> {
+    match text.parse::<f64>() {
+        Ok(s) if s.is_finite() && s > 0.0 => Ok(s),
+        _ => Err(format!("'{text}' is not a positive number of seconds")),
+    }
+}
+
+fn tile_size(text: &str) -> Result<u32, String> {
+    match text.parse::<u32>() {
+        Ok(t @ (1 | 2 | 4)) => Ok(t),
+        _ => Err(format!("'{text}': the tile size is 1, 2 or 4")),
+    }
+}
+
+fn image_path(text: &str) -> Result<PathBuf, String> {
+    let path = PathBuf::from(text);
+    match extension(&path).as_deref() {
+        Some("exr" | "png") => Ok(path),
+        _ => Err(format!("'{text}': the file must end in .exr or .png")),
+    }
+}
+
+pub fn extension(path: &Path) -> Option<String> {
+    path.extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase)
+}
+
+pub fn default_render() -> RenderArgs {
+    let out = PathBuf::from("out");
+    let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/../assets/cornell_box.gltf");
+    let Cli {
+        command: Some(Command::Render(mut args)),
+    } = Cli::parse_from(["rppm", "render", scene, "--width", "256", "--height", "256"])
+    else {
+        unreachable!("a render command parses as one");
+    };
+    args.iterations = Some(32);
+    args.photons = Some(65_536);
+    args.out = vec![out.join("cornell_box.exr"), out.join("cornell_box.png")];
+    args.stats = Some(out.join("cornell_box.json"));
+    args
+}
+
+impl RenderArgs {
+    pub fn settings(&self) -> PhotonMapping {
+        let mut s = match self.preset {
+            None => PhotonMapping::default(),
+            Some(Preset::Preview) => RppmPreset::Preview.into(),
+            Some(Preset::Balanced) => RppmPreset::Balanced.into(),
+            Some(Preset::Reference) => RppmPreset::Reference.into(),
+        };
+        let set = |field: &mut u32, value: Option<u32>| *field = value.unwrap_or(*field);
+        set(&mut s.photons_per_iteration, self.photons);
+        set(&mut s.max_photon_depth, self.photon_depth);
+        set(&mut s.max_eye_depth, self.eye_depth);
+        set(&mut s.cubemap_resolution, self.cubemap);
+        set(&mut s.bins, self.bins);
+        set(&mut s.cubemap_tile_size, self.tile);
+        set(&mut s.indirect_subsampling, self.subsampling);
+        s.initial_radius_pixels = self.radius.unwrap_or(s.initial_radius_pixels);
+        s.alpha = self.alpha.unwrap_or(s.alpha);
+        s.kernel_flattening = self.flattening.unwrap_or(s.kernel_flattening);
+        s.splat_russian_roulette |= self.splat_rr;
+        if let Some(view) = self.debug_view {
+            s.debug_view = match view {
+                DebugView::GbufferNormals => RppmDebugView::GBufferNormals,
+                DebugView::CubemapNormals => RppmDebugView::CubemapNormals,
+                DebugView::DirectPhotons => RppmDebugView::DirectPhotons,
+            };
+        }
+        s
+    }
+
+    pub fn request(&self) -> RenderRequest {
+        RenderRequest {
+            scene: self.scene.clone(),
+            width: self.width,
+            height: self.height,
+            budget: match (self.iterations, self.time_budget) {
+                (_, Some(seconds)) => Budget::Seconds(seconds),
+                (n, None) => Budget::Iterations(n.unwrap_or(16)),
+            },
+            settings: self.settings(),
+        }
+    }
+}

@@ -1,0 +1,8 @@
+//! What the `rppm` tool and the tests share: a headless Bevy app that renders glTF scenes,
+//! image files and the metrics of `shared/docs/CONVENTIONS.md`, the speed/accuracy trade and
+//! the deep-cubemap bench.
+
+pub mod bench;
+pub mod headless;
+pub mod image_io;
+pub mod trade;

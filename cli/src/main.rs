@@ -1,0 +1,310 @@
+//! `rppm`: render a glTF scene headless with progressive photon mapping, compare images, and
+//! bench the deep cubemap and the speed/accuracy trade. `rppm --help` lists the commands.
+
+mod args;
+
+use std::path::Path;
+use std::process::ExitCode;
+
+use anyhow::{Context, Result, bail};
+use bevy_rppm::cubemap::CubemapConfig;
+use bevy_rppm::{PhotonMapping, ViewStats};
+use bevy_rppm_cli::bench::{print_table, sweep_configs};
+use bevy_rppm_cli::headless::{Budget, RenderResult, bench_dirt, render_gltf};
+use bevy_rppm_cli::image_io::{
+    RgbImage, bad_pixels, energy_ratio, read_exr, relmse, write_exr, write_png,
+};
+use bevy_rppm_cli::trade::{
+    TradeRequest, best_at, knobs, pareto_front, read_csv, run_trade, write_csv,
+};
+use clap::Parser;
+use indicatif::{ProgressBar, ProgressStyle};
+use serde::Serialize;
+
+use args::{
+    BenchCommand, Cli, Command, DirtArgs, RenderArgs, TradeArgs, default_render, extension,
+};
+
+fn main() -> ExitCode {
+    let cli = match Cli::try_parse() {
+        Ok(cli) => cli,
+        Err(e) if !e.use_stderr() => {
+            // --help, --version
+            let _ = e.print();
+            return ExitCode::SUCCESS;
+        }
+        Err(e) => {
+            // clap's message in one line, as every other error.
+            let text = e.render().to_string();
+            let lines: Vec<&str> = text
+                .lines()
+                .take_while(|l| !l.trim().is_empty())
+                .map(str::trim)
+                .collect();
+            eprintln!("rppm: {} (see rppm --help)", lines.join(" "));
+            return ExitCode::from(2);
+        }
+    };
+    let result = match cli.command {
+        None => render(&default_render()),
+        Some(Command::Render(args)) => render(&args),
+        Some(Command::Compare { test, reference }) => compare(&test, &reference),
+        Some(Command::Bench(BenchCommand::Dirt(args))) => dirt(&args),
+        Some(Command::Bench(BenchCommand::Trade(args))) => trade(&args),
+        Some(Command::Bench(BenchCommand::Plot { dir })) => plot(&dir),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("rppm: error: {e:#}");
+            ExitCode::from(2)
+        }
+    }
+}
+
+/// A progress bar on stderr (hidden when it is not a terminal): iterations against the budget,
+/// iterations per second and the time left.
+fn progress_bar(budget: Budget) -> ProgressBar {
+    let (len, template) = match budget {
+        Budget::Iterations(n) => (
+            n as u64,
+            "[{bar:30}] {pos}/{len} iterations, {per_sec}, ETA {eta}",
+        ),
+        Budget::Seconds(s) => ((s * 1000.0) as u64, "[{bar:30}] {msg}, ETA {eta}"),
+    };
+    let style = ProgressStyle::with_template(template)
+        .unwrap_or_else(|_| ProgressStyle::default_bar())
+        .progress_chars("#>-");
+    ProgressBar::new(len).with_style(style)
+}
+
+/// The stats JSON: the render's own numbers and the view's stats, one key per field.
+#[derive(Serialize)]
+struct RenderStats<'a> {
+    scene: String,
+    width: usize,
+    height: usize,
+    iterations: u32,
+    render_seconds: f64,
+    total_seconds: f64,
+    /// Mean GPU ms per iteration and stage, over every timed frame.
+    gpu_ms_per_iteration: std::collections::BTreeMap<String, f64>,
+    camera_from_scene: bool,
+    triangles: usize,
+    lights: usize,
+    emitters: usize,
+    bad_pixels: usize,
+    mean_rgb: [f64; 3],
+    #[serde(flatten)]
+    view: &'a ViewStats,
+}
+
+fn render(args: &RenderArgs) -> Result<()> {
+    for path in args.out.iter().chain(&args.stats) {
+        writable(path)?;
+    }
+    let started = std::time::Instant::now();
+    let request = args.request();
+    let bar = progress_bar(request.budget);
+    let result = render_gltf(&request, |p| match p.budget {
+        Budget::Iterations(_) => bar.set_position(p.iteration as u64),
+        Budget::Seconds(_) => {
+            bar.set_position((p.seconds * 1000.0) as u64);
+            let rate = p.iteration as f64 / p.seconds.max(1e-9);
+            bar.set_message(format!("{} iterations, {rate:.2} it/s", p.iteration));
+        }
+    })
+    .map_err(anyhow::Error::msg)?;
+    bar.finish_and_clear();
+    for path in &args.out {
+        match extension(path).as_deref() {
+            Some("png") => write_png(path, &result.image),
+            _ => write_exr(path, &result.image),
+        }
+        .map_err(anyhow::Error::msg)?;
+        eprintln!("wrote {}", path.display());
+    }
+    if let Some(path) = &args.stats {
+        let json = stats_json(args, &result, started.elapsed().as_secs_f64());
+        std::fs::write(path, serde_json::to_string_pretty(&json)?)
+            .with_context(|| format!("cannot write {}", path.display()))?;
+        eprintln!("wrote {}", path.display());
+    }
+    eprintln!(
+        "{} iterations in {:.2} s ({:.1} s in all) on {}",
+        result.iterations,
+        result.seconds,
+        started.elapsed().as_secs_f64(),
+        result.stats.adapter
+    );
+    Ok(())
+}
+
+/// Makes the file's folder, so that a path that cannot be written fails before the render.
+fn writable(path: &Path) -> Result<()> {
+    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    }
+    Ok(())
+}
+
+fn stats_json<'a>(args: &RenderArgs, r: &'a RenderResult, total_seconds: f64) -> RenderStats<'a> {
+    let n = r.stats.timed_iterations.max(1) as f64;
+    RenderStats {
+        scene: args.scene.display().to_string(),
+        width: r.image.width,
+        height: r.image.height,
+        iterations: r.iterations,
+        render_seconds: r.seconds,
+        total_seconds,
+        gpu_ms_per_iteration: r
+            .stats
+            .stage_ms_total
+            .iter()
+            .map(|(stage, ms)| (stage.clone(), ms / n))
+            .collect(),
+        camera_from_scene: r.camera_from_scene,
+        triangles: r.triangles,
+        lights: r.lights,
+        emitters: r.emitters,
+        bad_pixels: bad_pixels(&r.image),
+        mean_rgb: mean_rgb(&r.image),
+        view: &r.stats,
+    }
+}
+
+fn mean_rgb(image: &RgbImage) -> [f64; 3] {
+    let n = image.pixels.len().max(1) as f64;
+    let mut sum = [0.0f64; 3];
+    for p in &image.pixels {
+        for c in 0..3 {
+            sum[c] += p[c] as f64;
+        }
+    }
+    sum.map(|s| s / n)
+}
+
+#[derive(Serialize)]
+struct Comparison {
+    relmse: f64,
+    energy_ratio: f64,
+    bad_pixels: usize,
+}
+
+/// Prints the metrics of shared/docs/CONVENTIONS.md for a test image against a reference.
+fn compare(test: &Path, reference: &Path) -> Result<()> {
+    let (test, reference) = (
+        read_exr(test).map_err(anyhow::Error::msg)?,
+        read_exr(reference).map_err(anyhow::Error::msg)?,
+    );
+    let comparison = Comparison {
+        relmse: relmse(&test, &reference).map_err(anyhow::Error::msg)?,
+        energy_ratio: energy_ratio(&test, &reference).map_err(anyhow::Error::msg)?,
+        bad_pixels: bad_pixels(&test),
+    };
+    println!("{}", serde_json::to_string(&comparison)?);
+    Ok(())
+}
+
+#[derive(Serialize)]
+struct DirtReport<'a> {
+    scene: String,
+    centre: [f32; 3],
+    default: Option<&'a bevy_rppm::debug::bench::CubemapBenchRow>,
+    settings: &'a [bevy_rppm::debug::bench::CubemapBenchRow],
+}
+
+fn dirt(args: &DirtArgs) -> Result<()> {
+    let defaults = PhotonMapping::default();
+    let default = CubemapConfig {
+        resolution: defaults.cubemap_resolution,
+        tile_size: args.tile,
+        bins: defaults.bins,
+    };
+    let configs = sweep_configs(default, &args.resolutions, &args.bins);
+    if !args.json {
+        eprintln!(
+            "rppm: tracing {} rays per setting through {} settings...",
+            args.rays,
+            configs.len()
+        );
+    }
+    let (rows, centre) = bench_dirt(&args.scene, configs, args.rays, args.timing_rays)
+        .map_err(anyhow::Error::msg)?;
+    if args.json {
+        let report = DirtReport {
+            scene: args.scene.display().to_string(),
+            centre: centre.to_array(),
+            default: rows.first(),
+            settings: &rows,
+        };
+        println!("{}", serde_json::to_string_pretty(&report)?);
+    } else {
+        print_table(&rows);
+    }
+    Ok(())
+}
+
+fn write_plots(runs: &[bevy_rppm_cli::trade::Run], dir: &Path) -> Result<()> {
+    let front = pareto_front(runs);
+    for path in
+        bevy_rppm_cli::trade::plot::write_plots(runs, &front, dir).map_err(anyhow::Error::msg)?
+    {
+        eprintln!("wrote {path}");
+    }
+    Ok(())
+}
+
+fn plot(dir: &Path) -> Result<()> {
+    let runs = read_csv(dir)?;
+    if runs.is_empty() {
+        bail!("{} holds no samples", dir.join("samples.csv").display());
+    }
+    write_plots(&runs, dir)
+}
+
+/// Sweeps the knobs, writes the CSVs and plots, and prints the best setting per budget.
+fn trade(args: &TradeArgs) -> Result<()> {
+    let mut base = PhotonMapping::default();
+    if let Some(photons) = args.photons {
+        base.photons_per_iteration = photons;
+    }
+    let names: Vec<&str> = knobs(&base).iter().map(|k| k.name).collect();
+    if let Some(unknown) = args.knobs.iter().find(|k| !names.contains(&k.as_str())) {
+        bail!("--knobs: no knob '{unknown}'; knobs: {}", names.join(","));
+    }
+    let request = TradeRequest {
+        scene: args.scene.clone(),
+        reference: read_exr(&args.reference).map_err(anyhow::Error::msg)?,
+        budget_seconds: args.budget,
+        base,
+        only: args.knobs.clone(),
+    };
+    std::fs::create_dir_all(&args.out)
+        .with_context(|| format!("cannot create {}", args.out.display()))?;
+    let runs = run_trade(&request, |line| eprintln!("{line}"));
+    if runs.iter().all(|r| r.error.is_some()) {
+        bail!(
+            "every run failed: {}",
+            runs.first()
+                .and_then(|r| r.error.clone())
+                .unwrap_or_default()
+        );
+    }
+    write_csv(&runs, &args.out)?;
+    write_plots(&runs, &args.out)?;
+    eprintln!("wrote {}/samples.csv and runs.csv", args.out.display());
+    println!("budget_s  best setting          iterations  relMSE");
+    let budgets = [1.0, 2.0, 5.0, 10.0, args.budget];
+    for b in budgets.into_iter().filter(|&b| b <= args.budget) {
+        if let Some((run, sample)) = best_at(&runs, b) {
+            println!(
+                "{b:>8.1}  {:<20}  {:>10}  {:.5}",
+                format!("{}={}", run.knob, run.value),
+                sample.iteration,
+                sample.relmse
+            );
+        }
+    }
+    Ok(())
+}

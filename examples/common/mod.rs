@@ -1,0 +1,296 @@
+//! What the examples share: a window, or with `--headless --frames N --out FILE.png` an
+//! offscreen camera whose view is saved after N frames (for tests and screenshots), and an
+//! on-screen overlay (O hides it) with the keys, the frame rate and the `rppm/` diagnostics.
+//! Each example uses part of it.
+#![allow(dead_code, reason = "each example uses part of the shared helpers")]
+
+use std::path::PathBuf;
+
+use bevy::camera::{Exposure, Hdr, RenderTarget};
+use bevy::core_pipeline::tonemapping::Tonemapping;
+use bevy::diagnostic::{DiagnosticsStore, FrameTimeDiagnosticsPlugin};
+use bevy::input::mouse::AccumulatedMouseMotion;
+use bevy::light::GlobalAmbientLight;
+use bevy::prelude::*;
+use bevy::render::view::screenshot::{Screenshot, save_to_disk};
+use bevy::world_serialization::WorldAssetRoot;
+
+use bevy_rppm::stats::diagnostics::{ITERATIONS, MEMORY_MIB, stage_path};
+use bevy_rppm::stats::timing::Stage;
+use bevy_rppm::{PhotonMapping, RppmMode, RppmPlugin};
+use clap::Parser;
+
+/// Command-line options every example takes.
+#[derive(Parser, Resource, Clone, Debug, Default)]
+pub struct ExampleArgs {
+    /// Render offscreen instead of in a window.
+    #[arg(long)]
+    pub headless: bool,
+    /// Frames to run headless before the view is saved.
+    #[arg(long, default_value_t = 60)]
+    pub frames: u32,
+    /// Where the headless view is saved (PNG).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Animated examples hold their animation at this time (seconds).
+    #[arg(long, value_parser = finite_seconds)]
+    pub time: Option<f32>,
+}
+
+fn finite_seconds(text: &str) -> Result<f32, String> {
+    match text.parse::<f32>() {
+        Ok(t) if t.is_finite() => Ok(t),
+        _ => Err(format!("'{text}' is not a finite number of seconds")),
+    }
+}
+
+impl ExampleArgs {
+    /// The process's arguments; exits with clap's message on bad input.
+    pub fn from_env() -> Self {
+        Self::parse()
+    }
+}
+
+/// This crate's `assets/`, wherever the example is run from.
+pub fn asset_root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("assets")
+}
+
+/// The camera that headless runs render and save.
+#[derive(Component, Clone, Copy, Debug, Default)]
+pub struct ExampleCamera;
+
+/// Shown in the overlay: what the keys do.
+#[derive(Resource, Clone, Debug, Default)]
+pub struct ExampleKeys(pub &'static str);
+
+/// A Bevy app with the photon-mapping plugin: windowed, or headless per `args`.
+pub fn example_app(title: &'static str, keys: &'static str, args: ExampleArgs) -> App {
+    let mut app = App::new();
+    if args.headless {
+        // A stale file would pass for the new screenshot.
+        if let Some(out) = &args.out {
+            let _ = std::fs::remove_file(out);
+        }
+        app = bevy_rppm_cli::headless::headless_app_unfinished(&asset_root());
+        app.add_systems(Update, (offscreen_camera, save_and_exit));
+    } else {
+        app.add_plugins((
+            DefaultPlugins
+                .set(WindowPlugin {
+                    primary_window: Some(Window {
+                        title: title.into(),
+                        ..default()
+                    }),
+                    ..default()
+                })
+                .set(AssetPlugin {
+                    file_path: asset_root().display().to_string(),
+                    ..default()
+                }),
+            RppmPlugin,
+            FrameTimeDiagnosticsPlugin::default(),
+        ))
+        .add_systems(Startup, spawn_overlay)
+        .add_systems(Update, update_overlay);
+    }
+    app.insert_resource(args).insert_resource(ExampleKeys(keys));
+    app
+}
+
+/// Keys of [`gltf_example`].
+pub const GLTF_KEYS: &str = "G: GI  M: Full/Indirect  +/-: photons  R: restart  drag: orbit";
+
+/// What the camera of [`gltf_example`] orbits around.
+#[derive(Resource, Clone, Copy, Debug)]
+pub struct OrbitTarget(pub Vec3);
+
+/// An example that shows a glTF scene from `assets/` through its own camera, with photon
+/// mapping and the keys of [`GLTF_KEYS`]; the camera orbits `target` when dragged.
+pub fn gltf_example(title: &'static str, scene: &'static str, target: Vec3) -> App {
+    let mut app = example_app(title, GLTF_KEYS, ExampleArgs::from_env());
+    // Photon mapping replaces ambient light; the scenes' lights are a few candela.
+    app.insert_resource(GlobalAmbientLight::NONE)
+        .insert_resource(OrbitTarget(target))
+        .add_systems(
+            Startup,
+            move |mut commands: Commands, assets: Res<AssetServer>| {
+                let handle = assets.load(GltfAssetLabel::Scene(0).from_asset(scene));
+                commands.spawn(WorldAssetRoot(handle));
+            },
+        )
+        .add_systems(Update, (adopt_camera, cast_shadows, gi_keys, orbit));
+    app
+}
+
+/// glTF lights come without Bevy shadows; mode Indirect shows Bevy's direct light, so give
+/// them shadows as our local stage has.
+fn cast_shadows(
+    mut points: Query<&mut PointLight, Added<PointLight>>,
+    mut spots: Query<&mut SpotLight, Added<SpotLight>>,
+) {
+    for mut light in &mut points {
+        light.shadow_maps_enabled = true;
+    }
+    for mut light in &mut spots {
+        light.shadow_maps_enabled = true;
+    }
+}
+
+/// Gives the glTF camera photon mapping once the scene has spawned it.
+fn adopt_camera(
+    mut commands: Commands,
+    cameras: Query<Entity, (With<Camera3d>, Without<PhotonMapping>)>,
+) {
+    for camera in &cameras {
+        commands.entity(camera).insert((
+            PhotonMapping {
+                photons_per_iteration: 65_536,
+                ..default()
+            },
+            Hdr,
+            // A tonemapper that needs no lookup table (the crate leaves out Bevy's LUTs).
+            Tonemapping::AcesFitted,
+            // Exposure 1: radiance shown as it is (Bevy: 1 / (2^ev100 · 1.2)).
+            Exposure {
+                ev100: -(1.2f32).log2(),
+            },
+            ExampleCamera,
+        ));
+    }
+}
+
+/// G: GI on/off, M: Full/Indirect, + / −: photons per iteration, R: restart.
+fn gi_keys(keys: Res<ButtonInput<KeyCode>>, mut cameras: Query<&mut PhotonMapping>) {
+    for mut gi in &mut cameras {
+        if keys.just_pressed(KeyCode::KeyG) {
+            gi.enabled = !gi.enabled;
+        }
+        if keys.just_pressed(KeyCode::KeyM) {
+            gi.mode = match gi.mode {
+                RppmMode::Full => RppmMode::Indirect,
+                RppmMode::Indirect => RppmMode::Full,
+            };
+        }
+        if keys.just_pressed(KeyCode::Equal) || keys.just_pressed(KeyCode::NumpadAdd) {
+            gi.photons_per_iteration = (gi.photons_per_iteration * 2).min(1 << 22);
+        }
+        if keys.just_pressed(KeyCode::Minus) || keys.just_pressed(KeyCode::NumpadSubtract) {
+            gi.photons_per_iteration = (gi.photons_per_iteration / 2).max(1024);
+        }
+        if keys.just_pressed(KeyCode::KeyR) {
+            gi.set_changed();
+        }
+    }
+}
+
+fn orbit(
+    buttons: Res<ButtonInput<MouseButton>>,
+    motion: Res<AccumulatedMouseMotion>,
+    target: Res<OrbitTarget>,
+    mut cameras: Query<&mut Transform, With<ExampleCamera>>,
+) {
+    if !buttons.pressed(MouseButton::Left) || motion.delta == Vec2::ZERO {
+        return;
+    }
+    for mut transform in &mut cameras {
+        let yaw = Quat::from_rotation_y(-motion.delta.x * 0.005);
+        transform.translation = target.0 + yaw * (transform.translation - target.0);
+        transform.look_at(target.0, Vec3::Y);
+    }
+}
+
+fn offscreen_camera(
+    mut commands: Commands,
+    cameras: Query<Entity, Added<ExampleCamera>>,
+    mut images: ResMut<Assets<Image>>,
+) {
+    for camera in &cameras {
+        let target = bevy_rppm_cli::headless::offscreen_target(&mut images, 320, 240);
+        commands.entity(camera).insert(target);
+    }
+}
+
+fn save_and_exit(
+    mut commands: Commands,
+    args: Res<ExampleArgs>,
+    cameras: Query<&RenderTarget, With<ExampleCamera>>,
+    mut frame: Local<u32>,
+    mut exit: MessageWriter<AppExit>,
+) {
+    *frame += 1;
+    if *frame == args.frames
+        && let (Some(out), Some(RenderTarget::Image(image))) = (&args.out, cameras.iter().next())
+    {
+        commands
+            .spawn(Screenshot::image(image.handle.clone()))
+            .observe(save_to_disk(out.clone()));
+    }
+    // The screenshot is written a few frames later.
+    let written = args.out.as_ref().is_none_or(|out| out.exists());
+    if *frame >= args.frames && (written || *frame > args.frames + 120) {
+        exit.write(AppExit::Success);
+    }
+}
+
+/// The overlay's text node.
+#[derive(Component)]
+struct Overlay;
+
+fn spawn_overlay(mut commands: Commands) {
+    commands.spawn((
+        Overlay,
+        Text::new(""),
+        TextFont {
+            font_size: FontSize::Px(14.0),
+            ..default()
+        },
+        TextColor(Color::WHITE),
+        BackgroundColor(Color::srgba(0.0, 0.0, 0.0, 0.6)),
+        Node {
+            position_type: PositionType::Absolute,
+            top: px(8),
+            left: px(8),
+            padding: px(6).all(),
+            ..default()
+        },
+    ));
+}
+
+/// Rewrites the overlay from `DiagnosticsStore`: keys, fps, iterations, memory, GPU ms of the
+/// stages that ran.
+fn update_overlay(
+    keys: Res<ExampleKeys>,
+    input: Res<ButtonInput<KeyCode>>,
+    diagnostics: Res<DiagnosticsStore>,
+    cameras: Query<&PhotonMapping>,
+    mut overlay: Query<(&mut Text, &mut Visibility), With<Overlay>>,
+) {
+    let Ok((mut text, mut visibility)) = overlay.single_mut() else {
+        return;
+    };
+    if input.just_pressed(KeyCode::KeyO) {
+        visibility.toggle_visible_hidden();
+    }
+    let value =
+        |path: &bevy::diagnostic::DiagnosticPath| diagnostics.get(path).and_then(|d| d.value());
+    let fps = value(&FrameTimeDiagnosticsPlugin::FPS).unwrap_or(0.0);
+    let mut lines = vec![format!("{}   O: overlay", keys.0), format!("{fps:.1} fps")];
+    if cameras.iter().any(|c| c.enabled) {
+        lines.push(format!(
+            "{} iterations, {:.0} MiB held",
+            value(&ITERATIONS).unwrap_or(0.0),
+            value(&MEMORY_MIB).unwrap_or(0.0)
+        ));
+        lines.extend(Stage::ALL.iter().filter_map(|&stage| {
+            let ms = value(&stage_path(stage)).filter(|&ms| ms > 0.0)?;
+            Some(format!("{:<20}{ms:>8.2} GPU ms", stage.name()))
+        }));
+    } else {
+        lines.push("GI off: Bevy's own lighting".into());
+    }
+    let joined = lines.join("\n");
+    if text.0 != joined {
+        text.0 = joined;
+    }
+}

@@ -1,0 +1,290 @@
+// Shared structs and helpers of every bevy_rppm stage. Layouts mirror src/scene/mod.rs,
+// src/view/params.rs and src/cubemap/config.rs byte for byte.
+#define_import_path bevy_rppm::common
+
+const PI: f32 = 3.141592653589793;
+
+struct Triangle {
+    position_a: vec3<f32>,
+    material: u32,
+    position_b: vec3<f32>,
+    pad_b: u32,
+    position_c: vec3<f32>,
+    pad_c: u32,
+    normal_a: vec3<f32>,
+    pad_na: u32,
+    normal_b: vec3<f32>,
+    pad_nb: u32,
+    normal_c: vec3<f32>,
+    pad_nc: u32,
+}
+
+struct Material {
+    base_color: vec4<f32>,
+    emissive: vec4<f32>,
+    metallic: f32,
+    perceptual_roughness: f32,
+    reflectance: f32,
+    specular_transmission: f32,
+    ior: f32,
+    flags: u32,
+    pad_a: u32,
+    pad_b: u32,
+}
+
+const LIGHT_POINT: u32 = 0u;
+const LIGHT_SPOT: u32 = 1u;
+const LIGHT_DIRECTIONAL: u32 = 2u;
+
+struct Light {
+    kind: u32,
+    shadow_layer: u32,
+    cos_inner: f32,
+    cos_outer: f32,
+    position: vec4<f32>,
+    direction: vec4<f32>,
+    // rgb: W/sr (point, spot) or W/m² (directional); w: power for photon splitting.
+    radiance: vec4<f32>,
+}
+
+struct Emitter {
+    triangle: u32,
+    area: f32,
+    power: f32,
+    cdf: f32,
+}
+
+// One view a shadow map is rendered from: a cube face of a point, spot or area-light sample,
+// or a directional light's orthographic map.
+struct ShadowView {
+    clip_from_world: mat4x4<f32>,
+    // xyz: eye (perspective) or direction light travels (orthographic); w: 1 perspective, 0 ortho.
+    origin: vec4<f32>,
+    // Unit axis the view looks along.
+    axis: vec4<f32>,
+    near: f32,
+    far: f32,
+    // World-space size of one texel at unit distance (perspective) or absolute (ortho).
+    texel: f32,
+    pad: f32,
+}
+
+// Per-iteration constants (uniform, one 256-byte slot per iteration of a frame).
+struct IterationParams {
+    clip_from_world: mat4x4<f32>,
+    // Inverse of the (jittered) clip_from_world: camera rays through any pixel position.
+    world_from_clip: mat4x4<f32>,
+    camera_position: vec4<f32>,
+    // Area-light sample for this iteration: position (w = 1 if any), normal, radiance / pdf.
+    area_position: vec4<f32>,
+    area_normal: vec4<f32>,
+    area_weight: vec4<f32>,
+    size: vec2<u32>,
+    iteration: u32,
+    light_count: u32,
+    // World-space pixel size at unit view depth (perspective) or absolute (ortho).
+    pixel_spread: f32,
+    orthographic: u32,
+    // First shadow view of this iteration's area-light cube, and its first texture layer.
+    area_view: u32,
+    area_layer: u32,
+    shadow_resolution: u32,
+    exposure: f32,
+    tonemap: u32,
+    // Photons emitted this iteration, bounces each may take, room in the photon buffer.
+    photons: u32,
+    max_photon_depth: u32,
+    photon_capacity: u32,
+    // Entries of the photon-emission CDF (lights, then emitters).
+    source_count: u32,
+    // Knaus–Zwicker gather radius this iteration, in pixels (world radius = this × footprint).
+    splat_radius: f32,
+    // Vertices a camera path may have (1: the G-buffer only).
+    max_eye_depth: u32,
+    // 1: each splat fragment survives with probability 1/2 and counts twice.
+    splat_russian_roulette: u32,
+    // 1: direct light comes from photons (stored at their first hit) instead of the
+    // local stage; for checking photon flux.
+    direct_photons: u32,
+    // 1 (mode Indirect): leave out the light of first camera hits, which Bevy renders.
+    indirect_only: u32,
+    // Bounding sphere of the scene: centre, radius (directional-light photons start on a disc).
+    scene_sphere: vec4<f32>,
+    // Gather kernel's extent along the surface normal over its radius (ISPM's flattening).
+    kernel_flattening: f32,
+    // Photons are splatted on every n-th pixel, then upsampled (1: every pixel).
+    indirect_subsampling: u32,
+    pad: vec2<u32>,
+}
+
+// A stored photon (64 bytes, the RPPM budget).
+struct Photon {
+    position: vec3<f32>,
+    pad_a: u32,
+    // Flux the photon carries (W), linear RGB.
+    flux: vec3<f32>,
+    pad_b: u32,
+    // Direction towards where the photon came from.
+    incoming: vec3<f32>,
+    pad_c: u32,
+    // Shading normal at the hit, on the side the photon arrived from.
+    normal: vec3<f32>,
+    pad_d: u32,
+}
+
+fn triangle_position(t: Triangle, corner: u32) -> vec3<f32> {
+    switch corner {
+        case 0u: { return t.position_a; }
+        case 1u: { return t.position_b; }
+        default: { return t.position_c; }
+    }
+}
+
+fn triangle_normal(t: Triangle, corner: u32) -> vec3<f32> {
+    switch corner {
+        case 0u: { return t.normal_a; }
+        case 1u: { return t.normal_b; }
+        default: { return t.normal_c; }
+    }
+}
+
+fn luminance(c: vec3<f32>) -> f32 {
+    return dot(c, vec3<f32>(0.2126, 0.7152, 0.0722));
+}
+
+// The deep cubemap : a camera-centred cube of `grid`² tiles per face, each holding
+// `bins` depth-binned linked lists of triangle ids, and a min/max depth hierarchy.
+struct CubemapParams {
+    centre: vec4<f32>,
+    grid: u32,
+    bins: u32,
+    node_capacity: u32,
+    levels: u32,
+    // Depth below which geometry is not recorded (avoids the projection singularity).
+    near: f32,
+    triangle_count: u32,
+    pad_a: u32,
+    pad_b: u32,
+    // First cell of each hierarchy level in `hierarchy` (level l at [l / 4][l % 4]).
+    level_offsets: array<vec4<u32>, 4>,
+}
+
+// Axes of cube face f (order +X −X +Y −Y +Z −Z): columns U, V (screen right, up) and A (axis).
+fn face_basis(f: u32) -> mat3x3<f32> {
+    switch f {
+        case 0u: { return mat3x3<f32>(vec3(0.0, 0.0, -1.0), vec3(0.0, 1.0, 0.0), vec3(1.0, 0.0, 0.0)); }
+        case 1u: { return mat3x3<f32>(vec3(0.0, 0.0, 1.0), vec3(0.0, 1.0, 0.0), vec3(-1.0, 0.0, 0.0)); }
+        case 2u: { return mat3x3<f32>(vec3(1.0, 0.0, 0.0), vec3(0.0, 0.0, -1.0), vec3(0.0, 1.0, 0.0)); }
+        case 3u: { return mat3x3<f32>(vec3(1.0, 0.0, 0.0), vec3(0.0, 0.0, 1.0), vec3(0.0, -1.0, 0.0)); }
+        case 4u: { return mat3x3<f32>(vec3(1.0, 0.0, 0.0), vec3(0.0, 1.0, 0.0), vec3(0.0, 0.0, 1.0)); }
+        default: { return mat3x3<f32>(vec3(-1.0, 0.0, 0.0), vec3(0.0, 1.0, 0.0), vec3(0.0, 0.0, -1.0)); }
+    }
+}
+
+// Cube face whose frustum holds direction v, in the order of face_basis.
+fn face_of(v: vec3<f32>) -> u32 {
+    let a = abs(v);
+    if a.x >= a.y && a.x >= a.z {
+        return select(1u, 0u, v.x > 0.0);
+    }
+    if a.y >= a.z {
+        return select(3u, 2u, v.y > 0.0);
+    }
+    return select(5u, 4u, v.z > 0.0);
+}
+
+// Offset of hierarchy level l.
+fn level_offset(d: CubemapParams, l: u32) -> u32 {
+    return d.level_offsets[l / 4u][l % 4u];
+}
+
+// The world gather radius of a pixel or importon: `pixels` footprints, kept within scene-
+// relative bounds so it neither vanishes nor covers the scene.
+fn gather_radius(params: IterationParams, pixels: f32, footprint: f32) -> f32 {
+    let scale = params.scene_sphere.w;
+    return clamp(pixels * footprint, 1e-6 * scale, 0.1 * scale);
+}
+
+// The full-resolution pixel that stands for subsampled texel `texel` (the block's centre).
+fn subsample_representative(params: IterationParams, texel: vec2<u32>) -> vec2<i32> {
+    let n = params.indirect_subsampling;
+    return vec2<i32>(min(texel * n + n / 2u, params.size - 1u));
+}
+
+// Russian roulette on a splat: false to drop it; the kept ones count twice (unbiased).
+fn splat_survives(params: IterationParams, a: u32, b: u32) -> bool {
+    if params.splat_russian_roulette == 0u {
+        return true;
+    }
+    return (pcg_hash(a ^ pcg_hash(b ^ pcg_hash(params.iteration))) & 1u) == 0u;
+}
+
+fn splat_weight(params: IterationParams) -> f32 {
+    return select(1.0, 2.0, params.splat_russian_roulette != 0u);
+}
+
+// A PCG hash: the random numbers of every stage come from hashing (iteration, item, draw).
+fn pcg_hash(v: u32) -> u32 {
+    let state = v * 747796405u + 2891336453u;
+    let word = ((state >> ((state >> 28u) + 4u)) ^ state) * 277803737u;
+    return (word >> 22u) ^ word;
+}
+
+// Uniform in [0, 1), advancing `state`.
+fn random(state: ptr<function, u32>) -> f32 {
+    *state = pcg_hash(*state);
+    return f32(*state >> 8u) / 16777216.0;
+}
+
+// An orthonormal basis around unit n (Duff et al. 2017).
+fn basis_around(n: vec3<f32>) -> mat3x3<f32> {
+    let s = select(-1.0, 1.0, n.z >= 0.0);
+    let a = -1.0 / (s + n.z);
+    let b = n.x * n.y * a;
+    return mat3x3<f32>(vec3<f32>(1.0 + s * n.x * n.x * a, s * b, -s * n.x), vec3<f32>(b, s + n.y * n.y * a, -n.y), n);
+}
+
+// Cosine-distributed direction around unit n.
+fn cosine_direction(n: vec3<f32>, u: vec2<f32>) -> vec3<f32> {
+    let r = sqrt(u.x);
+    let phi = 2.0 * PI * u.y;
+    return basis_around(n) * vec3<f32>(r * cos(phi), r * sin(phi), sqrt(max(1.0 - u.x, 0.0)));
+}
+
+// A camera path's end on a non-specular surface after specular bounces: it gathers photons
+// in its radius (indirect splatting). 64 bytes; one per pixel, index = pixel.
+struct Importon {
+    position: vec3<f32>,
+    // Material index; NO_IMPORTON when the pixel has none this iteration.
+    material: u32,
+    normal: vec3<f32>,
+    // Next importon in its cubemap tile's list, as index + 1 (0 ends the list).
+    next: u32,
+    // Product of the specular bounces' weights from the camera.
+    throughput: vec3<f32>,
+    radius: f32,
+    // Direction towards the previous path vertex.
+    outgoing: vec3<f32>,
+    pad: u32,
+}
+
+const NO_IMPORTON: u32 = 0xffffffffu;
+
+// Tile of the deep cubemap holding world point p (face, tile x, tile y) and its depth.
+struct CubemapTile {
+    index: u32,
+    face: u32,
+    cell: vec2<f32>,
+    depth: f32,
+}
+
+fn cubemap_tile(d: CubemapParams, p: vec3<f32>) -> CubemapTile {
+    let v = p - d.centre.xyz;
+    let f = face_of(v);
+    let l = transpose(face_basis(f)) * v;
+    let g = f32(d.grid);
+    let s = l.xy / max(l.z, 1e-30);
+    let cell = clamp(vec2<f32>((s.x + 1.0) * 0.5 * g, (1.0 - s.y) * 0.5 * g), vec2<f32>(0.0), vec2<f32>(g - 1.0));
+    let c = vec2<u32>(cell);
+    return CubemapTile((f * d.grid + c.y) * d.grid + c.x, f, cell, l.z);
+}

@@ -1,0 +1,275 @@
+// Ray tracing through the deep cubemap. A ray is cut where it crosses from one cube face to
+// the next; in each face it is marched through the tile grid in image space with the min/max
+// hierarchy (a cell whose depth range the ray's depth interval misses is skipped whole, and
+// the march climbs a level), and at the finest level only the triangles in the depth bins
+// that the ray's depth interval crosses are tested, exactly and watertight.
+#define_import_path bevy_rppm::cubemap
+
+#import bevy_rppm::common::{CubemapParams, face_basis, level_offset, face_of}
+#import bevy_rppm::scene::triangles
+
+@group(3) @binding(0) var<uniform> cubemap: CubemapParams;
+@group(3) @binding(1) var<storage, read> hierarchy: array<vec2<f32>>;
+@group(3) @binding(2) var<storage, read> heads: array<u32>;
+@group(3) @binding(3) var<storage, read> nodes: array<vec2<u32>>;
+
+const NO_HIT: u32 = 0xffffffffu;
+const FAR: f32 = 1.0e30;
+
+struct Hit {
+    t: f32,
+    triangle: u32,
+    // Barycentric weights of the triangle's second and third vertices.
+    uv: vec2<f32>,
+}
+
+// Watertight ray/triangle intersection (Woop, Benthin, Wald 2013): edges are tested in a
+// ray-aligned shear space, so a ray through a shared edge hits one of its two triangles.
+// Returns (t, u, v) with t < 0 on a miss.
+fn intersect_triangle(o: vec3<f32>, d: vec3<f32>, id: u32) -> vec3<f32> {
+    let tri = triangles[id];
+    let ad = abs(d);
+    var kz = 0u;
+    if ad.y > ad.x && ad.y >= ad.z {
+        kz = 1u;
+    } else if ad.z > ad.x && ad.z > ad.y {
+        kz = 2u;
+    }
+    var kx = (kz + 1u) % 3u;
+    var ky = (kx + 1u) % 3u;
+    if d[kz] < 0.0 {
+        let swap = kx;
+        kx = ky;
+        ky = swap;
+    }
+    let sx = d[kx] / d[kz];
+    let sy = d[ky] / d[kz];
+    let sz = 1.0 / d[kz];
+    let a = tri.position_a - o;
+    let b = tri.position_b - o;
+    let c = tri.position_c - o;
+    let ax = a[kx] - sx * a[kz];
+    let ay = a[ky] - sy * a[kz];
+    let bx = b[kx] - sx * b[kz];
+    let by = b[ky] - sy * b[kz];
+    let cx = c[kx] - sx * c[kz];
+    let cy = c[ky] - sy * c[kz];
+    let u = cx * by - cy * bx;
+    let v = ax * cy - ay * cx;
+    let w = bx * ay - by * ax;
+    if (u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0) {
+        return vec3<f32>(-1.0);
+    }
+    let det = u + v + w;
+    if det == 0.0 {
+        return vec3<f32>(-1.0);
+    }
+    let t = (u * a[kz] + v * b[kz] + w * c[kz]) * sz / det;
+    return vec3<f32>(t, v / det, w / det);
+}
+
+fn consider(o: vec3<f32>, d: vec3<f32>, id: u32, t_min: f32, best: ptr<function, Hit>) {
+    let h = intersect_triangle(o, d, id);
+    if h.x > t_min && h.x < (*best).t {
+        *best = Hit(h.x, id, h.yz);
+    }
+}
+
+// The reference: every triangle, nearest hit in (t_min, t_max), skipping `ignore`.
+fn trace_brute_force(o: vec3<f32>, d: vec3<f32>, t_min: f32, t_max: f32, ignore: u32) -> Hit {
+    var best = Hit(t_max, NO_HIT, vec2<f32>(0.0));
+    let count = arrayLength(&triangles);
+    for (var i = 0u; i < count; i += 1u) {
+        if i != ignore {
+            consider(o, d, i, t_min, &best);
+        }
+    }
+    return best;
+}
+
+// The ray in one face's frame: screen coordinate s(t) = (p + t q) / (w + t r).
+struct FaceRay {
+    p: vec2<f32>,
+    q: vec2<f32>,
+    w: f32,
+    r: f32,
+}
+
+// Parameter where the screen coordinate along `axis` reaches the grid line `line`.
+fn t_at_line(ray: FaceRay, axis: u32, line: f32) -> f32 {
+    let g = f32(cubemap.grid);
+    // Grid x grows with screen u, grid y shrinks with screen v.
+    let s = select(1.0 - line / g * 2.0, line / g * 2.0 - 1.0, axis == 0u);
+    let den = ray.q[axis] - s * ray.r;
+    if den == 0.0 {
+        return FAR;
+    }
+    return (s * ray.w - ray.p[axis]) / den;
+}
+
+// A grid line beyond the vanishing point is never reached: its solution lies behind the ray
+// or behind the centre. Such crossings count as never.
+fn ahead(ray: FaceRay, t: f32, crossing: f32) -> f32 {
+    if crossing > t && ray.w + crossing * ray.r > 0.0 {
+        return crossing;
+    }
+    return FAR;
+}
+
+fn grid_at(ray: FaceRay, t: f32) -> vec2<f32> {
+    let s = (ray.p + t * ray.q) / (ray.w + t * ray.r);
+    let g = f32(cubemap.grid);
+    return vec2<f32>((s.x + 1.0) * 0.5 * g, (1.0 - s.y) * 0.5 * g);
+}
+
+// Marches the part [t0, t1] of the ray that lies in face f.
+fn trace_face(o: vec3<f32>, d: vec3<f32>, f: u32, t0: f32, t1: f32, t_min: f32, ignore: u32, best: ptr<function, Hit>) {
+    let basis = transpose(face_basis(f));
+    let lo = basis * (o - cubemap.centre.xyz);
+    let ld = basis * d;
+    let ray = FaceRay(lo.xy, ld.xy, lo.z, ld.z);
+    var t = t0;
+    // Start beyond the near limit of recorded geometry.
+    if ray.w + t * ray.r < cubemap.near {
+        if ray.r <= 0.0 {
+            return;
+        }
+        t = (cubemap.near - ray.w) / ray.r;
+    }
+    let end = min(t1, (*best).t);
+    if t >= end {
+        return;
+    }
+    let grid = cubemap.grid;
+    let g = f32(grid);
+    // Direction of motion through the grid (constant along a line's projection).
+    let du = ray.q.x * ray.w - ray.p.x * ray.r;
+    let dv = -(ray.q.y * ray.w - ray.p.y * ray.r);
+    let step = vec2<i32>(select(select(0, -1, du < 0.0), 1, du > 0.0), select(select(0, -1, dv < 0.0), 1, dv > 0.0));
+    // The starting cell, a hair past t so that a start on a grid line picks the cell ahead.
+    let probe = min(end - t, 1e-5 * (abs(t) + length(lo) / max(length(ld), 1e-30)));
+    let start = grid_at(ray, t + 0.5 * probe);
+    var cell = vec2<i32>(clamp(floor(start), vec2<f32>(0.0), vec2<f32>(g - 1.0)));
+    var level = 0u;
+    let top = cubemap.levels - 1u;
+    for (var guard = 0u; guard < 64u * grid + 256u; guard += 1u) {
+        if t >= end || (*best).t <= t {
+            return;
+        }
+        let size = i32(1u << level);
+        let coarse = cell >> vec2<u32>(level);
+        // Where the ray leaves this cell in x and in y.
+        var tx = FAR;
+        var ty = FAR;
+        if step.x != 0 {
+            tx = ahead(ray, t, t_at_line(ray, 0u, f32((coarse.x + select(0, 1, step.x > 0)) * size)));
+        }
+        if step.y != 0 {
+            ty = ahead(ray, t, t_at_line(ray, 1u, f32((coarse.y + select(0, 1, step.y > 0)) * size)));
+        }
+        let t_exit = min(min(tx, ty), end);
+        let z0 = ray.w + t * ray.r;
+        let z1 = ray.w + t_exit * ray.r;
+        let zr = vec2<f32>(min(z0, z1) * (1.0 - 1e-4), max(z0, z1) * (1.0 + 1e-4));
+        let cells = max(grid >> level, 1u);
+        let index = level_offset(cubemap, level) + (f * cells + u32(coarse.y)) * cells + u32(coarse.x);
+        let range = hierarchy[index];
+        let overlaps = range.x <= zr.y && range.y >= zr.x;
+        if overlaps && level > 0u {
+            level -= 1u;
+            continue;
+        }
+        if overlaps {
+            test_tile(o, d, f, cell, zr, range, t_min, ignore, best);
+            if (*best).t <= t_exit {
+                return;
+            }
+        }
+        // Leave the cell through the nearer of its two exits.
+        if t_exit >= end {
+            return;
+        }
+        if tx <= ty {
+            cell.x = select(coarse.x * size - 1, (coarse.x + 1) * size, step.x > 0);
+            let y = i32(floor(grid_at(ray, t_exit).y));
+            cell.y = clamp(y, coarse.y * size, coarse.y * size + size - 1);
+        } else {
+            cell.y = select(coarse.y * size - 1, (coarse.y + 1) * size, step.y > 0);
+            let x = i32(floor(grid_at(ray, t_exit).x));
+            cell.x = clamp(x, coarse.x * size, coarse.x * size + size - 1);
+        }
+        if any(cell < vec2<i32>(0)) || any(cell >= vec2<i32>(i32(grid))) {
+            return;
+        }
+        t = t_exit;
+        if !overlaps {
+            level = min(level + 1u, top);
+        }
+    }
+}
+
+// Tests the triangles of the tile's bins that the ray's depth interval `zr` crosses.
+fn test_tile(o: vec3<f32>, d: vec3<f32>, f: u32, cell: vec2<i32>, zr: vec2<f32>, range: vec2<f32>, t_min: f32, ignore: u32, best: ptr<function, Hit>) {
+    let grid = cubemap.grid;
+    let tile = (f * grid + u32(cell.y)) * grid + u32(cell.x);
+    let width = (range.y - range.x) / f32(cubemap.bins);
+    var first = 0u;
+    var last = cubemap.bins - 1u;
+    if width > 0.0 {
+        first = u32(clamp(floor((zr.x - range.x) / width), 0.0, f32(cubemap.bins - 1u)));
+        last = u32(clamp(floor((zr.y - range.x) / width), 0.0, f32(cubemap.bins - 1u)));
+    }
+    for (var b = first; b <= last; b += 1u) {
+        var node = heads[tile * cubemap.bins + b];
+        for (var guard = 0u; node != 0u && guard < cubemap.node_capacity; guard += 1u) {
+            let entry = nodes[node - 1u];
+            if entry.x != ignore {
+                consider(o, d, entry.x, t_min, best);
+            }
+            node = entry.y;
+        }
+    }
+}
+
+// Nearest hit in (t_min, t_max) through the deep cubemap, skipping triangle `ignore` (the one
+// a bounce ray leaves; NO_HIT for none). `d` need not be normalised; t is in its units.
+fn trace_cubemap(o: vec3<f32>, d: vec3<f32>, t_min: f32, t_max: f32, ignore: u32) -> Hit {
+    var best = Hit(min(t_max, FAR), NO_HIT, vec2<f32>(0.0));
+    let oc = o - cubemap.centre.xyz;
+    // Parameters where the ray crosses the planes between faces (|x|=|y|, |x|=|z|, |y|=|z|).
+    var cuts: array<f32, 8>;
+    var n = 0u;
+    let planes = array<vec3<f32>, 6>(
+        vec3(1.0, -1.0, 0.0), vec3(1.0, 1.0, 0.0), vec3(1.0, 0.0, -1.0),
+        vec3(1.0, 0.0, 1.0), vec3(0.0, 1.0, -1.0), vec3(0.0, 1.0, 1.0),
+    );
+    for (var i = 0u; i < 6u; i += 1u) {
+        let den = dot(planes[i], d);
+        if den != 0.0 {
+            let t = -dot(planes[i], oc) / den;
+            if t > t_min && t < best.t {
+                // Insertion sort: at most six cuts.
+                var j = n;
+                while j > 0u && cuts[j - 1u] > t {
+                    cuts[j] = cuts[j - 1u];
+                    j -= 1u;
+                }
+                cuts[j] = t;
+                n += 1u;
+            }
+        }
+    }
+    var t0 = max(t_min, 0.0);
+    for (var i = 0u; i <= n; i += 1u) {
+        let t1 = select(best.t, cuts[i], i < n);
+        if t0 >= best.t {
+            break;
+        }
+        if t1 > t0 {
+            let mid = t0 + 0.5 * min(t1 - t0, 1.0e20);
+            trace_face(o, d, face_of(oc + d * mid), t0, t1, t_min, ignore, &best);
+        }
+        t0 = max(t0, t1);
+    }
+    return best;
+}

@@ -1,0 +1,134 @@
+// Local illumination: emission seen by the camera plus direct light from every light with
+// shadows from our shadow maps: this iteration's sample, before photons are added to it.
+// With IMPORTONS, a pixel that sees a specular surface (mirror, glass) follows the camera path
+// through the deep cubemap to the first non-specular surface, lights it the same way, and
+// leaves an importon there for indirect splatting.
+#import bevy_rppm::common::{Material, IterationParams, Importon, NO_IMPORTON, cubemap_tile, gather_radius}
+#import bevy_rppm::scene::{triangles, materials}
+#import bevy_rppm::lighting::{params, surface_light}
+#ifdef IMPORTONS
+#import bevy_rppm::bsdf::{DELTA_ROUGHNESS, fresnel_dielectric}
+#import bevy_rppm::common::{random, pcg_hash, luminance}
+#import bevy_rppm::cubemap::{cubemap, trace_cubemap, NO_HIT}
+#endif
+
+@group(2) @binding(0) var gbuffer_position: texture_2d<f32>;
+@group(2) @binding(1) var gbuffer_normal: texture_2d<f32>;
+@group(2) @binding(3) var<storage, read_write> samples: array<vec4<f32>>;
+#ifdef IMPORTONS
+@group(2) @binding(4) var<storage, read_write> importons: array<Importon>;
+@group(2) @binding(5) var<storage, read_write> importon_heads: array<atomic<u32>>;
+// [0]: largest importon radius (f32 bits), [1]: importons made, [4..7]: the indirect
+// splat's dispatch (x set here, once an importon exists).
+@group(2) @binding(6) var<storage, read_write> importon_stats: array<atomic<u32>, 8>;
+
+// Whether a material only reflects or refracts specularly (no diffuse, no rough lobe).
+fn is_specular(m: Material) -> bool {
+    let diffuse = (1.0 - m.metallic) * (1.0 - m.specular_transmission);
+    return m.perceptual_roughness < DELTA_ROUGHNESS && diffuse * luminance(m.base_color.rgb) <= 0.0;
+}
+
+struct Bounce {
+    direction: vec3<f32>,
+    weight: vec3<f32>,
+}
+
+// Samples the specular lobes: the mirror of metals, Fresnel-chosen reflection or refraction
+// of glass. `n` faces the incoming side; `front` tells which side of the surface that is.
+fn specular_bounce(m: Material, d: vec3<f32>, n: vec3<f32>, front: bool, rng: ptr<function, u32>) -> Bounce {
+    let mirror = luminance(m.base_color.rgb) * m.metallic;
+    let glass = m.specular_transmission * (1.0 - m.metallic);
+    let total = max(mirror + glass, 1e-6);
+#ifdef MIRRORS
+    if random(rng) * total < mirror {
+        return Bounce(reflect(d, n), m.base_color.rgb * (total / luminance(m.base_color.rgb)));
+    }
+#endif
+#ifdef REFRACTION
+    let eta = select(m.ior, 1.0 / m.ior, front);
+    let refracted = refract(d, n, eta);
+    if random(rng) < fresnel_dielectric(dot(-d, n), eta) || all(refracted == vec3<f32>(0.0)) {
+        return Bounce(reflect(d, n), vec3<f32>(total));
+    }
+    return Bounce(refracted, vec3<f32>(total));
+#else
+    return Bounce(d, vec3<f32>(0.0));
+#endif
+}
+
+// Follows the camera path from a specular G-buffer point; returns the light it finds and
+// leaves an importon at its first non-specular vertex.
+fn follow_camera_path(pixel: u32, x0: vec3<f32>, n0: vec3<f32>, m0: Material, triangle: u32, front0: bool, wo0: vec3<f32>) -> vec3<f32> {
+    var rng = pcg_hash(pixel ^ pcg_hash(params.iteration * 0x85ebca6bu + 0x27d4eb2fu));
+    var bounce = specular_bounce(m0, -wo0, n0, front0, &rng);
+    var throughput = bounce.weight;
+    var o = x0;
+    var d = bounce.direction;
+    var ignore = triangle;
+    var length = distance(params.camera_position.xyz, x0);
+    let t_min = params.scene_sphere.w * 1e-6;
+    for (var depth = 2u; depth <= params.max_eye_depth; depth += 1u) {
+        let hit = trace_cubemap(o, d, t_min, 1.0e30, ignore);
+        if hit.triangle == NO_HIT || all(throughput <= vec3<f32>(0.0)) {
+            return vec3<f32>(0.0);
+        }
+        let t = triangles[hit.triangle];
+        let m = materials[t.material];
+        let x = o + d * hit.t;
+        length += hit.t;
+        let w = vec3<f32>(1.0 - hit.uv.x - hit.uv.y, hit.uv);
+        let geometric = cross(t.position_b - t.position_a, t.position_c - t.position_a);
+        let front = dot(geometric, d) < 0.0;
+        var n = normalize(t.normal_a * w.x + t.normal_b * w.y + t.normal_c * w.z);
+        if !front {
+            n = -n;
+        }
+        if !is_specular(m) {
+            let footprint = params.pixel_spread * select(length, 1.0, params.orthographic != 0u);
+            let radius = gather_radius(params, params.splat_radius, footprint);
+            importons[pixel] = Importon(x, t.material, n, 0u, throughput, radius, -d, 0u);
+            let tile = cubemap_tile(cubemap, x);
+            importons[pixel].next = atomicExchange(&importon_heads[tile.index], pixel + 1u);
+            atomicMax(&importon_stats[0], bitcast<u32>(radius));
+            atomicAdd(&importon_stats[1], 1u);
+            atomicMax(&importon_stats[4], (params.photon_capacity + 63u) / 64u);
+            return throughput * surface_light(m, x, n, -d, front);
+        }
+        bounce = specular_bounce(m, d, n, front, &rng);
+        throughput *= bounce.weight;
+        o = x;
+        d = bounce.direction;
+        ignore = hit.triangle;
+    }
+    return vec3<f32>(0.0);
+}
+#endif
+
+@compute @workgroup_size(8, 8, 1)
+fn main(@builtin(global_invocation_id) id: vec3<u32>) {
+    if any(id.xy >= params.size) {
+        return;
+    }
+    let pixel = id.y * params.size.x + id.x;
+    let gp = textureLoad(gbuffer_position, vec2<i32>(id.xy), 0);
+    var sample = vec3<f32>(0.0);
+#ifdef IMPORTONS
+    importons[pixel].material = NO_IMPORTON;
+#endif
+    if gp.w != 0.0 {
+        let triangle = u32(abs(gp.w)) - 1u;
+        let n = textureLoad(gbuffer_normal, vec2<i32>(id.xy), 0).xyz;
+        let m = materials[triangles[triangle].material];
+        let wo = normalize(params.camera_position.xyz - gp.xyz);
+        // Mode Indirect: Bevy renders the first hit's emission and direct light itself.
+        if params.indirect_only == 0u {
+            sample = surface_light(m, gp.xyz, n, wo, gp.w > 0.0);
+        }
+#ifdef IMPORTONS
+        if is_specular(m) {
+            sample += follow_camera_path(pixel, gp.xyz, n, m, triangle, gp.w > 0.0, wo);
+        }
+#endif
+    }
+    samples[pixel] = vec4<f32>(sample, 1.0);
+}

@@ -1,0 +1,16 @@
+// The scene tables, bound at group 0 by every stage (`scene_layout` in src/view/layouts.rs).
+#define_import_path bevy_rppm::scene
+
+#import bevy_rppm::common::{Triangle, Material, Light, Emitter, ShadowView}
+
+@group(0) @binding(0) var<storage, read> triangles: array<Triangle>;
+@group(0) @binding(1) var<storage, read> shadow_views: array<ShadowView>;
+@group(0) @binding(2) var<storage, read> materials: array<Material>;
+@group(0) @binding(3) var<storage, read> lights: array<Light>;
+@group(0) @binding(4) var<storage, read> emitters: array<Emitter>;
+@group(0) @binding(5) var<storage, read> light_cdf: array<f32>;
+
+// The material of a camera G-buffer texel, whose w holds ±(triangle + 1).
+fn gbuffer_material(w: f32) -> Material {
+    return materials[triangles[u32(abs(w)) - 1u].material];
+}

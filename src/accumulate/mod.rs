@@ -1,0 +1,167 @@
+//! Accumulation: this iteration's sample (local light, direct and indirect splats) folded into
+//! the running mean of every iteration since the last reset (`shaders/accumulate/`). With
+//! subsampled splats, the incident light is upsampled by a joint-bilateral filter before each
+//! pixel's own BSDF.
+
+use bevy::prelude::*;
+use bevy::render::render_resource::binding_types::{
+    storage_buffer_read_only_sized, storage_buffer_sized, texture_2d,
+};
+use bevy::render::render_resource::*;
+use bevy::render::renderer::RenderDevice;
+use bevy::render::{RenderApp, RenderStartup};
+use bevy::shader::{Shader, ShaderDefVal};
+
+use crate::gbuffer::GBuffer;
+use crate::importons::EyePaths;
+use crate::shaders::RppmShaders;
+use crate::splat::SplatTarget;
+use crate::stats::timing::{Stage, StageTimer};
+use crate::view::ViewLayouts;
+use crate::view::layouts::params_entry;
+
+pub(crate) struct AccumulatePlugin;
+
+impl Plugin for AccumulatePlugin {
+    fn build(&self, app: &mut App) {
+        if let Some(render_app) = app.get_sub_app_mut(RenderApp) {
+            render_app
+                .init_resource::<SpecializedComputePipelines<AccumulatePipeline>>()
+                .add_systems(RenderStartup, init_accumulate_pipeline);
+        }
+    }
+}
+
+/// The accumulation stage, specialized by [`AccumulateKey`].
+#[derive(Resource)]
+pub struct AccumulatePipeline {
+    /// 0 params (dynamic offset), 1 samples, 2 splats, 3 the running estimate, 4 importon
+    /// radiance, 5 G-buffer position, 6 G-buffer normal.
+    pub layout: BindGroupLayoutDescriptor,
+    scene: BindGroupLayoutDescriptor,
+    shader: Handle<Shader>,
+}
+
+/// What a view's iteration adds up.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct AccumulateKey {
+    /// Splats were gathered on one pixel of every n×n block (`SUBSAMPLED`).
+    pub subsampled: bool,
+    /// Importons gathered photons too (`IMPORTONS`).
+    pub importons: bool,
+}
+
+impl SpecializedComputePipeline for AccumulatePipeline {
+    type Key = AccumulateKey;
+
+    fn specialize(&self, key: AccumulateKey) -> ComputePipelineDescriptor {
+        let mut shader_defs: Vec<ShaderDefVal> = Vec::new();
+        if key.subsampled {
+            shader_defs.push("SUBSAMPLED".into());
+        }
+        if key.importons {
+            shader_defs.push("IMPORTONS".into());
+        }
+        ComputePipelineDescriptor {
+            label: Some("rppm_accumulate".into()),
+            layout: vec![self.scene.clone(), self.layout.clone()],
+            shader: self.shader.clone(),
+            shader_defs,
+            ..default()
+        }
+    }
+}
+
+fn init_accumulate_pipeline(
+    mut commands: Commands,
+    shaders: Res<RppmShaders>,
+    layouts: Res<ViewLayouts>,
+) {
+    let unfilterable = TextureSampleType::Float { filterable: false };
+    let layout = BindGroupLayoutDescriptor::new(
+        "rppm_accumulate_layout",
+        &BindGroupLayoutEntries::sequential(
+            ShaderStages::COMPUTE,
+            (
+                params_entry(),
+                storage_buffer_read_only_sized(false, None),
+                texture_2d(unfilterable),
+                storage_buffer_sized(false, None),
+                storage_buffer_read_only_sized(false, None),
+                texture_2d(unfilterable),
+                texture_2d(unfilterable),
+            ),
+        ),
+    );
+    commands.insert_resource(AccumulatePipeline {
+        layout,
+        scene: layouts.scene.clone(),
+        shader: shaders.accumulate.clone(),
+    });
+}
+
+/// One camera's running estimate (linear radiance, RGBA f32 per pixel) and the group that
+/// folds an iteration into it.
+pub struct Estimate {
+    pub radiance: Buffer,
+    group: BindGroup,
+}
+
+/// What an estimate's group binds.
+pub struct EstimateInputs<'a> {
+    pub params: BufferBinding<'a>,
+    pub eye_paths: &'a EyePaths,
+    pub splats: &'a SplatTarget,
+    pub gbuffer: &'a GBuffer,
+}
+
+impl Estimate {
+    pub fn new(
+        device: &RenderDevice,
+        cache: &PipelineCache,
+        pipeline: &AccumulatePipeline,
+        size: UVec2,
+        inputs: EstimateInputs,
+    ) -> Self {
+        let radiance = device.create_buffer(&BufferDescriptor {
+            label: Some("rppm_radiance"),
+            size: size.x as u64 * size.y as u64 * 16,
+            usage: BufferUsages::STORAGE | BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        });
+        let group = device.create_bind_group(
+            "rppm_accumulate_group",
+            &cache.get_bind_group_layout(&pipeline.layout),
+            &BindGroupEntries::sequential((
+                inputs.params,
+                inputs.eye_paths.samples.as_entire_binding(),
+                &inputs.splats.view,
+                radiance.as_entire_binding(),
+                inputs.eye_paths.radiance.as_entire_binding(),
+                &inputs.gbuffer.position,
+                &inputs.gbuffer.normal,
+            )),
+        );
+        Self { radiance, group }
+    }
+
+    /// Adds the splats to the local sample and folds it into the running estimate.
+    pub fn encode(
+        &self,
+        encoder: &mut CommandEncoder,
+        pipeline: &ComputePipeline,
+        scene_group: &BindGroup,
+        size: UVec2,
+        offset: u32,
+        timer: &mut StageTimer,
+    ) {
+        let mut pass = encoder.begin_compute_pass(&ComputePassDescriptor {
+            label: Some("rppm_accumulate"),
+            timestamp_writes: timer.compute_pass(Stage::Accumulate),
+        });
+        pass.set_pipeline(pipeline);
+        pass.set_bind_group(0, scene_group, &[]);
+        pass.set_bind_group(1, &self.group, &[offset]);
+        pass.dispatch_workgroups(size.x.div_ceil(8), size.y.div_ceil(8), 1);
+    }
+}

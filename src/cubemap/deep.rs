@@ -1,0 +1,296 @@
+//! One camera's deep cubemap: its buffers, sized by the configuration, the scene and the list
+//! capacity, and the build it records.
+
+use bevy::prelude::*;
+use bevy::render::render_resource::*;
+use bevy::render::renderer::{RenderDevice, RenderQueue};
+
+use super::{CubemapConfig, CubemapParams, CubemapPipelines};
+use crate::scene::SceneBuffers;
+use crate::stats::readback::AsyncReadback;
+use crate::stats::timing::{Stage, StageTimer};
+
+/// Byte stride of the per-level uniforms of the hierarchy reduction.
+const LEVEL_STRIDE: u64 = 256;
+
+/// One deep cubemap's buffers. Sizes follow the configuration, the scene and the list
+/// capacity; lists that overflow are counted (never written out of bounds), and the owner
+/// grows the capacity and builds again.
+pub struct DeepCubemap {
+    pub config: CubemapConfig,
+    pub params: CubemapParams,
+    params_buffer: Buffer,
+    tile_bounds: Buffer,
+    heads: Buffer,
+    nodes: Buffer,
+    counters: Buffer,
+    /// The counters on their way back without a stall, so lists grow in every app.
+    counter_probe: AsyncReadback,
+    hierarchy: Buffer,
+    levels: Buffer,
+    atlas: TextureView,
+    build_group: BindGroup,
+    level_group: BindGroup,
+    /// Group 1 of a tracing shader.
+    pub trace_group: BindGroup,
+}
+
+fn buffer(device: &RenderDevice, label: &'static str, size: u64, usage: BufferUsages) -> Buffer {
+    device.create_buffer(&BufferDescriptor {
+        label: Some(label),
+        size: size.max(16),
+        usage,
+        mapped_at_creation: false,
+    })
+}
+
+impl DeepCubemap {
+    /// Buffers for `config` around `centre`, with room for `node_capacity` list entries.
+    #[expect(
+        clippy::too_many_arguments,
+        reason = "the render-world resources a build binds"
+    )]
+    pub fn new(
+        device: &RenderDevice,
+        queue: &RenderQueue,
+        cache: &PipelineCache,
+        pipelines: &CubemapPipelines,
+        scene: &SceneBuffers,
+        config: CubemapConfig,
+        centre: Vec3,
+        node_capacity: u32,
+    ) -> Result<Self, String> {
+        let grid = config.grid();
+        let tiles = 6 * grid as u64 * grid as u64;
+        let limit = device
+            .limits()
+            .max_storage_buffer_binding_size
+            .min(device.limits().max_buffer_size);
+        let largest = (tiles * config.bins as u64 * 4).max(node_capacity as u64 * 8);
+        if largest > limit {
+            return Err(format!(
+                "a {}² cubemap with {} bins needs a {largest}-byte buffer, over this GPU's \
+                 limit of {limit} bytes",
+                config.resolution, config.bins
+            ));
+        }
+        let (level_offsets, cells) = config.level_offsets();
+        let params = CubemapParams {
+            centre: centre.extend(1.0).into(),
+            grid,
+            bins: config.bins,
+            node_capacity,
+            levels: config.levels(),
+            near: near_limit(scene),
+            triangle_count: scene.triangle_count(),
+            _pad: [0; 2],
+            level_offsets,
+        };
+        let storage = BufferUsages::STORAGE | BufferUsages::COPY_DST | BufferUsages::COPY_SRC;
+        let params_buffer = device.create_buffer_with_data(&BufferInitDescriptor {
+            label: Some("rppm_cubemap_params"),
+            contents: bytemuck::bytes_of(&params),
+            usage: BufferUsages::UNIFORM | BufferUsages::COPY_DST,
+        });
+        let tile_bounds = buffer(device, "rppm_cubemap_tile_bounds", tiles * 8, storage);
+        let heads = buffer(
+            device,
+            "rppm_cubemap_heads",
+            tiles * config.bins as u64 * 4,
+            storage,
+        );
+        let nodes = buffer(
+            device,
+            "rppm_cubemap_nodes",
+            node_capacity as u64 * 8,
+            storage,
+        );
+        let counters = buffer(device, "rppm_cubemap_counters", 16, storage);
+        let hierarchy = buffer(device, "rppm_cubemap_hierarchy", cells as u64 * 8, storage);
+        let levels = buffer(
+            device,
+            "rppm_cubemap_levels",
+            config.levels() as u64 * LEVEL_STRIDE,
+            BufferUsages::UNIFORM | BufferUsages::COPY_DST,
+        );
+        for level in 0..config.levels() {
+            queue.write_buffer(&levels, level as u64 * LEVEL_STRIDE, &level.to_le_bytes());
+        }
+        let atlas = device
+            .create_texture(&TextureDescriptor {
+                label: Some("rppm_cubemap_atlas"),
+                size: Extent3d {
+                    width: 3 * grid,
+                    height: 2 * grid,
+                    depth_or_array_layers: 1,
+                },
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: TextureDimension::D2,
+                format: TextureFormat::Depth32Float,
+                usage: TextureUsages::RENDER_ATTACHMENT,
+                view_formats: &[],
+            })
+            .create_view(&TextureViewDescriptor::default());
+        let build_group = device.create_bind_group(
+            "rppm_cubemap_build_group",
+            &cache.get_bind_group_layout(&pipelines.build_layout),
+            &BindGroupEntries::sequential((
+                params_buffer.as_entire_binding(),
+                tile_bounds.as_entire_binding(),
+                heads.as_entire_binding(),
+                nodes.as_entire_binding(),
+                counters.as_entire_binding(),
+                hierarchy.as_entire_binding(),
+            )),
+        );
+        let level_group = device.create_bind_group(
+            "rppm_cubemap_level_group",
+            &cache.get_bind_group_layout(&pipelines.level_layout),
+            &BindGroupEntries::single(BufferBinding {
+                buffer: &levels,
+                offset: 0,
+                size: BufferSize::new(16),
+            }),
+        );
+        let trace_group = device.create_bind_group(
+            "rppm_cubemap_trace_group",
+            &cache.get_bind_group_layout(&pipelines.trace_layout),
+            &BindGroupEntries::sequential((
+                params_buffer.as_entire_binding(),
+                hierarchy.as_entire_binding(),
+                heads.as_entire_binding(),
+                nodes.as_entire_binding(),
+            )),
+        );
+        Ok(Self {
+            config,
+            params,
+            params_buffer,
+            tile_bounds,
+            heads,
+            nodes,
+            counters,
+            counter_probe: AsyncReadback::new(device, 16),
+            hierarchy,
+            levels,
+            atlas,
+            build_group,
+            level_group,
+            trace_group,
+        })
+    }
+
+    /// Follows a changed scene (its triangle count and size); takes effect at the next build.
+    pub fn set_scene(&mut self, queue: &RenderQueue, scene: &SceneBuffers) {
+        self.params.triangle_count = scene.triangle_count();
+        self.params.near = near_limit(scene);
+        queue.write_buffer(&self.params_buffer, 0, bytemuck::bytes_of(&self.params));
+    }
+
+    /// Moves the cubemap's centre (the camera moved); takes effect at the next build.
+    pub fn set_centre(&mut self, queue: &RenderQueue, centre: Vec3) {
+        self.params.centre = centre.extend(1.0).into();
+        queue.write_buffer(&self.params_buffer, 0, bytemuck::bytes_of(&self.params));
+    }
+
+    /// A first list capacity for a scene: a few entries per tile, more for many triangles.
+    pub fn initial_capacity(config: CubemapConfig, triangles: u32) -> u32 {
+        let tiles = 6 * config.grid() as u64 * config.grid() as u64;
+        (tiles * 3 + triangles as u64 * 16).min(u32::MAX as u64 / 2) as u32
+    }
+
+    /// Bytes held per buffer.
+    pub fn memory(&self) -> Vec<(&'static str, u64)> {
+        let grid = self.config.grid() as u64;
+        vec![
+            ("cubemap_tile_bounds", self.tile_bounds.size()),
+            ("cubemap_heads", self.heads.size()),
+            ("cubemap_nodes", self.nodes.size()),
+            ("cubemap_hierarchy", self.hierarchy.size()),
+            ("cubemap_atlas", 6 * grid * grid * 4),
+            (
+                "cubemap_params",
+                self.params_buffer.size() + self.levels.size() + self.counters.size(),
+            ),
+        ]
+    }
+
+    /// The buffer holding (nodes used, nodes that did not fit).
+    pub fn counters(&self) -> &Buffer {
+        &self.counters
+    }
+
+    /// The list counters of an earlier build, when their non-blocking read-back has arrived.
+    pub fn poll_counters(&self, device: &RenderDevice) -> Option<[u32; 2]> {
+        let bytes = self.counter_probe.poll(device)?;
+        let counters: &[u32] = bytemuck::cast_slice(&bytes);
+        Some([counters[0], counters[1]])
+    }
+
+    /// Records the whole build: clear, tile bounds, list insertion, hierarchy.
+    pub fn encode_build(
+        &self,
+        encoder: &mut CommandEncoder,
+        cache: &PipelineCache,
+        pipelines: &CubemapPipelines,
+        scene_group: &BindGroup,
+        timer: &mut StageTimer,
+    ) {
+        let (Some(bounds), Some(insert), Some(base), Some(reduce)) = (
+            cache.get_render_pipeline(pipelines.bounds),
+            cache.get_render_pipeline(pipelines.insert),
+            cache.get_compute_pipeline(pipelines.hierarchy_base),
+            cache.get_compute_pipeline(pipelines.hierarchy_reduce),
+        ) else {
+            return;
+        };
+        for b in [&self.tile_bounds, &self.heads, &self.counters] {
+            encoder.clear_buffer(b, 0, None);
+        }
+        let vertices = self.params.triangle_count * 6;
+        for pipeline in [bounds, insert] {
+            let mut pass = encoder.begin_render_pass(&RenderPassDescriptor {
+                label: Some("rppm_cubemap_raster"),
+                color_attachments: &[],
+                depth_stencil_attachment: Some(RenderPassDepthStencilAttachment {
+                    view: &self.atlas,
+                    depth_ops: Some(Operations {
+                        load: LoadOp::Clear(0.0),
+                        store: StoreOp::Discard,
+                    }),
+                    stencil_ops: None,
+                }),
+                timestamp_writes: timer.render_pass(Stage::CubemapBuild),
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+            pass.set_pipeline(pipeline);
+            pass.set_bind_group(0, scene_group, &[]);
+            pass.set_bind_group(1, &self.build_group, &[]);
+            pass.draw(0..vertices, 0..6);
+        }
+        let mut pass = encoder.begin_compute_pass(&ComputePassDescriptor {
+            label: Some("rppm_cubemap_hierarchy"),
+            timestamp_writes: timer.compute_pass(Stage::CubemapBuild),
+        });
+        pass.set_bind_group(0, scene_group, &[]);
+        pass.set_bind_group(1, &self.build_group, &[]);
+        pass.set_pipeline(base);
+        let grid = self.config.grid();
+        pass.dispatch_workgroups((6 * grid * grid).div_ceil(64), 1, 1);
+        pass.set_pipeline(reduce);
+        for level in 1..self.config.levels() {
+            let cells = (grid >> level).max(1);
+            pass.set_bind_group(2, &self.level_group, &[level * LEVEL_STRIDE as u32]);
+            pass.dispatch_workgroups((6 * cells * cells).div_ceil(64), 1, 1);
+        }
+        drop(pass);
+        self.counter_probe.encode_copy(encoder, &self.counters);
+    }
+}
+
+/// Depth below which geometry is not recorded: a millionth of the scene's size.
+fn near_limit(scene: &SceneBuffers) -> f32 {
+    (scene.data.bounding_sphere().1 * 1e-6).max(1e-9)
+}

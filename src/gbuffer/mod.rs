@@ -1,0 +1,149 @@
+//! The camera G-buffer: world position, shading normal, triangle and pixel footprint of the
+//! first hit, rasterised from the scene's triangle buffer with this iteration's sub-pixel
+//! jitter (`shaders/gbuffer/gbuffer.wgsl`).
+
+use bevy::prelude::*;
+use bevy::render::render_resource::*;
+use bevy::render::renderer::RenderDevice;
+use bevy::render::{RenderApp, RenderStartup};
+
+use crate::shaders::RppmShaders;
+use crate::shadows::depth_state;
+use crate::stats::timing::{Stage, StageTimer};
+use crate::view::ViewLayouts;
+
+pub const GBUFFER_FORMAT: TextureFormat = TextureFormat::Rgba32Float;
+pub const DEPTH_FORMAT: TextureFormat = TextureFormat::Depth32Float;
+
+pub(crate) struct GBufferPlugin;
+
+impl Plugin for GBufferPlugin {
+    fn build(&self, app: &mut App) {
+        if let Some(render_app) = app.get_sub_app_mut(RenderApp) {
+            render_app.add_systems(RenderStartup, init_gbuffer_pipeline);
+        }
+    }
+}
+
+#[derive(Resource)]
+pub struct GBufferPipeline(pub CachedRenderPipelineId);
+
+fn init_gbuffer_pipeline(
+    mut commands: Commands,
+    cache: Res<PipelineCache>,
+    shaders: Res<RppmShaders>,
+    layouts: Res<ViewLayouts>,
+) {
+    let target = Some(ColorTargetState {
+        format: GBUFFER_FORMAT,
+        blend: None,
+        write_mask: ColorWrites::ALL,
+    });
+    let id = cache.queue_render_pipeline(RenderPipelineDescriptor {
+        label: Some("rppm_gbuffer_pipeline".into()),
+        layout: vec![layouts.scene.clone(), layouts.params.clone()],
+        vertex: VertexState {
+            shader: shaders.gbuffer.clone(),
+            ..default()
+        },
+        fragment: Some(FragmentState {
+            shader: shaders.gbuffer.clone(),
+            targets: vec![target.clone(), target],
+            ..default()
+        }),
+        // Reverse Z, as Bevy's camera projections.
+        depth_stencil: Some(depth_state(DEPTH_FORMAT, CompareFunction::Greater)),
+        ..default()
+    });
+    commands.insert_resource(GBufferPipeline(id));
+}
+
+/// One camera's G-buffer targets.
+pub struct GBuffer {
+    pub position: TextureView,
+    pub normal: TextureView,
+    depth: TextureView,
+}
+
+/// A 2D target that shaders read back as a texture.
+pub fn target(
+    device: &RenderDevice,
+    label: &'static str,
+    size: UVec2,
+    format: TextureFormat,
+) -> TextureView {
+    device
+        .create_texture(&TextureDescriptor {
+            label: Some(label),
+            size: Extent3d {
+                width: size.x,
+                height: size.y,
+                depth_or_array_layers: 1,
+            },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: TextureDimension::D2,
+            format,
+            usage: TextureUsages::RENDER_ATTACHMENT | TextureUsages::TEXTURE_BINDING,
+            view_formats: &[],
+        })
+        .create_view(&TextureViewDescriptor::default())
+}
+
+impl GBuffer {
+    pub fn new(device: &RenderDevice, size: UVec2) -> Self {
+        Self {
+            position: target(device, "rppm_gbuffer_position", size, GBUFFER_FORMAT),
+            normal: target(device, "rppm_gbuffer_normal", size, GBUFFER_FORMAT),
+            depth: target(device, "rppm_gbuffer_depth", size, DEPTH_FORMAT),
+        }
+    }
+
+    /// Bytes held for `pixels` pixels.
+    pub fn bytes(pixels: u64) -> u64 {
+        pixels * (16 + 16 + 4)
+    }
+
+    /// Rasterises the first hits of this iteration (params at `offset`).
+    pub fn encode(
+        &self,
+        encoder: &mut CommandEncoder,
+        pipeline: &RenderPipeline,
+        groups: [&BindGroup; 2],
+        triangles: u32,
+        offset: u32,
+        timer: &mut StageTimer,
+    ) {
+        let clear = Operations {
+            load: LoadOp::Clear(LinearRgba::NONE.into()),
+            store: StoreOp::Store,
+        };
+        let attachment = |view| {
+            Some(RenderPassColorAttachment {
+                view,
+                depth_slice: None,
+                resolve_target: None,
+                ops: clear,
+            })
+        };
+        let mut pass = encoder.begin_render_pass(&RenderPassDescriptor {
+            label: Some("rppm_gbuffer"),
+            color_attachments: &[attachment(&self.position), attachment(&self.normal)],
+            depth_stencil_attachment: Some(RenderPassDepthStencilAttachment {
+                view: &self.depth,
+                depth_ops: Some(Operations {
+                    load: LoadOp::Clear(0.0),
+                    store: StoreOp::Discard,
+                }),
+                stencil_ops: None,
+            }),
+            timestamp_writes: timer.render_pass(Stage::GBuffer),
+            occlusion_query_set: None,
+            multiview_mask: None,
+        });
+        pass.set_pipeline(pipeline);
+        pass.set_bind_group(0, groups[0], &[]);
+        pass.set_bind_group(1, groups[1], &[offset]);
+        pass.draw(0..triangles * 3, 0..1);
+    }
+}

@@ -1,0 +1,210 @@
+//! The render-graph system: records this frame's PPM iterations of one view, then its output.
+//! It reads the view's state; only the stage timer is written while recording.
+
+use bevy::prelude::*;
+use bevy::render::render_resource::*;
+use bevy::render::renderer::{RenderContext, ViewQuery};
+use bevy::render::view::ViewTarget;
+
+use super::state::{RppmViewState, ViewTimer};
+use crate::cubemap::{CubemapPipelines, TracingGroups};
+use crate::gbuffer::GBufferPipeline;
+use crate::scene::SceneBuffers;
+use crate::settings::RppmDebugView;
+use crate::shadows::{ShadowPipeline, render_layers};
+use crate::stats::timing::StageTimer;
+use crate::view::PARAMS_STRIDE;
+
+/// Pipelines the node records with, all compiled.
+struct NodePipelines<'a> {
+    cache: &'a PipelineCache,
+    cubemap: &'a CubemapPipelines,
+    shadow: &'a RenderPipeline,
+    gbuffer: &'a RenderPipeline,
+    eye_paths: &'a ComputePipeline,
+    photon: Option<&'a ComputePipeline>,
+    splat: Option<&'a RenderPipeline>,
+    indirect_splat: Option<&'a ComputePipeline>,
+    accumulate: &'a ComputePipeline,
+}
+
+/// This frame's PPM iterations of the view, then the view output.
+#[expect(
+    clippy::too_many_arguments,
+    reason = "one resource per stage's pipelines"
+)]
+pub(crate) fn rppm_node(
+    view: ViewQuery<(&ViewTarget, &RppmViewState, &mut ViewTimer)>,
+    scene: Option<Res<SceneBuffers>>,
+    shadow: Res<ShadowPipeline>,
+    gbuffer: Res<GBufferPipeline>,
+    cubemap_pipelines: Res<CubemapPipelines>,
+    #[cfg(feature = "debug")] debug_pipelines: Res<crate::debug::DebugViewPipelines>,
+    cache: Res<PipelineCache>,
+    mut ctx: RenderContext,
+) {
+    let (view_target, state, mut timer) = view.into_inner();
+    let (Some(scene), Some(stages)) = (scene, state.stages) else {
+        return;
+    };
+    let (Some(shadow), Some(gbuffer), Some(eye_paths), Some(accumulate)) = (
+        cache.get_render_pipeline(shadow.0),
+        cache.get_render_pipeline(gbuffer.0),
+        cache.get_compute_pipeline(stages.eye_paths),
+        cache.get_compute_pipeline(stages.accumulate),
+    ) else {
+        return;
+    };
+    let node = NodePipelines {
+        cache: &cache,
+        cubemap: &cubemap_pipelines,
+        shadow,
+        gbuffer,
+        eye_paths,
+        photon: stages.trace.and_then(|id| cache.get_compute_pipeline(id)),
+        splat: stages.splat.and_then(|id| cache.get_render_pipeline(id)),
+        indirect_splat: stages
+            .indirect_splat
+            .and_then(|id| cache.get_compute_pipeline(id)),
+        accumulate,
+    };
+    let timer = &mut timer.0;
+    let encoder = ctx.command_encoder();
+    timer.begin_frame(state.frame.1);
+    let (_, count) = state.frame;
+    for slot in 0..count {
+        let offset = (slot as u64 * PARAMS_STRIDE) as u32;
+        if matches!(
+            state.debug_view,
+            RppmDebugView::None | RppmDebugView::DirectPhotons
+        ) {
+            encode_iteration(encoder, &node, state, &scene, slot, offset, timer);
+        } else {
+            #[cfg(feature = "debug")]
+            crate::debug::encode_debug_iteration(
+                encoder,
+                debug_pipelines.get(&cache, state.debug_view),
+                crate::debug::DebugInputs {
+                    cache: &cache,
+                    cubemap_pipelines: &cubemap_pipelines,
+                    gbuffer_pipeline: gbuffer,
+                    view: state.debug_view,
+                    groups: [&state.scene_group, &state.params_group],
+                    gbuffer: &state.gbuffer,
+                    cubemap: state.cubemap.cubemap.as_ref(),
+                    own: state.eye_paths.group.as_ref(),
+                    size: state.key.size,
+                    triangles: scene.triangle_count(),
+                    offset,
+                },
+                timer,
+            );
+        }
+        encode_estimate(encoder, &node, state, offset, timer);
+    }
+    let output = stages.output.and_then(|id| cache.get_render_pipeline(id));
+    if let Some(output) = output {
+        crate::output::encode(encoder, output, &state.output_group, view_target, timer);
+    }
+    timer.end_frame(encoder);
+}
+
+/// One PPM iteration up to its photons: shadow maps (light maps once per scene change, the
+/// area-light cube every iteration), the G-buffer, the cubemap, eye paths, photon tracing.
+fn encode_iteration(
+    encoder: &mut CommandEncoder,
+    node: &NodePipelines,
+    state: &RppmViewState,
+    scene: &SceneBuffers,
+    slot: u32,
+    offset: u32,
+    timer: &mut StageTimer,
+) {
+    let triangles = scene.triangle_count();
+    render_layers(
+        encoder,
+        node.shadow,
+        &state.scene_group,
+        &state.shadows,
+        triangles,
+        state.shadows.layers(slot).into_iter(),
+        timer,
+    );
+    let groups = [&state.scene_group, &state.params_group];
+    state
+        .gbuffer
+        .encode(encoder, node.gbuffer, groups, triangles, offset, timer);
+    let cubemap = state.cubemap.cubemap.as_ref();
+    if let Some(cubemap) = cubemap {
+        cubemap.encode_build(encoder, node.cache, node.cubemap, &state.scene_group, timer);
+    }
+    if state.importons {
+        state.eye_paths.encode_clear(encoder);
+    }
+    let trace_group = cubemap.filter(|_| state.importons).map(|c| &c.trace_group);
+    state.eye_paths.encode(
+        encoder,
+        node.eye_paths,
+        groups,
+        offset,
+        trace_group,
+        state.key.size,
+        timer,
+    );
+    if let (true, Some(cubemap), Some(trace), Some(store)) =
+        (state.photons > 0, cubemap, node.photon, &state.store)
+    {
+        let groups = TracingGroups {
+            scene: &state.scene_group,
+            params: &state.params_group,
+            offset,
+            cubemap: &cubemap.trace_group,
+        };
+        store.encode_trace(encoder, trace, &groups, state.photons, timer);
+    }
+}
+
+/// Splats this iteration's photons (if any) and folds the sample into the estimate.
+fn encode_estimate(
+    encoder: &mut CommandEncoder,
+    node: &NodePipelines,
+    state: &RppmViewState,
+    offset: u32,
+    timer: &mut StageTimer,
+) {
+    let cubemap = state.cubemap.cubemap.as_ref();
+    let traced = state.photons > 0 && cubemap.is_some() && node.photon.is_some();
+    let splat = if traced { node.splat } else { None };
+    state.splats.encode(
+        encoder,
+        splat,
+        state.store.as_ref(),
+        &state.scene_group,
+        offset,
+        state.key.size,
+        timer,
+    );
+    if let (true, true, Some(cubemap), Some(indirect), Some(group)) = (
+        traced,
+        state.importons,
+        cubemap,
+        node.indirect_splat,
+        &state.indirect_group,
+    ) {
+        let groups = TracingGroups {
+            scene: &state.scene_group,
+            params: &state.params_group,
+            offset,
+            cubemap: &cubemap.trace_group,
+        };
+        crate::indirect_splat::encode(encoder, indirect, &groups, group, &state.eye_paths, timer);
+    }
+    state.estimate.encode(
+        encoder,
+        node.accumulate,
+        &state.scene_group,
+        state.key.size,
+        offset,
+        timer,
+    );
+}

@@ -1,0 +1,424 @@
+//! Each frame, per camera: make or keep the view's resources, reset accumulation on change,
+//! pick the stage variants its scene and settings need, and write the constants of this
+//! frame's iterations.
+
+use bevy::prelude::*;
+use bevy::render::camera::ExtractedCamera;
+use bevy::render::render_resource::*;
+use bevy::render::renderer::{RenderDevice, RenderQueue};
+use bevy::render::view::{ExtractedView, ViewTarget};
+
+use super::state::{ResourceKey, RppmViewState, StageIds, StagePipelines, ViewTimer};
+use crate::accumulate::{AccumulateKey, AccumulatePipeline};
+use crate::cubemap::{CubemapConfig, CubemapPipelines};
+use crate::gbuffer::GBufferPipeline;
+use crate::importons::{EyePathKey, EyePathPipeline};
+use crate::indirect_splat::IndirectSplatPipeline;
+use crate::output::{OutputPipeline, output_key};
+use crate::photons::{PHOTON_BYTES, PhotonPipeline};
+use crate::ppm::{next_radius2, photon_store_capacity, radius2_after};
+use crate::scene::{SceneBuffers, SceneData};
+use crate::settings::{PhotonMapping, RppmDebugView, RppmMode};
+use crate::shadows::{ShadowPipeline, cube_views};
+use crate::splat::SplatPipeline;
+use crate::stats::timing::StageTimer;
+use crate::view::params::camera_params;
+use crate::view::{ExtractedRppm, PARAMS_STRIDE, ViewLayouts};
+
+/// Every stage's pipeline resource, and the caches of their variants.
+#[derive(bevy::ecs::system::SystemParam)]
+pub(crate) struct Pipelines<'w> {
+    cache: Res<'w, PipelineCache>,
+    layouts: Res<'w, ViewLayouts>,
+    shadow: Res<'w, ShadowPipeline>,
+    gbuffer: Res<'w, GBufferPipeline>,
+    cubemap: Res<'w, CubemapPipelines>,
+    eye_paths: Res<'w, EyePathPipeline>,
+    eye_path_variants: ResMut<'w, SpecializedComputePipelines<EyePathPipeline>>,
+    photons: Res<'w, PhotonPipeline>,
+    photon_variants: ResMut<'w, SpecializedComputePipelines<PhotonPipeline>>,
+    splat: Res<'w, SplatPipeline>,
+    splat_variants: ResMut<'w, SpecializedRenderPipelines<SplatPipeline>>,
+    indirect_splat: ResMut<'w, IndirectSplatPipeline>,
+    accumulate: Res<'w, AccumulatePipeline>,
+    accumulate_variants: ResMut<'w, SpecializedComputePipelines<AccumulatePipeline>>,
+    output: Res<'w, OutputPipeline>,
+    output_variants: ResMut<'w, SpecializedRenderPipelines<OutputPipeline>>,
+}
+
+impl Pipelines<'_> {
+    fn stages(&self) -> StagePipelines<'_> {
+        StagePipelines {
+            layouts: &self.layouts,
+            eye_paths: &self.eye_paths,
+            photons: &self.photons,
+            splat: &self.splat,
+            indirect_splat: &self.indirect_splat,
+            accumulate: &self.accumulate,
+            output: &self.output,
+        }
+    }
+
+    /// Whether the pipelines every view runs are compiled, or the first that failed.
+    fn shared_ready(&self) -> Result<bool, String> {
+        readiness([
+            self.cache.get_render_pipeline_state(self.shadow.0),
+            self.cache.get_render_pipeline_state(self.gbuffer.0),
+        ])
+    }
+}
+
+/// Photons the view's store must hold (see [`photon_store_capacity`]), capped by the GPU's
+/// largest storage binding; 0 when nothing emits or no photon can be stored.
+fn photon_capacity(settings: &PhotonMapping, scene: &SceneBuffers, device: &RenderDevice) -> u32 {
+    let direct = settings.debug_view == RppmDebugView::DirectPhotons;
+    let stores = if direct {
+        1
+    } else {
+        settings.max_photon_depth - 1
+    };
+    if scene.data.light_cdf.is_empty() || settings.photons_per_iteration == 0 || stores == 0 {
+        return 0;
+    }
+    let wanted = photon_store_capacity(
+        settings.photons_per_iteration,
+        stores,
+        scene.max_scatter,
+        direct,
+    );
+    let limit = device.limits().max_storage_buffer_binding_size / PHOTON_BYTES;
+    (wanted.ceil() as u64).min(limit).min(u32::MAX as u64) as u32
+}
+
+/// Tiles of the view's cubemap, when camera paths go past the G-buffer; else 0.
+fn importon_tiles(settings: &PhotonMapping, scene: &SceneData) -> u32 {
+    if settings.max_eye_depth < 2 || !scene.has_specular_surfaces() {
+        return 0;
+    }
+    let grid = cubemap_config(settings).grid();
+    6 * grid * grid
+}
+
+fn cubemap_config(settings: &PhotonMapping) -> CubemapConfig {
+    CubemapConfig {
+        resolution: settings.cubemap_resolution,
+        tile_size: settings.cubemap_tile_size,
+        bins: settings.bins,
+    }
+}
+
+/// Whether every pipeline is compiled; an error when one failed to build.
+fn readiness<'a>(
+    states: impl IntoIterator<Item = &'a CachedPipelineState>,
+) -> Result<bool, String> {
+    let mut ready = true;
+    for state in states {
+        match state {
+            CachedPipelineState::Err(e) => {
+                return Err(format!("a bevy_rppm pipeline failed to build: {e}"));
+            }
+            CachedPipelineState::Ok(_) => {}
+            _ => ready = false,
+        }
+    }
+    Ok(ready)
+}
+
+/// Whether the stage variants this view selected are compiled.
+fn stages_ready(state: &RppmViewState, cache: &PipelineCache) -> Result<bool, String> {
+    let Some(stages) = state.stages else {
+        return Ok(false);
+    };
+    let compute = [
+        Some(stages.eye_paths),
+        Some(stages.accumulate),
+        stages.trace,
+        stages.indirect_splat,
+    ];
+    let splat = stages.splat.map(|id| cache.get_render_pipeline_state(id));
+    readiness(
+        compute
+            .into_iter()
+            .flatten()
+            .map(|id| cache.get_compute_pipeline_state(id))
+            .chain(splat),
+    )
+}
+
+/// The variants of the stages this view runs: only the scattering paths its scene's
+/// materials have, importons only when camera paths go on.
+fn select_stages(
+    state: &RppmViewState,
+    scene: &SceneBuffers,
+    output: Option<crate::output::OutputKey>,
+    pipelines: &mut Pipelines,
+) -> StageIds {
+    let cache = &pipelines.cache;
+    let traced = state.photons > 0 && state.cubemap.cubemap.is_some();
+    let subsampled = state.key.subsampling > 1;
+    StageIds {
+        eye_paths: pipelines.eye_path_variants.specialize(
+            cache,
+            &pipelines.eye_paths,
+            EyePathKey {
+                importons: state.importons,
+                paths: if state.importons {
+                    scene.paths.specular()
+                } else {
+                    Default::default()
+                },
+            },
+        ),
+        trace: traced.then(|| {
+            pipelines
+                .photon_variants
+                .specialize(cache, &pipelines.photons, scene.paths)
+        }),
+        splat: traced.then(|| {
+            pipelines
+                .splat_variants
+                .specialize(cache, &pipelines.splat, subsampled)
+        }),
+        indirect_splat: (traced && state.importons).then(|| pipelines.indirect_splat.id(cache)),
+        accumulate: pipelines.accumulate_variants.specialize(
+            cache,
+            &pipelines.accumulate,
+            AccumulateKey {
+                subsampled,
+                importons: state.importons,
+            },
+        ),
+        output: output.map(|key| {
+            pipelines
+                .output_variants
+                .specialize(cache, &pipelines.output, key)
+        }),
+    }
+}
+
+/// Drops the state of cameras whose photon mapping went (removed or disabled), which frees
+/// their GPU memory; without a scene on the GPU, every camera's.
+pub(crate) fn drop_stale_views(
+    mut commands: Commands,
+    views: Query<(Entity, Has<ExtractedRppm>), With<RppmViewState>>,
+    scene: Option<Res<SceneBuffers>>,
+) {
+    for (entity, extracted) in &views {
+        if !extracted || scene.is_none() {
+            commands
+                .entity(entity)
+                .remove::<(RppmViewState, ViewTimer)>();
+        }
+    }
+}
+
+type ViewItem<'a> = (
+    Entity,
+    &'a ExtractedView,
+    &'a ExtractedCamera,
+    &'a ExtractedRppm,
+    &'a ViewTarget,
+    Option<&'a mut RppmViewState>,
+);
+
+/// Makes or keeps each view's resources, resets accumulation on change, and writes the
+/// constants of this frame's iterations.
+pub(crate) fn prepare_views(
+    mut commands: Commands,
+    mut views: Query<ViewItem>,
+    scene: Option<Res<SceneBuffers>>,
+    device: Res<RenderDevice>,
+    queue: Res<RenderQueue>,
+    mut pipelines: Pipelines,
+    mut warned_indirect: Local<bool>,
+) {
+    let Some(scene) = scene.as_deref() else {
+        return;
+    };
+    let (ready, error) = match pipelines.shared_ready() {
+        Ok(ready) => (ready, None),
+        Err(e) => (false, Some(e)),
+    };
+    for (entity, view, camera, rppm, view_target, existing) in &mut views {
+        let Some(size) = camera.physical_viewport_size.filter(|s| s.x > 0 && s.y > 0) else {
+            continue; // a zero-sized target renders nothing; keep the state for when it returns
+        };
+        let settings = &rppm.settings;
+        let key = ResourceKey {
+            size,
+            slots: settings.iterations_per_frame,
+            shadow_resolution: settings.shadow_map_resolution,
+            photon_capacity: photon_capacity(settings, scene, &device),
+            importon_tiles: importon_tiles(settings, &scene.data),
+            subsampling: settings.indirect_subsampling,
+        };
+        let fresh = |pipelines: &Pipelines| {
+            RppmViewState::new(
+                key,
+                &device,
+                &queue,
+                &pipelines.cache,
+                &pipelines.stages(),
+                scene,
+            )
+        };
+        let mut made = None;
+        let state = match existing {
+            Some(state) => state.into_inner(),
+            None => made.insert(fresh(&pipelines)),
+        };
+        if state.key != key {
+            *state = fresh(&pipelines);
+        }
+        if state.scene_epoch != scene.epoch {
+            state.rebind_scene(
+                &device,
+                &queue,
+                &pipelines.cache,
+                &pipelines.stages(),
+                scene,
+            );
+        }
+        let output = output_key(settings.mode, camera, view_target, &mut warned_indirect);
+        let frame = Frame {
+            view,
+            camera,
+            rppm,
+            output,
+            ready,
+            error: error.clone(),
+        };
+        prepare_view(state, frame, scene, &device, &queue, &mut pipelines);
+        if let Some(state) = made {
+            let timer = StageTimer::new(&device, &queue, 4096);
+            commands.entity(entity).insert((state, ViewTimer(timer)));
+        }
+    }
+}
+
+/// What one view's frame is prepared from.
+struct Frame<'a> {
+    view: &'a ExtractedView,
+    camera: &'a ExtractedCamera,
+    rppm: &'a ExtractedRppm,
+    output: Option<crate::output::OutputKey>,
+    /// Whether the pipelines every view shares are compiled.
+    ready: bool,
+    error: Option<String>,
+}
+
+fn prepare_view(
+    state: &mut RppmViewState,
+    frame: Frame,
+    scene: &SceneBuffers,
+    device: &RenderDevice,
+    queue: &RenderQueue,
+    pipelines: &mut Pipelines,
+) {
+    let settings = &frame.rppm.settings;
+    let key = state.key;
+    if state.view_epoch != frame.rppm.view_epoch {
+        state.view_epoch = frame.rppm.view_epoch;
+        state.iteration = 0;
+    }
+    if state.iteration == 0 {
+        state.radius2 = (settings.initial_radius_pixels as f64).powi(2);
+    }
+    if let Some(target) = frame
+        .rppm
+        .fast_forward
+        .filter(|&f| state.fast_forward != Some(f))
+    {
+        state.fast_forward = Some(target);
+        let initial = (settings.initial_radius_pixels as f64).powi(2);
+        state.radius2 = radius2_after(initial, target, settings.alpha);
+        state.iteration = target;
+    }
+    let estimate = matches!(
+        settings.debug_view,
+        RppmDebugView::None | RppmDebugView::DirectPhotons
+    );
+    state.photons = if key.photon_capacity > 0 && estimate {
+        settings.photons_per_iteration
+    } else {
+        0
+    };
+    state.mode = settings.mode;
+    state.debug_view = settings.debug_view;
+    state.error = frame.error;
+    state.importons = key.importon_tiles > 0 && settings.debug_view == RppmDebugView::None;
+    let traces = state.photons > 0
+        || state.importons
+        || settings.debug_view == RppmDebugView::CubemapNormals;
+    let config = traces.then(|| cubemap_config(settings));
+    let centre = frame.view.world_from_view.translation();
+    if let Err(e) = state.cubemap.prepare(
+        config,
+        centre,
+        device,
+        queue,
+        &pipelines.cache,
+        &pipelines.cubemap,
+        scene,
+    ) {
+        state.error = Some(e);
+    }
+    // Importons need the cubemap bound; without one (its buffers refused) none are made.
+    state.importons &= state.cubemap.cubemap.is_some();
+    state.stages = Some(select_stages(state, scene, frame.output, pipelines));
+    let ready = match stages_ready(state, &pipelines.cache) {
+        Ok(view_ready) => frame.ready && view_ready,
+        Err(e) => {
+            state.error = Some(e);
+            false
+        }
+    };
+    let base = state.iteration;
+    let budget = settings
+        .max_iterations
+        .map_or(u32::MAX, |m| m.saturating_sub(base));
+    let count = if ready {
+        settings.iterations_per_frame.min(budget)
+    } else {
+        0
+    };
+    for slot in 0..count.max(1) {
+        let iteration = base + slot;
+        let mut params = camera_params(frame.view, frame.camera, key.size, &scene.data, iteration);
+        params.area_view = state.shadows.area_view_base(slot);
+        params.area_layer = state.shadows.light_layers;
+        params.shadow_resolution = state.shadows.resolution;
+        params.photons = state.photons;
+        params.max_photon_depth = settings.max_photon_depth;
+        params.photon_capacity = key.photon_capacity;
+        params.source_count = scene.data.light_cdf.len() as u32;
+        params.splat_radius = state.radius2.sqrt() as f32;
+        params.max_eye_depth = settings.max_eye_depth;
+        params.splat_russian_roulette = settings.splat_russian_roulette as u32;
+        params.direct_photons = (settings.debug_view == RppmDebugView::DirectPhotons) as u32;
+        params.indirect_only = (settings.mode == RppmMode::Indirect) as u32;
+        params.kernel_flattening = settings.kernel_flattening;
+        params.indirect_subsampling = settings.indirect_subsampling;
+        if slot < count {
+            state.radius2 = next_radius2(state.radius2, iteration, settings.alpha);
+        }
+        queue.write_buffer(
+            &state.params,
+            slot as u64 * PARAMS_STRIDE,
+            bytemuck::bytes_of(&params),
+        );
+        if slot < count && state.shadows.has_area {
+            let eye = Vec4::from(params.area_position).truncate()
+                + Vec4::from(params.area_normal).truncate() * scene.data.bounding_sphere().1 * 1e-4;
+            let views = cube_views(eye, &scene.data, state.shadows.resolution);
+            state.shadows.write_area_views(queue, slot, &views);
+        }
+    }
+    // Debug images render no shadow maps; their frames leave the light maps due.
+    state
+        .shadows
+        .schedule_light_maps(scene.epoch, if estimate { count } else { 0 });
+    state.frame = (base, count);
+    state.iteration += count;
+    state.readback_pending = frame.rppm.readback;
+}

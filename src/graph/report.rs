@@ -1,0 +1,141 @@
+//! After submission: read back what was asked for and report each view to the main world.
+
+use bevy::prelude::*;
+use bevy::render::renderer::{RenderAdapterInfo, RenderDevice, RenderQueue};
+use bevy::render::sync_world::MainEntity;
+
+use super::state::{RppmViewState, ViewTimer};
+use crate::scene::SceneBuffers;
+use crate::settings::RppmDebugView;
+use crate::stats::readback::read_back;
+use crate::stats::timing::Stage;
+use crate::stats::{RadianceImage, RenderMessage, RenderSender, ViewStats};
+
+/// The passes an iteration of this view runs, by the scene and settings (for the stats).
+fn passes(state: &RppmViewState) -> Vec<String> {
+    let debug = !matches!(
+        state.debug_view,
+        RppmDebugView::None | RppmDebugView::DirectPhotons
+    );
+    let has_cubemap = state.cubemap.cubemap.is_some();
+    let traced = state.photons > 0 && has_cubemap;
+    let output = state.stages.is_some_and(|s| s.output.is_some());
+    [
+        (
+            "shadow_maps",
+            !debug && (state.shadows.light_layers > 0 || state.shadows.has_area),
+        ),
+        ("gbuffer", state.debug_view != RppmDebugView::CubemapNormals),
+        ("cubemap_build", has_cubemap),
+        ("local_illumination", !debug),
+        ("importon_tracing", state.importons),
+        ("photon_trace", traced),
+        ("splat", traced),
+        ("indirect_splat", traced && state.importons),
+        ("debug_view", debug),
+        ("accumulate", true),
+        ("output", output),
+    ]
+    .into_iter()
+    .filter(|(_, runs)| *runs)
+    .map(|(name, _)| name.to_string())
+    .collect()
+}
+
+pub(crate) fn report_views(
+    mut views: Query<(&MainEntity, &mut RppmViewState, &mut ViewTimer)>,
+    scene: Option<Res<SceneBuffers>>,
+    device: Res<RenderDevice>,
+    queue: Res<RenderQueue>,
+    adapter: Res<RenderAdapterInfo>,
+    sender: Res<RenderSender>,
+) {
+    let scene_epoch = scene.as_ref().map_or(0, |s| s.epoch);
+    let scene_paths: Vec<String> = scene
+        .as_ref()
+        .map(|s| {
+            s.paths
+                .shader_defs()
+                .iter()
+                .map(|p| p.to_string())
+                .collect()
+        })
+        .unwrap_or_default();
+    let scene_memory: Vec<(String, u64)> = scene
+        .as_ref()
+        .map(|s| {
+            s.memory()
+                .iter()
+                .map(|(n, b)| (n.to_string(), *b))
+                .collect()
+        })
+        .unwrap_or_default();
+    for (camera, mut state, mut timer) in &mut views {
+        let camera = camera.id();
+        let timer = &mut timer.0;
+        timer.start_readback();
+        // A read-back frame waits for the GPU anyway; others only look.
+        let waiting = state.readback_pending;
+        timer.collect(&device, waiting);
+        if waiting && let Some(bytes) = read_back(&device, &queue, &state.estimate.radiance) {
+            let pixels = bytemuck::cast_slice(&bytes).to_vec();
+            let _ = sender.send(RenderMessage::Radiance(RadianceImage {
+                camera,
+                width: state.key.size.x,
+                height: state.key.size.y,
+                iteration: state.iteration,
+                epoch: scene_epoch.wrapping_add(state.view_epoch),
+                pixels,
+            }));
+        }
+        let second = |bytes: Vec<u8>| bytemuck::cast_slice::<u8, u32>(&bytes)[1];
+        let stored = state
+            .store
+            .as_ref()
+            .filter(|_| waiting)
+            .and_then(|store| read_back(&device, &queue, &store.count));
+        if let Some(bytes) = stored {
+            state.photons_stored = second(bytes);
+        }
+        let made = (waiting && state.importons)
+            .then(|| read_back(&device, &queue, &state.eye_paths.stats))
+            .flatten();
+        if let Some(bytes) = made {
+            state.importons_made = second(bytes);
+        }
+        let mut memory = scene_memory.clone();
+        memory.extend(state.memory());
+        state.cubemap.read_counters(&device, &queue, waiting);
+        let _ = sender.send(RenderMessage::Stats(
+            camera,
+            ViewStats {
+                epoch: scene_epoch.wrapping_add(state.view_epoch),
+                iteration: state.iteration,
+                iterations_this_frame: state.frame.1,
+                gpu_timing: timer.supported(),
+                stage_ms: Stage::ALL
+                    .iter()
+                    .map(|s| s.name().to_string())
+                    .zip(timer.last_ms)
+                    .collect(),
+                stage_ms_total: Stage::ALL
+                    .iter()
+                    .map(|s| s.name().to_string())
+                    .zip(timer.total_ms)
+                    .collect(),
+                timed_iterations: timer.timed_iterations,
+                memory: memory.into_iter().collect(),
+                adapter: adapter.name.clone(),
+                error: state.error.clone(),
+                cubemap_nodes: state.cubemap.nodes.0,
+                photons_per_iteration: state.photons,
+                photons_stored: state.photons_stored,
+                importons: state.importons_made,
+                passes: passes(&state),
+                splat_radius_pixels: state.radius2.sqrt(),
+                shader_paths: scene_paths.clone(),
+                cubemap_overflow: state.cubemap.nodes.1,
+            },
+        ));
+    }
+}

@@ -1,0 +1,272 @@
+//! One camera's photon-mapping state, a component of its render-world view entity: each
+//! stage's resources, the iteration counter a change resets, and the variants it runs.
+
+use bevy::prelude::*;
+use bevy::render::render_resource::*;
+use bevy::render::renderer::{RenderDevice, RenderQueue};
+
+use crate::accumulate::{AccumulatePipeline, Estimate, EstimateInputs};
+use crate::cubemap::ViewCubemap;
+use crate::gbuffer::GBuffer;
+use crate::importons::{EyePathPipeline, EyePaths};
+use crate::indirect_splat::{self, IndirectSplatPipeline};
+use crate::output::{self, OutputPipeline};
+use crate::photons::{PhotonPipeline, PhotonStore};
+use crate::scene::SceneBuffers;
+use crate::settings::{RppmDebugView, RppmMode};
+use crate::shadows::ShadowMaps;
+use crate::splat::{SplatPipeline, SplatTarget};
+use crate::stats::timing::StageTimer;
+use crate::view::params::params_binding;
+use crate::view::{PARAMS_STRIDE, ViewLayouts};
+
+/// What forces the view's GPU resources to be made anew.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub struct ResourceKey {
+    pub size: UVec2,
+    pub slots: u32,
+    pub shadow_resolution: u32,
+    /// Room for stored photons; 0 without lights.
+    pub photon_capacity: u32,
+    /// Cubemap tiles importons register in; 0 when camera paths end at the G-buffer.
+    pub importon_tiles: u32,
+    /// Photons splat on every n-th pixel (the splat target's size follows).
+    pub subsampling: u32,
+}
+
+/// The pipelines a view's iteration runs, by its scene and settings.
+#[derive(Clone, Copy, Debug)]
+pub struct StageIds {
+    pub eye_paths: CachedComputePipelineId,
+    pub trace: Option<CachedComputePipelineId>,
+    pub splat: Option<CachedRenderPipelineId>,
+    pub indirect_splat: Option<CachedComputePipelineId>,
+    pub accumulate: CachedComputePipelineId,
+    pub output: Option<CachedRenderPipelineId>,
+}
+
+/// A camera's PPM state, on its render-world view entity.
+#[derive(Component)]
+pub struct RppmViewState {
+    pub key: ResourceKey,
+    pub view_epoch: u64,
+    /// Iterations accumulated since the last reset.
+    pub iteration: u32,
+    /// First iteration and count run this frame.
+    pub frame: (u32, u32),
+    /// Squared gather radius in pixels for the next iteration (Knaus–Zwicker sequence).
+    pub radius2: f64,
+    /// The last `RppmFastForward` applied.
+    pub fast_forward: Option<u32>,
+    /// Photons emitted per iteration this frame (0: no photon passes).
+    pub photons: u32,
+    /// Whether camera paths go past the G-buffer this frame (importon tracing and indirect
+    /// splatting).
+    pub importons: bool,
+    /// Photons stored, and importons made, by the last iteration read back.
+    pub photons_stored: u32,
+    pub importons_made: u32,
+    pub mode: RppmMode,
+    pub debug_view: RppmDebugView,
+    pub stages: Option<StageIds>,
+    pub cubemap: ViewCubemap,
+    pub shadows: ShadowMaps,
+    pub gbuffer: GBuffer,
+    pub eye_paths: EyePaths,
+    pub store: Option<PhotonStore>,
+    pub splats: SplatTarget,
+    pub indirect_group: Option<BindGroup>,
+    pub estimate: Estimate,
+    pub params: Buffer,
+    pub scene_group: BindGroup,
+    pub params_group: BindGroup,
+    pub output_group: BindGroup,
+    pub readback_pending: bool,
+    /// Scene epoch the scene-dependent resources (shadow maps, bind groups) were made for.
+    pub scene_epoch: u64,
+    pub error: Option<String>,
+}
+
+/// GPU time per stage of a view: the one thing the render-graph system writes while
+/// recording.
+#[derive(Component)]
+pub struct ViewTimer(pub StageTimer);
+
+/// The pipelines whose layouts a view's resources are bound with.
+pub struct StagePipelines<'a> {
+    pub layouts: &'a ViewLayouts,
+    pub eye_paths: &'a EyePathPipeline,
+    pub photons: &'a PhotonPipeline,
+    pub splat: &'a SplatPipeline,
+    pub indirect_splat: &'a IndirectSplatPipeline,
+    pub accumulate: &'a AccumulatePipeline,
+    pub output: &'a OutputPipeline,
+}
+
+impl RppmViewState {
+    pub fn new(
+        key: ResourceKey,
+        device: &RenderDevice,
+        queue: &RenderQueue,
+        cache: &PipelineCache,
+        pipelines: &StagePipelines,
+        scene: &SceneBuffers,
+    ) -> Self {
+        let size = key.size;
+        let gbuffer = GBuffer::new(device, size);
+        let params = device.create_buffer(&BufferDescriptor {
+            label: Some("rppm_iteration_params"),
+            size: key.slots as u64 * PARAMS_STRIDE,
+            usage: BufferUsages::UNIFORM | BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let eye_paths = EyePaths::new(device, size, key.importon_tiles);
+        let mut splats = SplatTarget::new(device, pipelines.splat, size, key.subsampling);
+        let estimate = Estimate::new(
+            device,
+            cache,
+            pipelines.accumulate,
+            size,
+            EstimateInputs {
+                params: params_binding(&params),
+                eye_paths: &eye_paths,
+                splats: &splats,
+                gbuffer: &gbuffer,
+            },
+        );
+        let store = (key.photon_capacity > 0)
+            .then(|| PhotonStore::new(device, cache, pipelines.photons, key.photon_capacity));
+        if let Some(store) = &store {
+            splats.bind(
+                device,
+                cache,
+                pipelines.splat,
+                params_binding(&params),
+                store,
+                &gbuffer,
+            );
+        }
+        let indirect_group = store
+            .as_ref()
+            .filter(|_| key.importon_tiles > 0)
+            .map(|store| {
+                indirect_splat::bind_group(
+                    device,
+                    cache,
+                    pipelines.indirect_splat,
+                    store,
+                    &eye_paths,
+                )
+            });
+        let params_group = device.create_bind_group(
+            "rppm_params_group",
+            &cache.get_bind_group_layout(&pipelines.layouts.params),
+            &BindGroupEntries::single(params_binding(&params)),
+        );
+        let output_group = output::bind_group(
+            device,
+            cache,
+            pipelines.output,
+            params_binding(&params),
+            &estimate.radiance,
+        );
+        let shadows = ShadowMaps::new(device, &scene.data, key.shadow_resolution, key.slots);
+        shadows.write_light_views(queue, &scene.data);
+        let scene_group = scene.bind_group(device, cache, &pipelines.layouts.scene, &shadows.views);
+        let mut state = Self {
+            key,
+            view_epoch: u64::MAX,
+            iteration: 0,
+            frame: (0, 0),
+            radius2: 0.0,
+            fast_forward: None,
+            photons: 0,
+            importons: false,
+            photons_stored: 0,
+            importons_made: 0,
+            mode: RppmMode::Full,
+            debug_view: RppmDebugView::None,
+            stages: None,
+            cubemap: ViewCubemap::default(),
+            shadows,
+            gbuffer,
+            eye_paths,
+            store,
+            splats,
+            indirect_group,
+            estimate,
+            params,
+            scene_group,
+            params_group,
+            output_group,
+            readback_pending: false,
+            scene_epoch: scene.epoch,
+            error: None,
+        };
+        state.eye_paths.bind(
+            device,
+            cache,
+            pipelines.eye_paths,
+            &state.gbuffer,
+            &state.shadows,
+        );
+        state
+    }
+
+    /// A changed scene keeps the view's targets: only what depends on the scene's lights and
+    /// buffers is made again, and accumulation restarts.
+    pub fn rebind_scene(
+        &mut self,
+        device: &RenderDevice,
+        queue: &RenderQueue,
+        cache: &PipelineCache,
+        pipelines: &StagePipelines,
+        scene: &SceneBuffers,
+    ) {
+        self.shadows = ShadowMaps::new(
+            device,
+            &scene.data,
+            self.key.shadow_resolution,
+            self.key.slots,
+        );
+        self.shadows.write_light_views(queue, &scene.data);
+        self.scene_group =
+            scene.bind_group(device, cache, &pipelines.layouts.scene, &self.shadows.views);
+        self.eye_paths.bind(
+            device,
+            cache,
+            pipelines.eye_paths,
+            &self.gbuffer,
+            &self.shadows,
+        );
+        if let Some(cubemap) = &mut self.cubemap.cubemap {
+            cubemap.set_scene(queue, scene);
+        }
+        self.scene_epoch = scene.epoch;
+        self.iteration = 0;
+    }
+
+    /// Bytes held per buffer or texture of the view.
+    pub fn memory(&self) -> Vec<(String, u64)> {
+        let pixels = self.key.size.x as u64 * self.key.size.y as u64;
+        let mut memory: Vec<(&str, u64)> = self.eye_paths.memory().to_vec();
+        memory.push(("splats", self.splats.bytes()));
+        if let Some(store) = &self.store {
+            memory.push(("photons", store.photons.size()));
+        }
+        memory.extend([
+            ("gbuffer", GBuffer::bytes(pixels)),
+            ("radiance", self.estimate.radiance.size()),
+            ("iteration_params", self.params.size()),
+            ("shadow_maps", self.shadows.bytes()),
+            ("timestamps", 4096 * 8 * 2),
+        ]);
+        if let Some(cubemap) = &self.cubemap.cubemap {
+            memory.extend(cubemap.memory());
+        }
+        memory
+            .into_iter()
+            .map(|(n, b)| (n.to_string(), b))
+            .collect()
+    }
+}

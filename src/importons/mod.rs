@@ -1,0 +1,261 @@
+//! Eye paths and importons. Every pixel's first hit (from the G-buffer) is lit locally:
+//! emission plus direct light with shadows, this iteration's sample before photons are added.
+//! With importons, a pixel that sees a mirror or clear glass follows its camera path through
+//! the deep cubemap to the first non-specular surface, lights it the same way and leaves an
+//! importon there, in the list of the cubemap tile that holds it, for indirect splatting
+//! (`shaders/importons/eye_paths.wgsl`).
+
+use bevy::prelude::*;
+use bevy::render::render_resource::binding_types::{
+    storage_buffer_sized, texture_2d, texture_2d_array,
+};
+use bevy::render::render_resource::*;
+use bevy::render::renderer::RenderDevice;
+use bevy::render::{RenderApp, RenderStartup};
+use bevy::shader::Shader;
+
+use crate::cubemap;
+use crate::gbuffer::GBuffer;
+use crate::scene::ScatterPaths;
+use crate::shaders::RppmShaders;
+use crate::shadows::ShadowMaps;
+use crate::stats::timing::{Stage, StageTimer};
+use crate::view::ViewLayouts;
+
+/// Byte offset of the indirect splat's dispatch arguments in the importon stats buffer.
+pub const IMPORTON_DISPATCH: u64 = 16;
+
+pub(crate) struct ImportonsPlugin;
+
+impl Plugin for ImportonsPlugin {
+    fn build(&self, app: &mut App) {
+        if let Some(render_app) = app.get_sub_app_mut(RenderApp) {
+            render_app
+                .init_resource::<SpecializedComputePipelines<EyePathPipeline>>()
+                .add_systems(RenderStartup, init_eye_path_pipeline);
+        }
+    }
+}
+
+/// The local-illumination and camera-path stage, specialized by [`EyePathKey`].
+#[derive(Resource)]
+pub struct EyePathPipeline {
+    /// 0 G-buffer position, 1 G-buffer normal, 2 shadow maps, 3 this iteration's samples,
+    /// 4 importons, 5 importon lists' heads, 6 importon stats.
+    pub layout: BindGroupLayoutDescriptor,
+    view: ViewLayouts,
+    shader: Handle<Shader>,
+}
+
+/// Which eye-path variant a view runs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct EyePathKey {
+    /// Camera paths go on past specular first hits and leave importons.
+    pub importons: bool,
+    /// The specular paths they follow (`MIRRORS`, `REFRACTION`).
+    pub paths: ScatterPaths,
+}
+
+impl SpecializedComputePipeline for EyePathPipeline {
+    type Key = EyePathKey;
+
+    fn specialize(&self, key: EyePathKey) -> ComputePipelineDescriptor {
+        let mut layout = vec![
+            self.view.scene.clone(),
+            self.view.params.clone(),
+            self.layout.clone(),
+        ];
+        let mut shader_defs = Vec::new();
+        if key.importons {
+            layout.push(cubemap::trace_layout());
+            shader_defs.push("IMPORTONS".into());
+            shader_defs.extend(
+                key.paths
+                    .specular()
+                    .shader_defs()
+                    .into_iter()
+                    .map(Into::into),
+            );
+        }
+        ComputePipelineDescriptor {
+            label: Some("rppm_local_illumination_pipeline".into()),
+            layout,
+            shader: self.shader.clone(),
+            shader_defs,
+            ..default()
+        }
+    }
+}
+
+/// Group 2 of the stage (see [`EyePathPipeline::layout`]).
+pub fn eye_path_layout() -> BindGroupLayoutDescriptor {
+    let unfilterable = TextureSampleType::Float { filterable: false };
+    BindGroupLayoutDescriptor::new(
+        "rppm_local_layout",
+        &BindGroupLayoutEntries::sequential(
+            ShaderStages::COMPUTE,
+            (
+                texture_2d(unfilterable),
+                texture_2d(unfilterable),
+                texture_2d_array(TextureSampleType::Depth),
+                storage_buffer_sized(false, None),
+                storage_buffer_sized(false, None),
+                storage_buffer_sized(false, None),
+                storage_buffer_sized(false, None),
+            ),
+        ),
+    )
+}
+
+fn init_eye_path_pipeline(
+    mut commands: Commands,
+    shaders: Res<RppmShaders>,
+    layouts: Res<ViewLayouts>,
+) {
+    commands.insert_resource(EyePathPipeline {
+        layout: eye_path_layout(),
+        view: layouts.clone(),
+        shader: shaders.eye_paths.clone(),
+    });
+}
+
+/// One camera's per-pixel samples and importons. The importon buffers are 16-byte stand-ins
+/// when no camera path goes past the G-buffer.
+pub struct EyePaths {
+    /// This iteration's local sample per pixel.
+    pub samples: Buffer,
+    /// One importon per pixel.
+    pub importons: Buffer,
+    /// The heads of the cubemap tiles' importon lists.
+    pub heads: Buffer,
+    /// [largest radius, importons made, -, -, dispatch x, y, z, -]: the stage sets the
+    /// indirect splat's workgroup count only when it makes an importon.
+    pub stats: Buffer,
+    /// Per pixel, the photons the pixel's importon gathered (indirect splatting's output).
+    pub radiance: Buffer,
+    /// Group 2 of the stage (made again when the scene's shadow maps change).
+    pub group: Option<BindGroup>,
+}
+
+/// A storage buffer of at least 16 bytes (bindings cannot be empty).
+pub fn storage(device: &RenderDevice, label: &'static str, size: u64) -> Buffer {
+    device.create_buffer(&BufferDescriptor {
+        label: Some(label),
+        size: size.max(16),
+        usage: BufferUsages::STORAGE | BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    })
+}
+
+impl EyePaths {
+    /// Buffers for `size` pixels, with importons when `importon_tiles` > 0.
+    pub fn new(device: &RenderDevice, size: UVec2, importon_tiles: u32) -> Self {
+        let pixels = size.x as u64 * size.y as u64;
+        let per_pixel = |bytes: u64| {
+            if importon_tiles > 0 {
+                pixels * bytes
+            } else {
+                0
+            }
+        };
+        Self {
+            samples: device.create_buffer(&BufferDescriptor {
+                label: Some("rppm_samples"),
+                size: pixels * 16,
+                usage: BufferUsages::STORAGE,
+                mapped_at_creation: false,
+            }),
+            importons: storage(device, "rppm_importons", per_pixel(64)),
+            heads: storage(device, "rppm_importon_heads", importon_tiles as u64 * 4),
+            stats: device.create_buffer_with_data(&BufferInitDescriptor {
+                label: Some("rppm_importon_stats"),
+                contents: bytemuck::cast_slice(&[0u32, 0, 0, 0, 0, 1, 1, 0]),
+                usage: BufferUsages::STORAGE
+                    | BufferUsages::COPY_DST
+                    | BufferUsages::COPY_SRC
+                    | BufferUsages::INDIRECT,
+            }),
+            radiance: storage(device, "rppm_importon_radiance", per_pixel(16)),
+            group: None,
+        }
+    }
+
+    /// Binds the G-buffer and the scene's shadow maps with the stage's own buffers.
+    pub fn bind(
+        &mut self,
+        device: &RenderDevice,
+        cache: &PipelineCache,
+        pipeline: &EyePathPipeline,
+        gbuffer: &GBuffer,
+        shadows: &ShadowMaps,
+    ) {
+        self.group = Some(device.create_bind_group(
+            "rppm_local_group",
+            &cache.get_bind_group_layout(&pipeline.layout),
+            &BindGroupEntries::sequential((
+                &gbuffer.position,
+                &gbuffer.normal,
+                &shadows.array_view,
+                self.samples.as_entire_binding(),
+                self.importons.as_entire_binding(),
+                self.heads.as_entire_binding(),
+                self.stats.as_entire_binding(),
+            )),
+        ));
+    }
+
+    pub fn memory(&self) -> [(&'static str, u64); 4] {
+        [
+            ("samples", self.samples.size()),
+            ("importons", self.importons.size()),
+            ("importon_heads", self.heads.size()),
+            ("importon_radiance", self.radiance.size()),
+        ]
+    }
+
+    /// Empties the importon lists and gathered light before an iteration's camera paths.
+    pub fn encode_clear(&self, encoder: &mut CommandEncoder) {
+        for buffer in [&self.heads, &self.radiance] {
+            encoder.clear_buffer(buffer, 0, None);
+        }
+        // The stats and the dispatch's x; its y and z stay 1.
+        encoder.clear_buffer(&self.stats, 0, Some(IMPORTON_DISPATCH + 4));
+    }
+
+    /// Lights every pixel's first hit (and, with `cubemap`, follows its camera path).
+    #[expect(clippy::too_many_arguments, reason = "the groups of a per-pixel stage")]
+    pub fn encode(
+        &self,
+        encoder: &mut CommandEncoder,
+        pipeline: &ComputePipeline,
+        groups: [&BindGroup; 2],
+        offset: u32,
+        cubemap: Option<&BindGroup>,
+        size: UVec2,
+        timer: &mut StageTimer,
+    ) {
+        let Some(group) = &self.group else { return };
+        let mut pass = encoder.begin_compute_pass(&ComputePassDescriptor {
+            label: Some("rppm_local_illumination"),
+            timestamp_writes: timer.compute_pass(Stage::LocalIllumination),
+        });
+        pass.set_pipeline(pipeline);
+        if let Some(cubemap) = cubemap {
+            pass.set_bind_group(3, cubemap, &[]);
+        }
+        dispatch_per_pixel(&mut pass, [groups[0], groups[1], group], offset, size);
+    }
+}
+
+/// Binds groups 0–2 of a per-pixel compute stage and dispatches it over the view.
+pub fn dispatch_per_pixel(
+    pass: &mut ComputePass,
+    [scene, params, own]: [&BindGroup; 3],
+    offset: u32,
+    size: UVec2,
+) {
+    pass.set_bind_group(0, scene, &[]);
+    pass.set_bind_group(1, params, &[offset]);
+    pass.set_bind_group(2, own, &[]);
+    pass.dispatch_workgroups(size.x.div_ceil(8), size.y.div_ceil(8), 1);
+}

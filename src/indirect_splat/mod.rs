@@ -1,0 +1,120 @@
+//! Indirect splatting: each stored photon visits the deep-cubemap tiles its radius can reach
+//! and adds to the importons listed there (`shaders/indirect_splat/indirect_splat.wgsl`).
+//! Dispatched indirectly: the eye-path stage sets the workgroup count only when it makes an
+//! importon, so an iteration whose glass is off screen runs no workgroup.
+
+use bevy::prelude::*;
+use bevy::render::render_resource::binding_types::{
+    storage_buffer_read_only_sized, storage_buffer_sized,
+};
+use bevy::render::render_resource::*;
+use bevy::render::renderer::RenderDevice;
+use bevy::render::{RenderApp, RenderStartup};
+
+use crate::cubemap::{TracingGroups, tracing_pipeline};
+use crate::importons::{EyePaths, IMPORTON_DISPATCH};
+use crate::photons::PhotonStore;
+use crate::shaders::RppmShaders;
+use crate::stats::timing::{Stage, StageTimer};
+use crate::view::ViewLayouts;
+
+pub(crate) struct IndirectSplatPlugin;
+
+impl Plugin for IndirectSplatPlugin {
+    fn build(&self, app: &mut App) {
+        if let Some(render_app) = app.get_sub_app_mut(RenderApp) {
+            render_app.add_systems(RenderStartup, init_indirect_splat_pipeline);
+        }
+    }
+}
+
+/// The indirect-splat stage. Its pipeline is queued the first time a view makes importons.
+#[derive(Resource)]
+pub struct IndirectSplatPipeline {
+    /// 0 photons, 1 photon count, 2 importons, 3 their lists' heads, 4 importon stats,
+    /// 5 gathered radiance per importon.
+    pub layout: BindGroupLayoutDescriptor,
+    descriptor: ComputePipelineDescriptor,
+    id: Option<CachedComputePipelineId>,
+}
+
+impl IndirectSplatPipeline {
+    /// The pipeline, queued now if it never was.
+    pub fn id(&mut self, cache: &PipelineCache) -> CachedComputePipelineId {
+        *self
+            .id
+            .get_or_insert_with(|| cache.queue_compute_pipeline(self.descriptor.clone()))
+    }
+}
+
+fn init_indirect_splat_pipeline(
+    mut commands: Commands,
+    shaders: Res<RppmShaders>,
+    layouts: Res<ViewLayouts>,
+) {
+    let read = || storage_buffer_read_only_sized(false, None);
+    let layout = BindGroupLayoutDescriptor::new(
+        "rppm_indirect_splat_layout",
+        &BindGroupLayoutEntries::sequential(
+            ShaderStages::COMPUTE,
+            (
+                read(),
+                read(),
+                read(),
+                read(),
+                read(),
+                storage_buffer_sized(false, None),
+            ),
+        ),
+    );
+    let descriptor = tracing_pipeline(
+        "rppm_indirect_splat",
+        &layouts,
+        &layout,
+        &shaders.indirect_splat,
+    );
+    commands.insert_resource(IndirectSplatPipeline {
+        layout,
+        descriptor,
+        id: None,
+    });
+}
+
+/// The group binding one camera's photons to its importons.
+pub fn bind_group(
+    device: &RenderDevice,
+    cache: &PipelineCache,
+    pipeline: &IndirectSplatPipeline,
+    store: &PhotonStore,
+    eye_paths: &EyePaths,
+) -> BindGroup {
+    device.create_bind_group(
+        "rppm_indirect_splat_group",
+        &cache.get_bind_group_layout(&pipeline.layout),
+        &BindGroupEntries::sequential((
+            store.photons.as_entire_binding(),
+            store.count.as_entire_binding(),
+            eye_paths.importons.as_entire_binding(),
+            eye_paths.heads.as_entire_binding(),
+            eye_paths.stats.as_entire_binding(),
+            eye_paths.radiance.as_entire_binding(),
+        )),
+    )
+}
+
+/// Stored photons against the importons in the cubemap's tiles.
+pub fn encode(
+    encoder: &mut CommandEncoder,
+    pipeline: &ComputePipeline,
+    groups: &TracingGroups,
+    own: &BindGroup,
+    eye_paths: &EyePaths,
+    timer: &mut StageTimer,
+) {
+    let mut pass = encoder.begin_compute_pass(&ComputePassDescriptor {
+        label: Some("rppm_indirect_splat"),
+        timestamp_writes: timer.compute_pass(Stage::IndirectSplat),
+    });
+    groups.bind(&mut pass, pipeline, own);
+    pass.dispatch_workgroups_indirect(&eye_paths.stats, IMPORTON_DISPATCH);
+}

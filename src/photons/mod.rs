@@ -1,0 +1,134 @@
+//! Photon tracing: photons leave the lights by power, are traced through the deep cubemap,
+//! stored at non-specular hits after their first bounce and scattered or absorbed by Russian
+//! roulette (`shaders/photons/trace.wgsl`). The pipeline is specialized by the scene's
+//! scattering paths.
+
+use bevy::prelude::*;
+use bevy::render::render_resource::binding_types::storage_buffer_sized;
+use bevy::render::render_resource::*;
+use bevy::render::renderer::RenderDevice;
+use bevy::render::{RenderApp, RenderStartup};
+
+use crate::cubemap::{TracingGroups, tracing_pipeline};
+use crate::scene::ScatterPaths;
+use crate::shaders::RppmShaders;
+use crate::stats::timing::{Stage, StageTimer};
+use crate::view::ViewLayouts;
+
+/// Bytes of one stored photon (`Photon` in common.wgsl).
+pub const PHOTON_BYTES: u64 = 64;
+
+pub(crate) struct PhotonsPlugin;
+
+impl Plugin for PhotonsPlugin {
+    fn build(&self, app: &mut App) {
+        if let Some(render_app) = app.get_sub_app_mut(RenderApp) {
+            render_app
+                .init_resource::<SpecializedComputePipelines<PhotonPipeline>>()
+                .add_systems(RenderStartup, init_photon_pipeline);
+        }
+    }
+}
+
+/// The photon-tracing stage, specialized by the scene's [`ScatterPaths`].
+#[derive(Resource)]
+pub struct PhotonPipeline {
+    /// 0 the photon store, 1 its count (draw-indirect arguments).
+    pub store_layout: BindGroupLayoutDescriptor,
+    base: ComputePipelineDescriptor,
+}
+
+impl SpecializedComputePipeline for PhotonPipeline {
+    type Key = ScatterPaths;
+
+    fn specialize(&self, paths: ScatterPaths) -> ComputePipelineDescriptor {
+        let mut descriptor = self.base.clone();
+        descriptor.shader_defs = paths.shader_defs().into_iter().map(Into::into).collect();
+        descriptor
+    }
+}
+
+fn init_photon_pipeline(
+    mut commands: Commands,
+    shaders: Res<RppmShaders>,
+    layouts: Res<ViewLayouts>,
+) {
+    let store_layout = BindGroupLayoutDescriptor::new(
+        "rppm_photon_store_layout",
+        &BindGroupLayoutEntries::sequential(
+            ShaderStages::COMPUTE,
+            (
+                storage_buffer_sized(false, None),
+                storage_buffer_sized(false, None),
+            ),
+        ),
+    );
+    let base = tracing_pipeline(
+        "rppm_photon_trace",
+        &layouts,
+        &store_layout,
+        &shaders.photon_trace,
+    );
+    commands.insert_resource(PhotonPipeline { store_layout, base });
+}
+
+/// One camera's photon store, when the scene has lights to emit from.
+pub struct PhotonStore {
+    pub photons: Buffer,
+    /// Draw-indirect arguments whose instance count is the number of photons stored.
+    pub count: Buffer,
+    group: BindGroup,
+}
+
+impl PhotonStore {
+    /// Room for `capacity` photons.
+    pub fn new(
+        device: &RenderDevice,
+        cache: &PipelineCache,
+        pipeline: &PhotonPipeline,
+        capacity: u32,
+    ) -> Self {
+        let photons = device.create_buffer(&BufferDescriptor {
+            label: Some("rppm_photons"),
+            size: capacity as u64 * PHOTON_BYTES,
+            usage: BufferUsages::STORAGE,
+            mapped_at_creation: false,
+        });
+        let count = device.create_buffer_with_data(&BufferInitDescriptor {
+            label: Some("rppm_photon_count"),
+            contents: bytemuck::cast_slice(&[6u32, 0, 0, 0]),
+            usage: BufferUsages::STORAGE
+                | BufferUsages::INDIRECT
+                | BufferUsages::COPY_DST
+                | BufferUsages::COPY_SRC,
+        });
+        let group = device.create_bind_group(
+            "rppm_photon_store_group",
+            &cache.get_bind_group_layout(&pipeline.store_layout),
+            &BindGroupEntries::sequential((photons.as_entire_binding(), count.as_entire_binding())),
+        );
+        Self {
+            photons,
+            count,
+            group,
+        }
+    }
+
+    /// Photon tracing for one iteration.
+    pub fn encode_trace(
+        &self,
+        encoder: &mut CommandEncoder,
+        pipeline: &ComputePipeline,
+        groups: &TracingGroups,
+        photons: u32,
+        timer: &mut StageTimer,
+    ) {
+        encoder.clear_buffer(&self.count, 4, Some(4));
+        let mut pass = encoder.begin_compute_pass(&ComputePassDescriptor {
+            label: Some("rppm_photon_trace"),
+            timestamp_writes: timer.compute_pass(Stage::PhotonTrace),
+        });
+        groups.bind(&mut pass, pipeline, &self.group);
+        pass.dispatch_workgroups(photons.div_ceil(64), 1, 1);
+    }
+}

@@ -1,0 +1,127 @@
+//! The extracted scene on the GPU: storage buffers re-uploaded only when the scene epoch moves.
+
+use std::sync::Arc;
+
+use bevy::prelude::*;
+use bevy::render::render_resource::{
+    BindGroup, BindGroupEntries, BindGroupLayoutDescriptor, Buffer, BufferInitDescriptor,
+    BufferUsages, PipelineCache,
+};
+use bevy::render::renderer::RenderDevice;
+use bytemuck::Pod;
+
+use super::{RppmScene, ScatterPaths, SceneData};
+
+/// Scene tables as storage buffers, in the render world.
+#[derive(Resource)]
+pub struct SceneBuffers {
+    pub epoch: u64,
+    pub data: Arc<SceneData>,
+    pub triangles: Buffer,
+    pub materials: Buffer,
+    pub lights: Buffer,
+    pub emitters: Buffer,
+    pub light_cdf: Buffer,
+    /// The scattering paths the materials have (made once per scene change).
+    pub paths: ScatterPaths,
+    /// The largest probability a photon goes on after a hit (sizes the photon store).
+    pub max_scatter: f32,
+}
+
+impl SceneBuffers {
+    pub fn triangle_count(&self) -> u32 {
+        self.data.triangles.len() as u32
+    }
+
+    /// (name, bytes) of every buffer held.
+    pub fn memory(&self) -> [(&'static str, u64); 5] {
+        [
+            ("scene_triangles", self.triangles.size()),
+            ("scene_materials", self.materials.size()),
+            ("scene_lights", self.lights.size()),
+            ("scene_emitters", self.emitters.size()),
+            ("scene_light_cdf", self.light_cdf.size()),
+        ]
+    }
+
+    /// Group 0 of every stage: the scene tables and `shadow_views`.
+    pub fn bind_group(
+        &self,
+        device: &RenderDevice,
+        cache: &PipelineCache,
+        layout: &BindGroupLayoutDescriptor,
+        shadow_views: &Buffer,
+    ) -> BindGroup {
+        device.create_bind_group(
+            "rppm_scene_group",
+            &cache.get_bind_group_layout(layout),
+            &BindGroupEntries::sequential((
+                self.triangles.as_entire_binding(),
+                shadow_views.as_entire_binding(),
+                self.materials.as_entire_binding(),
+                self.lights.as_entire_binding(),
+                self.emitters.as_entire_binding(),
+                self.light_cdf.as_entire_binding(),
+            )),
+        )
+    }
+}
+
+/// A storage buffer holding `items`, or one zeroed item when there are none (bindings can't be
+/// empty).
+pub fn storage_buffer<T: Pod + Default>(
+    device: &RenderDevice,
+    label: &'static str,
+    items: &[T],
+) -> Buffer {
+    let fallback = [T::default()];
+    let items = if items.is_empty() {
+        &fallback[..]
+    } else {
+        items
+    };
+    device.create_buffer_with_data(&BufferInitDescriptor {
+        label: Some(label),
+        contents: bytemuck::cast_slice(items),
+        usage: BufferUsages::STORAGE | BufferUsages::COPY_DST,
+    })
+}
+
+/// Uploads the scene when its epoch changed. A scene too large for one storage binding is
+/// refused with one error instead of failing inside wgpu.
+pub(crate) fn prepare_scene(
+    mut commands: Commands,
+    scene: Option<Res<RppmScene>>,
+    buffers: Option<Res<SceneBuffers>>,
+    device: Res<RenderDevice>,
+    mut refused_epoch: Local<Option<u64>>,
+) {
+    let Some(scene) = scene else { return };
+    if buffers.is_some_and(|b| b.epoch == scene.epoch) || *refused_epoch == Some(scene.epoch) {
+        return;
+    }
+    let data = &scene.data;
+    let limit = device.limits().max_storage_buffer_binding_size;
+    let bytes = std::mem::size_of_val(data.triangles.as_slice()) as u64;
+    if bytes > limit {
+        error!(
+            "bevy_rppm: the scene has {} triangles ({bytes} bytes), over this GPU's storage \
+             binding limit of {limit} bytes; photon mapping is paused until the scene is smaller",
+            data.triangles.len()
+        );
+        *refused_epoch = Some(scene.epoch);
+        commands.remove_resource::<SceneBuffers>();
+        return;
+    }
+    commands.insert_resource(SceneBuffers {
+        epoch: scene.epoch,
+        data: data.clone(),
+        paths: data.scatter_paths(),
+        max_scatter: data.max_scatter_probability(),
+        triangles: storage_buffer(&device, "rppm_triangles", &data.triangles),
+        materials: storage_buffer(&device, "rppm_materials", &data.materials),
+        lights: storage_buffer(&device, "rppm_lights", &data.lights),
+        emitters: storage_buffer(&device, "rppm_emitters", &data.emitters),
+        light_cdf: storage_buffer(&device, "rppm_light_cdf", &data.light_cdf),
+    });
+}

@@ -1,0 +1,62 @@
+//! Our WGSL, compiled into the crate and added to `Assets<Shader>` when the plugin is built.
+//! The files live under the top-level `shaders/<stage>/`, one folder per pipeline stage.
+
+use bevy::prelude::*;
+use bevy::shader::Shader;
+
+macro_rules! wgsl {
+    ($shaders:expr, $name:literal) => {
+        $shaders.add(Shader::from_wgsl(
+            include_str!(concat!("../shaders/", $name)),
+            concat!("bevy_rppm/shaders/", $name),
+        ))
+    };
+}
+
+/// Handles of every stage's shader.
+#[derive(Resource, Clone)]
+pub struct RppmShaders {
+    /// Import-only libraries (`bevy_rppm::common`, `scene`, `bsdf`, `cubemap`, `lighting`),
+    /// held so they stay loaded.
+    _libraries: Vec<Handle<Shader>>,
+    pub shadow_map: Handle<Shader>,
+    pub gbuffer: Handle<Shader>,
+    pub cubemap_build: Handle<Shader>,
+    pub eye_paths: Handle<Shader>,
+    pub photon_trace: Handle<Shader>,
+    pub splat: Handle<Shader>,
+    pub indirect_splat: Handle<Shader>,
+    pub accumulate: Handle<Shader>,
+    pub output: Handle<Shader>,
+    #[cfg(feature = "debug")]
+    pub debug_view: Handle<Shader>,
+    #[cfg(feature = "debug")]
+    pub cubemap_bench: Handle<Shader>,
+}
+
+impl RppmShaders {
+    pub fn load(shaders: &mut Assets<Shader>) -> Self {
+        Self {
+            _libraries: vec![
+                wgsl!(shaders, "common/common.wgsl"),
+                wgsl!(shaders, "common/bsdf.wgsl"),
+                wgsl!(shaders, "scene/scene.wgsl"),
+                wgsl!(shaders, "cubemap/trace.wgsl"),
+                wgsl!(shaders, "shadows/lighting.wgsl"),
+            ],
+            shadow_map: wgsl!(shaders, "shadows/shadow_map.wgsl"),
+            gbuffer: wgsl!(shaders, "gbuffer/gbuffer.wgsl"),
+            cubemap_build: wgsl!(shaders, "cubemap/build.wgsl"),
+            eye_paths: wgsl!(shaders, "importons/eye_paths.wgsl"),
+            photon_trace: wgsl!(shaders, "photons/trace.wgsl"),
+            splat: wgsl!(shaders, "splat/splat.wgsl"),
+            indirect_splat: wgsl!(shaders, "indirect_splat/indirect_splat.wgsl"),
+            accumulate: wgsl!(shaders, "accumulate/accumulate.wgsl"),
+            output: wgsl!(shaders, "output/output.wgsl"),
+            #[cfg(feature = "debug")]
+            debug_view: wgsl!(shaders, "debug/debug_view.wgsl"),
+            #[cfg(feature = "debug")]
+            cubemap_bench: wgsl!(shaders, "debug/cubemap_bench.wgsl"),
+        }
+    }
+}

@@ -1,0 +1,46 @@
+//! The bind group layouts every stage shares: the scene tables (group 0) and this
+//! iteration's constants (group 1, at a dynamic offset).
+
+use std::num::NonZeroU64;
+
+use bevy::prelude::*;
+use bevy::render::render_resource::binding_types::{
+    storage_buffer_read_only_sized, uniform_buffer_sized,
+};
+use bevy::render::render_resource::*;
+
+use super::params::IterationParams;
+
+/// Layouts of the groups every stage binds.
+#[derive(Resource, Clone)]
+pub struct ViewLayouts {
+    /// 0 triangles, 1 shadow views, 2 materials, 3 lights, 4 emitters, 5 light CDF.
+    pub scene: BindGroupLayoutDescriptor,
+    /// 0 per-iteration params (dynamic offset).
+    pub params: BindGroupLayoutDescriptor,
+}
+
+/// The uniform binding of [`IterationParams`], at a dynamic offset.
+pub fn params_entry() -> BindGroupLayoutEntryBuilder {
+    uniform_buffer_sized(true, NonZeroU64::new(size_of::<IterationParams>() as u64))
+}
+
+impl Default for ViewLayouts {
+    fn default() -> Self {
+        let all = ShaderStages::VERTEX | ShaderStages::FRAGMENT | ShaderStages::COMPUTE;
+        let read = || storage_buffer_read_only_sized(false, None);
+        Self {
+            scene: BindGroupLayoutDescriptor::new(
+                "rppm_scene_layout",
+                &BindGroupLayoutEntries::sequential(
+                    all,
+                    (read(), read(), read(), read(), read(), read()),
+                ),
+            ),
+            params: BindGroupLayoutDescriptor::new(
+                "rppm_params_layout",
+                &BindGroupLayoutEntries::single(all, params_entry()),
+            ),
+        }
+    }
+}

@@ -1,0 +1,45 @@
+//! What every stage of a camera's iteration shares: the camera's settings in the render world
+//! ([`ExtractedRppm`]), the per-iteration constants ([`IterationParams`]) and the bind group
+//! layouts of the scene and of those constants.
+
+mod extract;
+pub mod layouts;
+pub mod params;
+
+use bevy::camera::visibility::VisibilitySystems;
+use bevy::prelude::*;
+use bevy::render::RenderApp;
+use bevy::render::extract_component::ExtractComponentPlugin;
+use bevy::transform::TransformSystems;
+
+pub use extract::ExtractedRppm;
+pub use layouts::ViewLayouts;
+pub use params::{IterationParams, PARAMS_STRIDE};
+
+use crate::settings::{PhotonMapping, RppmReadback, validate_settings};
+
+/// Settings validation and change tracking in the main world, extraction into the render
+/// world, and the shared layouts.
+pub(crate) struct ViewPlugin;
+
+impl Plugin for ViewPlugin {
+    fn build(&self, app: &mut App) {
+        app.register_type::<PhotonMapping>()
+            .register_type::<RppmReadback>()
+            .add_plugins(ExtractComponentPlugin::<PhotonMapping>::default())
+            .add_systems(
+                PostUpdate,
+                (
+                    validate_settings,
+                    extract::track_view_changes
+                        .after(TransformSystems::Propagate)
+                        .after(VisibilitySystems::VisibilityPropagate)
+                        .after(bevy::camera::CameraUpdateSystems),
+                )
+                    .chain(),
+            );
+        if let Some(render_app) = app.get_sub_app_mut(RenderApp) {
+            render_app.init_resource::<ViewLayouts>();
+        }
+    }
+}

@@ -1,0 +1,133 @@
+//! The per-iteration constants every stage reads (`IterationParams` in common.wgsl): the
+//! camera with this iteration's sub-pixel jitter, the area-light sample, the settings.
+
+use bevy::prelude::*;
+use bevy::render::camera::ExtractedCamera;
+use bevy::render::render_resource::{Buffer, BufferBinding, BufferSize};
+use bevy::render::view::ExtractedView;
+use bytemuck::{Pod, Zeroable};
+
+use crate::ppm::{halton, pcg, unit_random};
+use crate::scene::{GpuTriangle, SceneData};
+
+/// Byte stride between per-iteration slots of the params buffer (dynamic-offset alignment).
+pub const PARAMS_STRIDE: u64 = 512;
+
+/// Per-iteration constants (`IterationParams` in common.wgsl, 304 bytes).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct IterationParams {
+    pub clip_from_world: [[f32; 4]; 4],
+    pub world_from_clip: [[f32; 4]; 4],
+    pub camera_position: [f32; 4],
+    pub area_position: [f32; 4],
+    pub area_normal: [f32; 4],
+    pub area_weight: [f32; 4],
+    pub size: [u32; 2],
+    pub iteration: u32,
+    pub light_count: u32,
+    pub pixel_spread: f32,
+    pub orthographic: u32,
+    pub area_view: u32,
+    pub area_layer: u32,
+    pub shadow_resolution: u32,
+    pub exposure: f32,
+    pub tonemap: u32,
+    pub photons: u32,
+    pub max_photon_depth: u32,
+    pub photon_capacity: u32,
+    pub source_count: u32,
+    pub splat_radius: f32,
+    pub max_eye_depth: u32,
+    pub splat_russian_roulette: u32,
+    pub direct_photons: u32,
+    pub indirect_only: u32,
+    pub scene_sphere: [f32; 4],
+    pub kernel_flattening: f32,
+    pub indirect_subsampling: u32,
+    pub pad: [u32; 2],
+}
+
+/// The first slot of a params buffer, as group 1 binds it.
+pub fn params_binding(params: &Buffer) -> BufferBinding<'_> {
+    BufferBinding {
+        buffer: params,
+        offset: 0,
+        size: BufferSize::new(std::mem::size_of::<IterationParams>() as u64),
+    }
+}
+
+/// A point on the emissive surfaces chosen by power, with radiance divided by its area pdf.
+pub fn area_sample(data: &SceneData, iteration: u32) -> Option<(Vec3, Vec3, Vec3)> {
+    let mut seed = pcg(iteration ^ 0x9e37_79b9);
+    let u = unit_random(&mut seed);
+    let index = data
+        .emitters
+        .partition_point(|e| e.cdf < u)
+        .min(data.emitters.len().checked_sub(1)?);
+    let emitter = data.emitters[index];
+    let previous = if index == 0 {
+        0.0
+    } else {
+        data.emitters[index - 1].cdf
+    };
+    let probability = (emitter.cdf - previous).max(1e-12);
+    let triangle: &GpuTriangle = &data.triangles[emitter.triangle as usize];
+    let [a, b, c] = triangle.positions();
+    let (r1, r2) = (unit_random(&mut seed).sqrt(), unit_random(&mut seed));
+    let point = a * (1.0 - r1) + b * (r1 * (1.0 - r2)) + c * (r1 * r2);
+    let normal = (b - a).cross(c - a).normalize();
+    let emissive = Vec4::from(data.materials[triangle.material as usize].emissive).truncate();
+    let weight = emissive * (emitter.area / probability);
+    Some((point, normal, weight))
+}
+
+/// The camera part of an iteration's constants: the view with this iteration's Halton jitter,
+/// the area-light sample and the scene's bounds. The stages' fields (photons, shadow views,
+/// settings) are the caller's to fill.
+pub fn camera_params(
+    view: &ExtractedView,
+    camera: &ExtractedCamera,
+    size: UVec2,
+    data: &SceneData,
+    iteration: u32,
+) -> IterationParams {
+    let jitter = Vec2::new(halton(iteration + 1, 2), halton(iteration + 1, 3)) - 0.5;
+    let offset = Vec3::new(
+        2.0 * jitter.x / size.x as f32,
+        -2.0 * jitter.y / size.y as f32,
+        0.0,
+    );
+    let view_from_world = view.world_from_view.to_matrix().inverse();
+    let clip_from_world = Mat4::from_translation(offset) * view.clip_from_view * view_from_world;
+    let orthographic = view.clip_from_view.w_axis.w == 1.0;
+    let pixel_spread = 2.0 / (view.clip_from_view.y_axis.y * size.y as f32);
+    let area = area_sample(data, iteration);
+    let (area_position, area_normal, area_weight) = match area {
+        Some((p, n, w)) => (p.extend(1.0), n.extend(0.0), w.extend(0.0)),
+        None => (Vec4::ZERO, Vec4::ZERO, Vec4::ZERO),
+    };
+    IterationParams {
+        clip_from_world: clip_from_world.to_cols_array_2d(),
+        world_from_clip: clip_from_world.inverse().to_cols_array_2d(),
+        camera_position: view.world_from_view.translation().extend(1.0).into(),
+        area_position: area_position.into(),
+        area_normal: area_normal.into(),
+        area_weight: area_weight.into(),
+        size: size.into(),
+        iteration,
+        light_count: data.lights.len() as u32,
+        pixel_spread,
+        orthographic: orthographic as u32,
+        exposure: camera.exposure,
+        tonemap: (!camera.hdr) as u32,
+        max_eye_depth: 1,
+        scene_sphere: {
+            let (centre, radius) = data.bounding_sphere();
+            centre.extend(radius.max(1e-6)).into()
+        },
+        kernel_flattening: 0.1,
+        indirect_subsampling: 1,
+        ..default()
+    }
+}

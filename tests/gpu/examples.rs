@@ -1,0 +1,41 @@
+use super::util::*;
+
+#[test]
+fn examples_run_headless_and_save_their_view() {
+    check_gpu_adapter().unwrap_or_else(|hint| panic!("{hint}"));
+    for (name, frames) in [
+        ("toggle", "12"),
+        ("cornell", "12"),
+        ("bunny", "12"),
+        ("pool", "3"),
+    ] {
+        let out = temp(&format!("example_{name}.png"));
+        let run = Command::new(example_binary(name))
+            .args(["--headless", "--frames", frames, "--out"])
+            .arg(&out)
+            .output()
+            .unwrap_or_else(|e| panic!("cannot run the {name} example: {e}"));
+        assert!(
+            run.status.success(),
+            "{name}: {}",
+            String::from_utf8_lossy(&run.stderr)
+        );
+        let decoder =
+            png::Decoder::new(std::io::BufReader::new(std::fs::File::open(&out).unwrap()));
+        let mut reader = decoder.read_info().unwrap();
+        let mut pixels = vec![0; reader.output_buffer_size().unwrap()];
+        let info = reader.next_frame(&mut pixels).unwrap();
+        let lit = pixels[..info.buffer_size()]
+            .iter()
+            .filter(|&&v| v > 16)
+            .count();
+        eprintln!(
+            "{name}: {}x{}, {lit} lit channel values",
+            info.width, info.height
+        );
+        assert!(
+            lit > pixels.len() / 10,
+            "{name}: the saved view is nearly black"
+        );
+    }
+}

@@ -1,0 +1,21 @@
+//! End-to-end tests on a real GPU adapter (Mesa's software Vulkan in CI), one test binary:
+//! scene extraction, lighting against analytic answers, the deep cubemap, convergence, modes,
+//! robustness, the examples and the CLI.
+//!
+//! Without an adapter these tests fail with the install hint; they never skip.
+
+#[cfg(not(feature = "debug"))]
+compile_error!(
+    "the GPU tests use bevy_rppm's debug views: run them as `cargo test --workspace` (the tool \
+     crate turns the `debug` feature on) or with `--features debug`"
+);
+
+mod cli;
+mod cubemap;
+mod examples;
+mod extraction;
+mod lighting;
+mod modes;
+mod ppm;
+mod robustness;
+mod util;

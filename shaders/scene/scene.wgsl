@@ -1,4 +1,4 @@
-// The scene tables, bound at group 0 by every stage (`scene_layout` in src/view/layouts.rs).
+// The scene tables, bound at group 0 by every stage (`ViewLayouts::scene` in src/view/layouts.rs).
 #define_import_path bevy_rppm::scene
 
 #import bevy_rppm::common::{Triangle, Material, Light, Emitter, ShadowView}

@@ -4,7 +4,7 @@
 // The estimate per pixel is Σ f(wo, wi) Φ / (π r²), summed by additive blending.
 // SUBSAMPLED (ISPM): the target has one texel per n×n pixels, gathered at one representative
 // pixel of the block, and holds incident light Σ Φ / (π r²) for the joint-bilateral upsampling
-// in accumulate.wgsl, which applies each full-resolution pixel's own BSDF.
+// in shaders/accumulate/accumulate.wgsl, which applies each full-resolution pixel's own BSDF.
 #import bevy_rppm::common::{Photon, IterationParams, PI, gather_radius, splat_survives, splat_weight, subsample_representative}
 #import bevy_rppm::scene::gbuffer_material
 #import bevy_rppm::bsdf::bsdf_eval

@@ -101,10 +101,10 @@ fn init_accumulate_pipeline(
 }
 
 /// One camera's running estimate (linear radiance, RGBA f32 per pixel) and the group that
-/// folds an iteration into it.
+/// folds an iteration into it (made again each frame: its targets come from the texture cache).
 pub struct Estimate {
     pub radiance: Buffer,
-    group: BindGroup,
+    group: Option<BindGroup>,
 }
 
 /// What an estimate's group binds.
@@ -116,33 +116,40 @@ pub struct EstimateInputs<'a> {
 }
 
 impl Estimate {
-    pub fn new(
-        device: &RenderDevice,
-        cache: &PipelineCache,
-        pipeline: &AccumulatePipeline,
-        size: UVec2,
-        inputs: EstimateInputs,
-    ) -> Self {
+    pub fn new(device: &RenderDevice, size: UVec2) -> Self {
         let radiance = device.create_buffer(&BufferDescriptor {
             label: Some("rppm_radiance"),
             size: size.x as u64 * size.y as u64 * 16,
             usage: BufferUsages::STORAGE | BufferUsages::COPY_SRC,
             mapped_at_creation: false,
         });
-        let group = device.create_bind_group(
+        Self {
+            radiance,
+            group: None,
+        }
+    }
+
+    /// Binds this frame's sample, splats and G-buffer.
+    pub fn bind(
+        &mut self,
+        device: &RenderDevice,
+        cache: &PipelineCache,
+        pipeline: &AccumulatePipeline,
+        inputs: EstimateInputs,
+    ) {
+        self.group = Some(device.create_bind_group(
             "rppm_accumulate_group",
             &cache.get_bind_group_layout(&pipeline.layout),
             &BindGroupEntries::sequential((
                 inputs.params,
                 inputs.eye_paths.samples.as_entire_binding(),
                 &inputs.splats.view,
-                radiance.as_entire_binding(),
+                self.radiance.as_entire_binding(),
                 inputs.eye_paths.radiance.as_entire_binding(),
                 &inputs.gbuffer.position,
                 &inputs.gbuffer.normal,
             )),
-        );
-        Self { radiance, group }
+        ));
     }
 
     /// Adds the splats to the local sample and folds it into the running estimate.
@@ -155,13 +162,14 @@ impl Estimate {
         offset: u32,
         timer: &mut StageTimer,
     ) {
+        let Some(group) = &self.group else { return };
         let mut pass = encoder.begin_compute_pass(&ComputePassDescriptor {
             label: Some("rppm_accumulate"),
             timestamp_writes: timer.compute_pass(Stage::Accumulate),
         });
         pass.set_pipeline(pipeline);
         pass.set_bind_group(0, scene_group, &[]);
-        pass.set_bind_group(1, &self.group, &[offset]);
+        pass.set_bind_group(1, group, &[offset]);
         pass.dispatch_workgroups(size.x.div_ceil(8), size.y.div_ceil(8), 1);
     }
 }

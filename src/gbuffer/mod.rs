@@ -5,6 +5,7 @@
 use bevy::prelude::*;
 use bevy::render::render_resource::*;
 use bevy::render::renderer::RenderDevice;
+use bevy::render::texture::TextureCache;
 use bevy::render::{RenderApp, RenderStartup};
 
 use crate::shaders::RppmShaders;
@@ -58,44 +59,50 @@ fn init_gbuffer_pipeline(
     commands.insert_resource(GBufferPipeline(id));
 }
 
-/// One camera's G-buffer targets.
+/// One camera's G-buffer targets for this frame, from Bevy's `TextureCache` (per view and
+/// size; a target no view asks for is freed after a few frames).
 pub struct GBuffer {
     pub position: TextureView,
     pub normal: TextureView,
     depth: TextureView,
 }
 
-/// A 2D target that shaders read back as a texture.
+/// A 2D target that shaders read back as a texture, from the cache.
 pub fn target(
+    cache: &mut TextureCache,
     device: &RenderDevice,
     label: &'static str,
     size: UVec2,
     format: TextureFormat,
 ) -> TextureView {
-    device
-        .create_texture(&TextureDescriptor {
-            label: Some(label),
-            size: Extent3d {
-                width: size.x,
-                height: size.y,
-                depth_or_array_layers: 1,
+    cache
+        .get(
+            device,
+            TextureDescriptor {
+                label: Some(label),
+                size: Extent3d {
+                    width: size.x,
+                    height: size.y,
+                    depth_or_array_layers: 1,
+                },
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: TextureDimension::D2,
+                format,
+                usage: TextureUsages::RENDER_ATTACHMENT | TextureUsages::TEXTURE_BINDING,
+                view_formats: &[],
             },
-            mip_level_count: 1,
-            sample_count: 1,
-            dimension: TextureDimension::D2,
-            format,
-            usage: TextureUsages::RENDER_ATTACHMENT | TextureUsages::TEXTURE_BINDING,
-            view_formats: &[],
-        })
-        .create_view(&TextureViewDescriptor::default())
+        )
+        .default_view
 }
 
 impl GBuffer {
-    pub fn new(device: &RenderDevice, size: UVec2) -> Self {
+    pub fn new(cache: &mut TextureCache, device: &RenderDevice, size: UVec2) -> Self {
+        let mut target = |label, format| target(cache, device, label, size, format);
         Self {
-            position: target(device, "rppm_gbuffer_position", size, GBUFFER_FORMAT),
-            normal: target(device, "rppm_gbuffer_normal", size, GBUFFER_FORMAT),
-            depth: target(device, "rppm_gbuffer_depth", size, DEPTH_FORMAT),
+            position: target("rppm_gbuffer_position", GBUFFER_FORMAT),
+            normal: target("rppm_gbuffer_normal", GBUFFER_FORMAT),
+            depth: target("rppm_gbuffer_depth", DEPTH_FORMAT),
         }
     }
 

@@ -6,6 +6,7 @@ use bevy::prelude::*;
 use bevy::render::camera::ExtractedCamera;
 use bevy::render::render_resource::*;
 use bevy::render::renderer::{RenderDevice, RenderQueue};
+use bevy::render::texture::TextureCache;
 use bevy::render::view::{ExtractedView, ViewTarget};
 
 use super::state::{ResourceKey, RppmViewState, StageIds, StagePipelines, ViewTimer};
@@ -229,6 +230,7 @@ pub(crate) fn prepare_views(
     scene: Option<Res<SceneBuffers>>,
     device: Res<RenderDevice>,
     queue: Res<RenderQueue>,
+    mut textures: ResMut<TextureCache>,
     mut pipelines: Pipelines,
     mut warned_indirect: Local<bool>,
 ) {
@@ -252,23 +254,30 @@ pub(crate) fn prepare_views(
             importon_tiles: importon_tiles(settings, &scene.data),
             subsampling: settings.indirect_subsampling,
         };
-        let fresh = |pipelines: &Pipelines| {
+        let fresh = |pipelines: &Pipelines, textures: &mut TextureCache| {
             RppmViewState::new(
                 key,
                 &device,
                 &queue,
                 &pipelines.cache,
+                textures,
                 &pipelines.stages(),
                 scene,
             )
         };
+        // A new state takes this frame's targets; one kept takes them again below.
         let mut made = None;
+        let mut targets_taken = false;
         let state = match existing {
             Some(state) => state.into_inner(),
-            None => made.insert(fresh(&pipelines)),
+            None => {
+                targets_taken = true;
+                made.insert(fresh(&pipelines, &mut textures))
+            }
         };
         if state.key != key {
-            *state = fresh(&pipelines);
+            *state = fresh(&pipelines, &mut textures);
+            targets_taken = true;
         }
         if state.scene_epoch != scene.epoch {
             state.rebind_scene(
@@ -278,6 +287,10 @@ pub(crate) fn prepare_views(
                 &pipelines.stages(),
                 scene,
             );
+        }
+        if !targets_taken {
+            let stages = pipelines.stages();
+            state.refresh_targets(&device, &pipelines.cache, &mut textures, &stages);
         }
         let output = output_key(settings.mode, camera, view_target, &mut warned_indirect);
         let frame = Frame {

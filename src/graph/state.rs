@@ -4,6 +4,7 @@
 use bevy::prelude::*;
 use bevy::render::render_resource::*;
 use bevy::render::renderer::{RenderDevice, RenderQueue};
+use bevy::render::texture::TextureCache;
 
 use crate::accumulate::{AccumulatePipeline, Estimate, EstimateInputs};
 use crate::cubemap::ViewCubemap;
@@ -104,16 +105,22 @@ pub struct StagePipelines<'a> {
 }
 
 impl RppmViewState {
+    /// Every resource of a view with `key`, its targets taken from `textures` for this frame.
+    #[expect(
+        clippy::too_many_arguments,
+        reason = "the render-world resources a view binds"
+    )]
     pub fn new(
         key: ResourceKey,
         device: &RenderDevice,
         queue: &RenderQueue,
         cache: &PipelineCache,
+        textures: &mut TextureCache,
         pipelines: &StagePipelines,
         scene: &SceneBuffers,
     ) -> Self {
         let size = key.size;
-        let gbuffer = GBuffer::new(device, size);
+        let gbuffer = GBuffer::new(textures, device, size);
         let params = device.create_buffer(&BufferDescriptor {
             label: Some("rppm_iteration_params"),
             size: key.slots as u64 * PARAMS_STRIDE,
@@ -121,31 +128,10 @@ impl RppmViewState {
             mapped_at_creation: false,
         });
         let eye_paths = EyePaths::new(device, size, key.importon_tiles);
-        let mut splats = SplatTarget::new(device, pipelines.splat, size, key.subsampling);
-        let estimate = Estimate::new(
-            device,
-            cache,
-            pipelines.accumulate,
-            size,
-            EstimateInputs {
-                params: params_binding(&params),
-                eye_paths: &eye_paths,
-                splats: &splats,
-                gbuffer: &gbuffer,
-            },
-        );
+        let splats = SplatTarget::new(textures, device, pipelines.splat, size, key.subsampling);
+        let estimate = Estimate::new(device, size);
         let store = (key.photon_capacity > 0)
             .then(|| PhotonStore::new(device, cache, pipelines.photons, key.photon_capacity));
-        if let Some(store) = &store {
-            splats.bind(
-                device,
-                cache,
-                pipelines.splat,
-                params_binding(&params),
-                store,
-                &gbuffer,
-            );
-        }
         let indirect_group = store
             .as_ref()
             .filter(|_| key.importon_tiles > 0)
@@ -203,14 +189,67 @@ impl RppmViewState {
             scene_epoch: scene.epoch,
             error: None,
         };
-        state.eye_paths.bind(
+        state.bind_targets(device, cache, pipelines);
+        state
+    }
+
+    /// Takes this frame's G-buffer and splat target from the texture cache (the same textures
+    /// while the view keeps its size and they are asked for every frame) and binds them.
+    pub fn refresh_targets(
+        &mut self,
+        device: &RenderDevice,
+        cache: &PipelineCache,
+        textures: &mut TextureCache,
+        pipelines: &StagePipelines,
+    ) {
+        let size = self.key.size;
+        self.gbuffer = GBuffer::new(textures, device, size);
+        self.splats = SplatTarget::new(
+            textures,
+            device,
+            pipelines.splat,
+            size,
+            self.key.subsampling,
+        );
+        self.bind_targets(device, cache, pipelines);
+    }
+
+    /// The groups that hold the targets: eye paths, splats, accumulation.
+    fn bind_targets(
+        &mut self,
+        device: &RenderDevice,
+        cache: &PipelineCache,
+        pipelines: &StagePipelines,
+    ) {
+        self.eye_paths.bind(
             device,
             cache,
             pipelines.eye_paths,
-            &state.gbuffer,
-            &state.shadows,
+            &self.gbuffer,
+            &self.shadows,
         );
-        state
+        let params = params_binding(&self.params);
+        if let Some(store) = &self.store {
+            self.splats.bind(
+                device,
+                cache,
+                pipelines.splat,
+                params.clone(),
+                store,
+                &self.gbuffer,
+            );
+        }
+        self.estimate.bind(
+            device,
+            cache,
+            pipelines.accumulate,
+            EstimateInputs {
+                params,
+                eye_paths: &self.eye_paths,
+                splats: &self.splats,
+                gbuffer: &self.gbuffer,
+            },
+        );
     }
 
     /// A changed scene keeps the view's targets: only what depends on the scene's lights and

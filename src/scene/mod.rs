@@ -168,7 +168,7 @@ impl SceneData {
     }
 
     /// Whether some surface only reflects or refracts specularly (a mirror, clear glass): then
-    /// camera paths go on past the G-buffer (`is_specular` in local_illumination.wgsl).
+    /// camera paths go on past the G-buffer (`is_specular` in shaders/importons/eye_paths.wgsl).
     pub fn has_specular_surfaces(&self) -> bool {
         self.materials.iter().any(|m| {
             let diffuse = (1.0 - m.metallic) * (1.0 - m.specular_transmission);
@@ -197,7 +197,7 @@ impl SceneData {
     }
 
     /// The largest probability that a photon goes on after a hit, over the scene's materials
-    /// (the Russian roulette of photon.wgsl: diffuse, glossy, mirror and glass albedos).
+    /// (the Russian roulette of shaders/photons/trace.wgsl: diffuse, glossy, mirror and glass albedos).
     pub fn max_scatter_probability(&self) -> f32 {
         self.materials
             .iter()

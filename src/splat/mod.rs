@@ -8,6 +8,7 @@ use bevy::prelude::*;
 use bevy::render::render_resource::binding_types::{storage_buffer_read_only_sized, texture_2d};
 use bevy::render::render_resource::*;
 use bevy::render::renderer::RenderDevice;
+use bevy::render::texture::TextureCache;
 use bevy::render::{RenderApp, RenderStartup};
 use bevy::shader::{Shader, ShaderDefVal};
 
@@ -122,7 +123,8 @@ fn init_splat_pipeline(
     });
 }
 
-/// One camera's splat target, and the group that binds its photons.
+/// One camera's splat target for this frame (from Bevy's `TextureCache`), and the group that
+/// binds its photons.
 pub struct SplatTarget {
     pub view: TextureView,
     /// Texels of the target (the view's size over the subsampling).
@@ -132,14 +134,16 @@ pub struct SplatTarget {
 }
 
 impl SplatTarget {
+    /// This frame's target, from the cache.
     pub fn new(
+        cache: &mut TextureCache,
         device: &RenderDevice,
         pipeline: &SplatPipeline,
         view_size: UVec2,
         subsampling: u32,
     ) -> Self {
         let size = view_size.map(|v| v.div_ceil(subsampling));
-        let view = target(device, "rppm_splats", size, pipeline.format);
+        let view = target(cache, device, "rppm_splats", size, pipeline.format);
         Self {
             view,
             size,

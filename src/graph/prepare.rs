@@ -224,6 +224,10 @@ type ViewItem<'a> = (
 
 /// Makes or keeps each view's resources, resets accumulation on change, and writes the
 /// constants of this frame's iterations.
+#[expect(
+    clippy::too_many_arguments,
+    reason = "a system's parameters, one per resource"
+)]
 pub(crate) fn prepare_views(
     mut commands: Commands,
     mut views: Query<ViewItem>,

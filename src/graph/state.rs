@@ -106,10 +106,6 @@ pub struct StagePipelines<'a> {
 
 impl RppmViewState {
     /// Every resource of a view with `key`, its targets taken from `textures` for this frame.
-    #[expect(
-        clippy::too_many_arguments,
-        reason = "the render-world resources a view binds"
-    )]
     pub fn new(
         key: ResourceKey,
         device: &RenderDevice,

@@ -5,9 +5,9 @@ use bevy::prelude::*;
 use bevy::render::render_resource::*;
 use bevy::render::renderer::{RenderDevice, RenderQueue};
 
-use super::{CubemapConfig, CubemapParams, CubemapPipelines};
+use super::{BuildContext, CubemapConfig, CubemapParams, CubemapPipelines};
 use crate::scene::SceneBuffers;
-use crate::stats::readback::AsyncReadback;
+use crate::stats::readback::{AsyncReadback, read_back};
 use crate::stats::timing::{Stage, StageTimer};
 
 /// Byte stride of the per-level uniforms of the hierarchy reduction.
@@ -46,20 +46,20 @@ fn buffer(device: &RenderDevice, label: &'static str, size: u64, usage: BufferUs
 
 impl DeepCubemap {
     /// Buffers for `config` around `centre`, with room for `node_capacity` list entries.
-    #[expect(
-        clippy::too_many_arguments,
-        reason = "the render-world resources a build binds"
-    )]
     pub fn new(
-        device: &RenderDevice,
-        queue: &RenderQueue,
-        cache: &PipelineCache,
-        pipelines: &CubemapPipelines,
-        scene: &SceneBuffers,
+        ctx: &BuildContext,
         config: CubemapConfig,
         centre: Vec3,
         node_capacity: u32,
     ) -> Result<Self, String> {
+        let BuildContext {
+            device,
+            queue,
+            cache,
+            pipelines,
+            scene,
+            ..
+        } = *ctx;
         let grid = config.grid();
         let tiles = 6 * grid as u64 * grid as u64;
         let limit = device
@@ -216,6 +216,67 @@ impl DeepCubemap {
         ]
     }
 
+    /// A cubemap whose lists hold every entry of its first build: built now (the GPU waited
+    /// for), and made again with room for what the build asked for while entries were lost
+    /// (at most 4 times). Without compiled build pipelines it is returned unbuilt.
+    pub fn fitted(
+        ctx: &BuildContext,
+        config: CubemapConfig,
+        centre: Vec3,
+        mut capacity: u32,
+    ) -> Result<(Self, Fit), String> {
+        let mut fit = Fit::default();
+        loop {
+            let cubemap = Self::new(ctx, config, centre, capacity)?;
+            if !ctx.pipelines.ready(ctx.cache) {
+                return Ok((cubemap, fit));
+            }
+            let ([used, lost], ms) = cubemap.build_now(ctx);
+            fit.used = used.min(capacity);
+            fit.build_ms = ms;
+            if lost == 0 || fit.overflows >= 4 {
+                return Ok((cubemap, fit));
+            }
+            // No more room than one buffer binding holds: past it, entries stay lost (counted).
+            let limits = ctx.device.limits();
+            let limit = limits
+                .max_storage_buffer_binding_size
+                .min(limits.max_buffer_size)
+                / 8;
+            let grown = (grown_capacity(used) as u64).min(limit) as u32;
+            if grown <= capacity {
+                return Ok((cubemap, fit));
+            }
+            fit.overflows += 1;
+            capacity = grown;
+        }
+    }
+
+    /// Builds once, submitted now, and waits for the GPU: the list counters (entries asked
+    /// for, entries lost) and the build's GPU ms.
+    pub fn build_now(&self, ctx: &BuildContext) -> ([u32; 2], f64) {
+        let mut timer = StageTimer::new(ctx.device, ctx.queue, 16);
+        timer.begin_frame(1);
+        let mut encoder = ctx
+            .device
+            .create_command_encoder(&CommandEncoderDescriptor::default());
+        self.encode_build(
+            &mut encoder,
+            ctx.cache,
+            ctx.pipelines,
+            ctx.scene_group,
+            &mut timer,
+        );
+        timer.end_frame(&mut encoder);
+        ctx.queue.submit([encoder.finish()]);
+        timer.start_readback();
+        timer.collect(ctx.device, true);
+        let counters = read_back(ctx.device, ctx.queue, &self.counters).unwrap_or_default();
+        let counters: &[u32] = bytemuck::cast_slice(&counters);
+        let at = |i: usize| counters.get(i).copied().unwrap_or(0);
+        ([at(0), at(1)], timer.last_ms.iter().sum())
+    }
+
     /// The buffer holding (nodes used, nodes that did not fit).
     pub fn counters(&self) -> &Buffer {
         &self.counters
@@ -288,6 +349,22 @@ impl DeepCubemap {
         drop(pass);
         self.counter_probe.encode_copy(encoder, &self.counters);
     }
+}
+
+/// How [`DeepCubemap::fitted`] went.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Fit {
+    /// Builds that lost entries and were made again with more room.
+    pub overflows: u32,
+    /// List entries the last build used.
+    pub used: u32,
+    /// GPU ms of the last build.
+    pub build_ms: f64,
+}
+
+/// Room for the entries a build asked for, with a quarter to spare.
+pub fn grown_capacity(used: u32) -> u32 {
+    (used as u64 * 5 / 4).min(u32::MAX as u64 / 2) as u32
 }
 
 /// Depth below which geometry is not recorded: a millionth of the scene's size.

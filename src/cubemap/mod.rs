@@ -19,10 +19,13 @@ use bevy::render::render_resource::*;
 use bevy::render::{RenderApp, RenderStartup};
 use bevy::shader::Shader;
 
+use bevy::render::renderer::{RenderDevice, RenderQueue};
+
 pub use config::{CubemapConfig, CubemapParams};
-pub use deep::DeepCubemap;
+pub use deep::{DeepCubemap, Fit};
 pub use view::ViewCubemap;
 
+use crate::scene::SceneBuffers;
 use crate::shaders::RppmShaders;
 use crate::view::ViewLayouts;
 
@@ -162,6 +165,17 @@ impl CubemapPipelines {
             && cache.get_compute_pipeline(self.hierarchy_base).is_some()
             && cache.get_compute_pipeline(self.hierarchy_reduce).is_some()
     }
+}
+
+/// What making and building a deep cubemap needs from the render world.
+pub struct BuildContext<'a> {
+    pub device: &'a RenderDevice,
+    pub queue: &'a RenderQueue,
+    pub cache: &'a PipelineCache,
+    pub pipelines: &'a CubemapPipelines,
+    pub scene: &'a SceneBuffers,
+    /// Group 0 of the build: the scene tables.
+    pub scene_group: &'a BindGroup,
 }
 
 /// Queues the build pipelines.

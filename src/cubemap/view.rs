@@ -2,11 +2,10 @@
 //! centred on the camera, and its lists grown when a build overflowed.
 
 use bevy::prelude::*;
-use bevy::render::render_resource::PipelineCache;
 use bevy::render::renderer::{RenderDevice, RenderQueue};
 
-use super::{CubemapConfig, CubemapPipelines, DeepCubemap};
-use crate::scene::SceneBuffers;
+use super::deep::grown_capacity;
+use super::{BuildContext, CubemapConfig, DeepCubemap};
 
 /// One camera's deep cubemap, when a stage that traces rays needs one.
 #[derive(Default)]
@@ -19,21 +18,22 @@ pub struct ViewCubemap {
 }
 
 impl ViewCubemap {
-    /// Makes, keeps or drops the cubemap, and centres it on the camera.
-    #[expect(
-        clippy::too_many_arguments,
-        reason = "the render-world resources a cubemap binds"
-    )]
+    /// Makes, keeps or drops the cubemap, and centres it on the camera. A new cubemap (first
+    /// use, or another configuration) is built at once and its lists grown until that build
+    /// loses no entry, so that the first iteration traces every triangle; later overflows (the
+    /// scene grew) grow the lists from counters read back without a stall.
     pub fn prepare(
         &mut self,
         config: Option<CubemapConfig>,
         centre: Vec3,
-        device: &RenderDevice,
-        queue: &RenderQueue,
-        cache: &PipelineCache,
-        pipelines: &CubemapPipelines,
-        scene: &SceneBuffers,
+        ctx: &BuildContext,
     ) -> Result<(), String> {
+        let BuildContext {
+            device,
+            queue,
+            scene,
+            ..
+        } = *ctx;
         let Some(config) = config else {
             self.cubemap = None;
             return Ok(());
@@ -65,10 +65,16 @@ impl ViewCubemap {
             .as_ref()
             .is_none_or(|c| c.config != config || c.params.node_capacity < capacity);
         if stale {
+            // Lists grown after an overflow are made without a build (no stall in a game).
+            let grown = self.cubemap.as_ref().is_some_and(|c| c.config == config);
             self.cubemap = None;
-            self.cubemap = Some(DeepCubemap::new(
-                device, queue, cache, pipelines, scene, config, centre, capacity,
-            )?);
+            let cubemap = if grown {
+                DeepCubemap::new(ctx, config, centre, capacity)?
+            } else {
+                DeepCubemap::fitted(ctx, config, centre, capacity)?.0
+            };
+            self.capacity = self.capacity.max(cubemap.params.node_capacity);
+            self.cubemap = Some(cubemap);
         }
         if let Some(cubemap) = &mut self.cubemap {
             cubemap.set_centre(queue, centre);
@@ -94,7 +100,7 @@ impl ViewCubemap {
         if let Some([used, lost]) = counters {
             self.nodes = (used.min(cubemap.params.node_capacity), lost);
             if lost > 0 {
-                self.capacity = (used as u64 * 5 / 4).min(u32::MAX as u64 / 2) as u32;
+                self.capacity = grown_capacity(used);
             }
         }
     }

@@ -14,7 +14,7 @@ use bevy::render::renderer::{RenderDevice, RenderQueue};
 use bytemuck::{Pod, Zeroable};
 use serde::Serialize;
 
-use crate::cubemap::{CubemapConfig, CubemapPipelines, DeepCubemap, trace_layout};
+use crate::cubemap::{BuildContext, CubemapConfig, CubemapPipelines, DeepCubemap, trace_layout};
 use crate::scene::SceneData;
 use crate::scene::prepare::{SceneBuffers, storage_buffer};
 use crate::shaders::RppmShaders;
@@ -281,67 +281,23 @@ impl Gpu<'_> {
         (hits, ms)
     }
 
-    /// Builds the cubemap, growing its lists until nothing overflows; returns it, the number
-    /// of overflowing builds, and the nodes used.
-    fn build(
-        &self,
-        config: CubemapConfig,
-        centre: Vec3,
-    ) -> Result<(DeepCubemap, u32, u32), String> {
-        let mut capacity = DeepCubemap::initial_capacity(config, self.scene.triangle_count());
-        let mut overflows = 0;
-        loop {
-            let cubemap = DeepCubemap::new(
-                self.device,
-                self.queue,
-                self.cache,
-                self.cubemap,
-                self.scene,
-                config,
-                centre,
-                capacity,
-            )?;
-            self.run_build(&cubemap);
-            let counters =
-                read_back(self.device, self.queue, cubemap.counters()).unwrap_or_default();
-            let counters: &[u32] = bytemuck::cast_slice(&counters);
-            let (used, lost) = (
-                counters.first().copied().unwrap_or(0),
-                counters.get(1).copied().unwrap_or(0),
-            );
-            if lost == 0 || overflows >= 4 {
-                return Ok((cubemap, overflows, used.min(capacity)));
-            }
-            overflows += 1;
-            capacity = ((used as u64 * 5 / 4).min(u32::MAX as u64 / 2)) as u32;
+    /// What building a cubemap needs.
+    fn build_context(&self) -> BuildContext<'_> {
+        BuildContext {
+            device: self.device,
+            queue: self.queue,
+            cache: self.cache,
+            pipelines: self.cubemap,
+            scene: self.scene,
+            scene_group: &self.scene_group,
         }
-    }
-
-    /// Builds the cubemap once; returns the build's GPU ms.
-    fn run_build(&self, cubemap: &DeepCubemap) -> f64 {
-        let mut timer = StageTimer::new(self.device, self.queue, 16);
-        timer.begin_frame(1);
-        let mut encoder = self
-            .device
-            .create_command_encoder(&CommandEncoderDescriptor::default());
-        cubemap.encode_build(
-            &mut encoder,
-            self.cache,
-            self.cubemap,
-            &self.scene_group,
-            &mut timer,
-        );
-        timer.end_frame(&mut encoder);
-        self.submit(encoder);
-        timer.start_readback();
-        timer.collect(self.device, true);
-        timer.last_ms.iter().sum()
     }
 
     /// Mean GPU ms of a few builds.
     fn time_build(&self, cubemap: &DeepCubemap) -> f64 {
         let runs = 3;
-        (0..runs).map(|_| self.run_build(cubemap)).sum::<f64>() / runs as f64
+        let ctx = self.build_context();
+        (0..runs).map(|_| cubemap.build_now(&ctx).1).sum::<f64>() / runs as f64
     }
 }
 
@@ -416,7 +372,9 @@ pub(super) fn run_cubemap_bench(
     let mut rows = Vec::new();
     let mut brute: Option<(Vec<[f32; 4]>, f64)> = None;
     for &config in &request.configs {
-        let (cube, overflow_rebuilds, nodes_used) = match gpu.build(config, request.centre) {
+        let capacity = DeepCubemap::initial_capacity(config, scene.triangle_count());
+        let fitted = DeepCubemap::fitted(&gpu.build_context(), config, request.centre, capacity);
+        let (cube, fit) = match fitted {
             Ok(built) => built,
             Err(reason) => {
                 warn!("bevy_rppm: deep-cubemap setting {config:?} skipped: {reason}");
@@ -441,8 +399,8 @@ pub(super) fn run_cubemap_bench(
             trace_ms,
             brute_force_ms: brute.1,
             bytes: cube.memory().iter().map(|(_, b)| b).sum(),
-            nodes_used,
-            overflow_rebuilds,
+            nodes_used: fit.used,
+            overflow_rebuilds: fit.overflows,
         });
     }
     let _ = sender.send(rows);

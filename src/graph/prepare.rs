@@ -11,7 +11,7 @@ use bevy::render::view::{ExtractedView, ViewTarget};
 
 use super::state::{ResourceKey, RppmViewState, StageIds, StagePipelines, ViewTimer};
 use crate::accumulate::{AccumulateKey, AccumulatePipeline};
-use crate::cubemap::{CubemapConfig, CubemapPipelines};
+use crate::cubemap::{BuildContext, CubemapConfig, CubemapPipelines};
 use crate::gbuffer::GBufferPipeline;
 use crate::importons::{EyePathKey, EyePathPipeline};
 use crate::indirect_splat::IndirectSplatPipeline;
@@ -369,15 +369,15 @@ fn prepare_view(
         || settings.debug_view == RppmDebugView::CubemapNormals;
     let config = traces.then(|| cubemap_config(settings));
     let centre = frame.view.world_from_view.translation();
-    if let Err(e) = state.cubemap.prepare(
-        config,
-        centre,
+    let ctx = BuildContext {
         device,
         queue,
-        &pipelines.cache,
-        &pipelines.cubemap,
+        cache: &pipelines.cache,
+        pipelines: &pipelines.cubemap,
         scene,
-    ) {
+        scene_group: &state.scene_group,
+    };
+    if let Err(e) = state.cubemap.prepare(config, centre, &ctx) {
         state.error = Some(e);
     }
     // Importons need the cubemap bound; without one (its buffers refused) none are made.

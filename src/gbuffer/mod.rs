@@ -106,6 +106,13 @@ impl GBuffer {
         }
     }
 
+    /// Whether both hold the same textures.
+    pub fn same_textures(&self, other: &Self) -> bool {
+        self.position.id() == other.position.id()
+            && self.normal.id() == other.normal.id()
+            && self.depth.id() == other.depth.id()
+    }
+
     /// Bytes held for `pixels` pixels.
     pub fn bytes(pixels: u64) -> u64 {
         pixels * (16 + 16 + 4)

@@ -13,7 +13,7 @@ use super::state::{ResourceKey, RppmViewState, StageIds, StagePipelines, ViewTim
 use crate::accumulate::{AccumulateKey, AccumulatePipeline};
 use crate::cubemap::{BuildContext, CubemapConfig, CubemapPipelines};
 use crate::gbuffer::GBufferPipeline;
-use crate::importons::{EyePathKey, EyePathPipeline};
+use crate::importons::EyePathPipeline;
 use crate::indirect_splat::IndirectSplatPipeline;
 use crate::output::{OutputPipeline, output_key};
 use crate::photons::{PHOTON_BYTES, PhotonPipeline};
@@ -161,14 +161,7 @@ fn select_stages(
         eye_paths: pipelines.eye_path_variants.specialize(
             cache,
             &pipelines.eye_paths,
-            EyePathKey {
-                importons: state.importons,
-                paths: if state.importons {
-                    scene.paths.specular()
-                } else {
-                    Default::default()
-                },
-            },
+            state.importons.then_some(scene.paths.specular()),
         ),
         trace: traced.then(|| {
             pipelines

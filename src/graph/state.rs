@@ -190,7 +190,8 @@ impl RppmViewState {
     }
 
     /// Takes this frame's G-buffer and splat target from the texture cache (the same textures
-    /// while the view keeps its size and they are asked for every frame) and binds them.
+    /// while the view keeps its size and they are asked for every frame), and binds them when
+    /// they changed.
     pub fn refresh_targets(
         &mut self,
         device: &RenderDevice,
@@ -199,14 +200,21 @@ impl RppmViewState {
         pipelines: &StagePipelines,
     ) {
         let size = self.key.size;
-        self.gbuffer = GBuffer::new(textures, device, size);
-        self.splats = SplatTarget::new(
+        let gbuffer = GBuffer::new(textures, device, size);
+        let splats = SplatTarget::new(
             textures,
             device,
             pipelines.splat,
             size,
             self.key.subsampling,
         );
+        // The cache hands back last frame's textures while nothing else took them: then the
+        // groups that hold them stay as they are.
+        if gbuffer.same_textures(&self.gbuffer) && splats.view.id() == self.splats.view.id() {
+            return;
+        }
+        self.gbuffer = gbuffer;
+        self.splats = splats;
         self.bind_targets(device, cache, pipelines);
     }
 
@@ -267,13 +275,7 @@ impl RppmViewState {
         self.shadows.write_light_views(queue, &scene.data);
         self.scene_group =
             scene.bind_group(device, cache, &pipelines.layouts.scene, &self.shadows.views);
-        self.eye_paths.bind(
-            device,
-            cache,
-            pipelines.eye_paths,
-            &self.gbuffer,
-            &self.shadows,
-        );
+        self.bind_targets(device, cache, pipelines);
         if let Some(cubemap) = &mut self.cubemap.cubemap {
             cubemap.set_scene(queue, scene);
         }

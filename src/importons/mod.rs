@@ -47,14 +47,10 @@ pub struct EyePathPipeline {
     shader: Handle<Shader>,
 }
 
-/// Which eye-path variant a view runs.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub struct EyePathKey {
-    /// Camera paths go on past specular first hits and leave importons.
-    pub importons: bool,
-    /// The specular paths they follow (`MIRRORS`, `REFRACTION`).
-    pub paths: ScatterPaths,
-}
+/// Which eye-path variant a view runs: `None` lights the first hits only; `Some(paths)`
+/// follows camera paths through these specular paths (`MIRRORS`, `REFRACTION`) and leaves
+/// importons.
+pub type EyePathKey = Option<ScatterPaths>;
 
 impl SpecializedComputePipeline for EyePathPipeline {
     type Key = EyePathKey;
@@ -66,16 +62,10 @@ impl SpecializedComputePipeline for EyePathPipeline {
             self.layout.clone(),
         ];
         let mut shader_defs = Vec::new();
-        if key.importons {
+        if let Some(paths) = key {
             layout.push(cubemap::trace_layout());
             shader_defs.push("IMPORTONS".into());
-            shader_defs.extend(
-                key.paths
-                    .specular()
-                    .shader_defs()
-                    .into_iter()
-                    .map(Into::into),
-            );
+            shader_defs.extend(paths.shader_defs().into_iter().map(Into::into));
         }
         ComputePipelineDescriptor {
             label: Some("rppm_local_illumination_pipeline".into()),

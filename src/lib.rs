@@ -18,11 +18,12 @@
 //! One module per stage of an iteration, in the paper's words, each with its WGSL under
 //! `shaders/<stage>/`: [`scene`] extraction → [`cubemap`] (the deep cubemap) → [`shadows`]
 //! (direct light) → [`gbuffer`] → [`importons`] (eye paths) → [`photons`] → [`splat`] →
-//! [`indirect_splat`] → [`accumulate`] → [`output`]. [`settings`], [`ppm`] (pure maths),
-//! [`shaders`] and [`stats`] are leaves; [`view`] holds what every stage of a camera shares;
+//! [`indirect_splat`] → [`accumulate`] → [`output`]. [`settings`], [`ppm`] and [`bsdf`] (pure
+//! maths), [`shaders`] and [`stats`] are leaves; [`view`] holds what every stage of a camera shares;
 //! `graph` prepares each camera's state and records the iterations.
 
 pub mod accumulate;
+pub mod bsdf;
 pub mod cubemap;
 #[cfg(feature = "debug")]
 pub mod debug;

@@ -52,8 +52,9 @@ pub struct PhotonMapping {
     pub photons_per_iteration: u32,
     /// Bounces a photon may take. Range 1..=64, default 8.
     pub max_photon_depth: u32,
-    /// Bounces an importon (camera path) may take; 1 means the camera G-buffer only.
-    /// Range 1..=64, default 3.
+    /// Bounces an importon (camera path) may take through mirrors and glass; 1 means the
+    /// camera G-buffer only. Past the third, Russian roulette ends paths (unbiased), so a high
+    /// cap costs little. Range 1..=64, default 16 (as Mitsuba's path tracer).
     pub max_eye_depth: u32,
     /// Knaus–Zwicker radius reduction, r²ᵢ₊₁ = r²ᵢ (i+α)/(i+1). Range (0, 1], default 0.7.
     pub alpha: f32,
@@ -109,7 +110,7 @@ impl Default for PhotonMapping {
             mode: RppmMode::Full,
             photons_per_iteration: 262_144,
             max_photon_depth: 8,
-            max_eye_depth: 3,
+            max_eye_depth: 16,
             alpha: 0.7,
             initial_radius_pixels: 4.0,
             cubemap_resolution: 256,

@@ -32,6 +32,8 @@ pub struct RppmShaders {
     pub debug_view: Handle<Shader>,
     #[cfg(feature = "debug")]
     pub cubemap_bench: Handle<Shader>,
+    #[cfg(feature = "debug")]
+    pub furnace: Handle<Shader>,
 }
 
 impl RppmShaders {
@@ -57,6 +59,8 @@ impl RppmShaders {
             debug_view: wgsl!(shaders, "debug/debug_view.wgsl"),
             #[cfg(feature = "debug")]
             cubemap_bench: wgsl!(shaders, "debug/cubemap_bench.wgsl"),
+            #[cfg(feature = "debug")]
+            furnace: wgsl!(shaders, "debug/furnace.wgsl"),
         }
     }
 }

@@ -1,9 +1,11 @@
 // Bevy StandardMaterial as a BSDF: Lambert diffuse, GGX specular (F0 = 0.16·reflectance² for
-// dielectrics, base colour for metals), and delta lobes below DELTA_ROUGHNESS. Energy-conserving
-// between the diffuse lobe and the dielectric layer (see diffuse_albedo).
+// dielectrics, base colour for metals) with multiple-scattering compensation, and delta lobes
+// below DELTA_ROUGHNESS. It keeps energy: a white surface reflects all light it receives
+// (the furnace test, tests/gpu/bsdf.rs).
 #define_import_path bevy_rppm::bsdf
 
-#import bevy_rppm::common::{Material, PI}
+#import bevy_rppm::common::{Material, PI, luminance, random, cosine_direction}
+#import bevy_rppm::scene::ggx_albedo
 
 // Below this perceptual roughness the specular lobe is a perfect mirror: it carries no light
 // from a point in a direction other than the mirror one, so evaluation gives zero.
@@ -14,9 +16,15 @@ fn specular_f0(m: Material) -> vec3<f32> {
     return mix(dielectric, m.base_color.rgb, m.metallic);
 }
 
-fn fresnel_schlick(f0: vec3<f32>, cos_theta: f32) -> vec3<f32> {
+// Reflectance at grazing angles: Bevy's, which fades to 0 as F0 does (no specular at all for
+// reflectance 0).
+fn specular_f90(f0: vec3<f32>) -> f32 {
+    return saturate(dot(f0, vec3<f32>(50.0 * 0.33)));
+}
+
+fn fresnel_schlick(f0: vec3<f32>, f90: f32, cos_theta: f32) -> vec3<f32> {
     let f = pow(1.0 - clamp(cos_theta, 0.0, 1.0), 5.0);
-    return f0 + (vec3<f32>(1.0) - f0) * f;
+    return f0 + (vec3<f32>(f90) - f0) * f;
 }
 
 fn ggx_d(n_dot_h: f32, a: f32) -> f32 {
@@ -33,13 +41,88 @@ fn smith_visibility(n_dot_v: f32, n_dot_l: f32, a: f32) -> f32 {
     return 0.5 / max(gv + gl, 1e-8);
 }
 
-// Albedo of the diffuse lobe: Bevy's (1 − metallic)(1 − transmission) × base colour, less what
-// the dielectric specular layer reflects (F0 = 0.16·reflectance²). Bevy adds the two lobes
-// without that split; for direct light the difference is a few percent, but bounced many
-// times (as photons are) the extra energy compounds, so the diffuse lobe gives it back.
-fn diffuse_albedo(m: Material) -> vec3<f32> {
-    let layer = 0.16 * m.reflectance * m.reflectance;
-    return m.base_color.rgb * ((1.0 - m.metallic) * (1.0 - m.specular_transmission) * (1.0 - layer));
+// The GGX lobe's directional albedo table (src/bsdf.rs): cosines at cell centres, perceptual
+// roughness at nodes, then one row of cosine-weighted averages.
+const ALBEDO_SIZE: u32 = 32u;
+
+// (A, B) with the single-scattering lobe reflecting F0·A + F90·B of light from cosine mu.
+fn albedo_ab(roughness: f32, mu: f32) -> vec2<f32> {
+    let size = f32(ALBEDO_SIZE);
+    let x = clamp(mu * size - 0.5, 0.0, size - 1.0);
+    let y = clamp(roughness, 0.0, 1.0) * (size - 1.0);
+    let x0 = min(u32(x), ALBEDO_SIZE - 2u);
+    let y0 = min(u32(y), ALBEDO_SIZE - 2u);
+    let i = y0 * ALBEDO_SIZE + x0;
+    let fx = x - f32(x0);
+    let low = mix(ggx_albedo[i].xy, ggx_albedo[i + 1u].xy, fx);
+    let high = mix(ggx_albedo[i + ALBEDO_SIZE].xy, ggx_albedo[i + ALBEDO_SIZE + 1u].xy, fx);
+    return mix(low, high, y - f32(y0));
+}
+
+// The cosine-weighted averages of A and B over the hemisphere.
+fn albedo_ab_average(roughness: f32) -> vec2<f32> {
+    let y = clamp(roughness, 0.0, 1.0) * f32(ALBEDO_SIZE - 1u);
+    let y0 = min(u32(y), ALBEDO_SIZE - 2u);
+    let row = ALBEDO_SIZE * ALBEDO_SIZE + y0;
+    return mix(ggx_albedo[row].xy, ggx_albedo[row + 1u].xy, y - f32(y0));
+}
+
+// What the specular lobe does with light from cos μ: `single` is what single scattering
+// reflects (F0·A + F90·B); `lost` = 1 − E(μ) what it loses at F = 1; `energy` all the lobe
+// reflects, single scattering plus Kulla and Conty's multiple-scattering lobe
+// F0 (1 − E(μo)) (1 − E(μi)) / (π (1 − E_avg)), which reflects F0·lost. At F0 = 1 the two
+// reflect everything, both ways (reciprocal, so photons and splats agree).
+struct Specular {
+    single: vec3<f32>,
+    lost: f32,
+    energy: vec3<f32>,
+}
+
+fn specular_at(m: Material, f0: vec3<f32>, mu: f32) -> Specular {
+    if !has_glossy_lobe(m) {
+        return Specular(vec3<f32>(0.0), 0.0, vec3<f32>(0.0));
+    }
+    let ab = albedo_ab(m.perceptual_roughness, mu);
+    let single = f0 * ab.x + specular_f90(f0) * ab.y;
+    let lost = saturate(1.0 - ab.x - ab.y);
+    return Specular(single, lost, min(single + f0 * lost, vec3<f32>(1.0)));
+}
+
+// Cosine-weighted averages over the hemisphere: xyz the specular lobe's energy, w 1 − E_avg.
+fn specular_average(m: Material, f0: vec3<f32>) -> vec4<f32> {
+    if !has_glossy_lobe(m) {
+        return vec4<f32>(0.0, 0.0, 0.0, 1.0);
+    }
+    let avg = albedo_ab_average(m.perceptual_roughness);
+    let lost = max(1.0 - avg.x - avg.y, 1e-3);
+    let energy = f0 * avg.x + specular_f90(f0) * avg.y + f0 * lost;
+    return vec4<f32>(min(energy, vec3<f32>(0.999)), lost);
+}
+
+// Bevy's diffuse colour: (1 − metallic)(1 − transmission) × base colour.
+fn diffuse_color(m: Material) -> vec3<f32> {
+    return m.base_color.rgb * ((1.0 - m.metallic) * (1.0 - m.specular_transmission));
+}
+
+// π f of the lobes without a direction of their own: the diffuse lobe, shaped by what the
+// specular layer leaves on the way in and out (reciprocal, after Kelemen and Szirmay-Kalos),
+// plus the multiple-scattering lobe. The base colour is the albedo a surface shows: averaged
+// over directions, diffuse and specular together reflect exactly the diffuse colour (as the
+// Lambertian references do, shared/docs/CONVENTIONS.md), and a white surface reflects all
+// light at every angle. Bevy adds the specular layer on top of the base colour instead: a
+// few percent brighter for direct light, but bounced many times (as photons are) it compounds.
+fn cosine_lobes(m: Material, f0: vec3<f32>, o: Specular, i: Specular, avg: vec4<f32>) -> vec3<f32> {
+    let left = vec3<f32>(1.0) - avg.xyz;
+    let albedo = max(diffuse_color(m) - avg.xyz, vec3<f32>(0.0)) / left;
+    let diffuse = albedo * (vec3<f32>(1.0) - o.energy) * (vec3<f32>(1.0) - i.energy) / left;
+    return diffuse + f0 * (o.lost * i.lost / avg.w);
+}
+
+// What the cosine lobes reflect of light from i (the photons' choice of them).
+fn cosine_lobes_energy(m: Material, f0: vec3<f32>, i: Specular, avg: vec4<f32>) -> vec3<f32> {
+    let left = vec3<f32>(1.0) - avg.xyz;
+    let albedo = max(diffuse_color(m) - avg.xyz, vec3<f32>(0.0)) / left;
+    return albedo * (vec3<f32>(1.0) - i.energy) + f0 * i.lost;
 }
 
 // f(wo, wi), without the cosine. wo and wi point away from the surface.
@@ -49,13 +132,16 @@ fn bsdf_eval(m: Material, n: vec3<f32>, wo: vec3<f32>, wi: vec3<f32>) -> vec3<f3
     if n_dot_l <= 0.0 || n_dot_v <= 0.0 {
         return vec3<f32>(0.0);
     }
-    var f = diffuse_albedo(m) / PI;
-    if m.perceptual_roughness >= DELTA_ROUGHNESS {
+    let f0 = specular_f0(m);
+    let o = specular_at(m, f0, n_dot_v);
+    let i = specular_at(m, f0, n_dot_l);
+    var f = cosine_lobes(m, f0, o, i, specular_average(m, f0)) / PI;
+    if has_glossy_lobe(m) {
         let a = m.perceptual_roughness * m.perceptual_roughness;
         let h = normalize(wi + wo);
         let d = ggx_d(max(dot(n, h), 0.0), a);
         let v = smith_visibility(n_dot_v, n_dot_l, a);
-        f += d * v * fresnel_schlick(specular_f0(m), dot(wo, h));
+        f += d * v * fresnel_schlick(f0, specular_f90(f0), dot(wo, h));
     }
     return f;
 }
@@ -103,4 +189,70 @@ fn fresnel_dielectric(cos_i: f32, eta: f32) -> f32 {
     let rs = (eta * cos_i - cos_t) / (eta * cos_i + cos_t);
     let rp = (cos_i - eta * cos_t) / (cos_i + eta * cos_t);
     return 0.5 * (rs * rs + rp * rp);
+}
+
+// A photon's next direction and the factor on its flux (zero when absorbed).
+struct Scatter {
+    direction: vec3<f32>,
+    weight: vec3<f32>,
+}
+
+// Scatters a photon that arrived from wi (pointing away from the surface; n on its side,
+// `front` whether that is the front face): the adjoint of bsdf_eval plus the delta lobes
+// (mirror metals, Fresnel glass). A lobe is chosen with a probability near what it reflects
+// from wi, else the photon is absorbed, so flux stays unbiased. Lobes no material of the scene
+// has are compiled out (GLOSSY, MIRRORS, REFRACTION).
+fn scatter_photon(m: Material, n: vec3<f32>, wi: vec3<f32>, front: bool, rng: ptr<function, u32>) -> Scatter {
+    let f0 = specular_f0(m);
+    let mu_i = max(dot(n, wi), 0.0);
+    let i = specular_at(m, f0, mu_i);
+    var left = 1.0;
+    var u = random(rng);
+#ifdef GLOSSY
+    let p_glossy = min(luminance(i.single), left);
+    left -= p_glossy;
+    if u < p_glossy {
+        let s = sample_ggx(m, n, wi, vec2<f32>(random(rng), random(rng)));
+        if s.w <= 0.0 {
+            return Scatter(s.xyz, vec3<f32>(0.0));
+        }
+        let f = fresnel_schlick(f0, specular_f90(f0), dot(wi, normalize(wi + s.xyz)));
+        return Scatter(s.xyz, f * (s.w / p_glossy));
+    }
+    u -= p_glossy;
+#endif
+    // Diffuse and multiple scattering, both cosine-sampled.
+    let avg = specular_average(m, f0);
+    let p_cosine = min(luminance(cosine_lobes_energy(m, f0, i, avg)), left);
+    left -= p_cosine;
+    if u < p_cosine {
+        let d = cosine_direction(n, vec2<f32>(random(rng), random(rng)));
+        let o = specular_at(m, f0, dot(n, d));
+        return Scatter(d, cosine_lobes(m, f0, o, i, avg) / p_cosine);
+    }
+    u -= p_cosine;
+    let delta = m.perceptual_roughness < DELTA_ROUGHNESS;
+#ifdef MIRRORS
+    let mirror = select(vec3<f32>(0.0), m.base_color.rgb * m.metallic, delta);
+    let p_mirror = min(luminance(mirror), left);
+    left -= p_mirror;
+    if u < p_mirror {
+        return Scatter(reflect(-wi, n), mirror / p_mirror);
+    }
+    u -= p_mirror;
+#endif
+#ifdef REFRACTION
+    let glass = select(0.0, m.specular_transmission * (1.0 - m.metallic), delta);
+    let p_glass = min(glass, left);
+    if u < p_glass {
+        let eta = select(m.ior, 1.0 / m.ior, front);
+        let refracted = refract(-wi, n, eta);
+        let weight = vec3<f32>(glass / p_glass);
+        if random(rng) < fresnel_dielectric(mu_i, eta) || all(refracted == vec3<f32>(0.0)) {
+            return Scatter(reflect(-wi, n), weight);
+        }
+        return Scatter(refracted, weight);
+    }
+#endif
+    return Scatter(wi, vec3<f32>(0.0));
 }

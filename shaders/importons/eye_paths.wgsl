@@ -22,6 +22,9 @@
 // splat's dispatch (x set here, once an importon exists).
 @group(2) @binding(6) var<storage, read_write> importon_stats: array<atomic<u32>, 8>;
 
+// Camera-path vertex from which Russian roulette may end a path.
+const EYE_ROULETTE_DEPTH: u32 = 3u;
+
 // Whether a material only reflects or refracts specularly (no diffuse, no rough lobe).
 fn is_specular(m: Material) -> bool {
     let diffuse = (1.0 - m.metallic) * (1.0 - m.specular_transmission);
@@ -96,6 +99,15 @@ fn follow_camera_path(pixel: u32, x0: vec3<f32>, n0: vec3<f32>, m0: Material, tr
         }
         bounce = specular_bounce(m, d, n, front, &rng);
         throughput *= bounce.weight;
+        // Russian roulette past the first vertices, so that paths trapped in glass (total
+        // internal reflection) end early on average yet the estimate keeps its mean.
+        if depth >= EYE_ROULETTE_DEPTH {
+            let survive = min(max(throughput.x, max(throughput.y, throughput.z)), 0.95);
+            if random(&rng) >= survive {
+                return vec3<f32>(0.0);
+            }
+            throughput /= survive;
+        }
         o = x;
         d = bounce.direction;
         ignore = hit.triangle;

@@ -1,12 +1,11 @@
 // Photon tracing: photons leave every light, chosen by power, and are traced through the deep
 // cubemap; a photon is stored at every diffuse or rough-glossy hit after its first bounce
-// (direct light is the local-illumination stage's), then scattered by the material (diffuse,
-// GGX glossy, mirror, Fresnel glass) or absorbed (Russian roulette by albedo, so flux stays
-// unbiased).
-#import bevy_rppm::common::{Light, Photon, IterationParams, PI, LIGHT_POINT, LIGHT_SPOT, LIGHT_DIRECTIONAL, luminance, random, pcg_hash, basis_around, cosine_direction}
+// (direct light is the local-illumination stage's), then scattered by the material
+// (bsdf.wgsl's scatter_photon: diffuse, GGX glossy, mirror, Fresnel glass) or absorbed.
+#import bevy_rppm::common::{Light, Photon, IterationParams, PI, LIGHT_POINT, LIGHT_SPOT, LIGHT_DIRECTIONAL, random, pcg_hash, basis_around, cosine_direction}
 #import bevy_rppm::scene::{triangles, materials, lights, emitters, light_cdf}
 #import bevy_rppm::cubemap::{trace_cubemap, NO_HIT}
-#import bevy_rppm::bsdf::{DELTA_ROUGHNESS, GLOSSY_STORE_ROUGHNESS, has_glossy_lobe, sample_ggx, specular_f0, fresnel_schlick, fresnel_dielectric, diffuse_albedo}
+#import bevy_rppm::bsdf::{GLOSSY_STORE_ROUGHNESS, has_glossy_lobe, diffuse_color, scatter_photon}
 
 @group(1) @binding(0) var<uniform> params: IterationParams;
 
@@ -123,75 +122,21 @@ fn trace(@builtin(global_invocation_id) id: vec3<u32>) {
         if !front {
             n = -n;
         }
-        let diffuse = diffuse_albedo(m);
         let direct_only = params.direct_photons != 0u;
         let glossy_store = has_glossy_lobe(m) && m.perceptual_roughness >= GLOSSY_STORE_ROUGHNESS;
-        if (depth > 0u || direct_only) && (any(diffuse > vec3<f32>(0.0)) || glossy_store) {
+        if (depth > 0u || direct_only) && (any(diffuse_color(m) > vec3<f32>(0.0)) || glossy_store) {
             store(x, ray, n);
         }
         if direct_only {
             return;
         }
-        // Scatter: diffuse, GGX glossy, mirror (delta metals) or delta dielectric; otherwise
-        // absorbed. Each lobe is chosen with a probability near its albedo. Lobes no material
-        // of the scene has are compiled out (GLOSSY, MIRRORS, REFRACTION).
-        let delta = m.perceptual_roughness < DELTA_ROUGHNESS;
-        var left = 1.0;
-        let p_diffuse = min(luminance(diffuse), left);
-        left -= p_diffuse;
-        var u = random(&rng);
-        ray.ignore = hit.triangle;
+        let s = scatter_photon(m, n, -ray.direction, front, &rng);
+        if all(s.weight <= vec3<f32>(0.0)) {
+            return;
+        }
         ray.origin = x;
-#ifdef GLOSSY
-        let f0 = select(specular_f0(m), vec3<f32>(0.0), delta);
-        let p_glossy = min(luminance(f0), left);
-        left -= p_glossy;
-        if u < p_glossy {
-            let v = -ray.direction;
-            let s = sample_ggx(m, n, v, vec2<f32>(random(&rng), random(&rng)));
-            if s.w <= 0.0 {
-                return;
-            }
-            ray.direction = s.xyz;
-            ray.flux *= fresnel_schlick(f0, dot(v, normalize(v + s.xyz))) * (s.w / p_glossy);
-            continue;
-        }
-        u -= p_glossy;
-#endif
-        if u < p_diffuse {
-            ray.direction = cosine_direction(n, vec2<f32>(random(&rng), random(&rng)));
-            ray.flux *= diffuse / p_diffuse;
-            continue;
-        }
-        u -= p_diffuse;
-#ifdef MIRRORS
-        let mirror = select(vec3<f32>(0.0), m.base_color.rgb * m.metallic, delta);
-        let p_mirror = min(luminance(mirror), left);
-        left -= p_mirror;
-        if u < p_mirror {
-            ray.direction = reflect(ray.direction, n);
-            ray.flux *= mirror / p_mirror;
-            continue;
-        }
-        u -= p_mirror;
-#endif
-#ifdef REFRACTION
-        let glass = select(0.0, m.specular_transmission * (1.0 - m.metallic), delta);
-        let p_glass = min(glass, left);
-        if u < p_glass {
-            let eta = select(m.ior, 1.0 / m.ior, front);
-            let cos_i = dot(-ray.direction, n);
-            let refracted = refract(ray.direction, n, eta);
-            let reflectance = fresnel_dielectric(cos_i, eta);
-            if random(&rng) < reflectance || all(refracted == vec3<f32>(0.0)) {
-                ray.direction = reflect(ray.direction, n);
-            } else {
-                ray.direction = refracted;
-            }
-            ray.flux *= glass / p_glass;
-            continue;
-        }
-#endif
-        return;
+        ray.direction = s.direction;
+        ray.flux *= s.weight;
+        ray.ignore = hit.triangle;
     }
 }

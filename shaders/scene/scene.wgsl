@@ -9,6 +9,8 @@
 @group(0) @binding(3) var<storage, read> lights: array<Light>;
 @group(0) @binding(4) var<storage, read> emitters: array<Emitter>;
 @group(0) @binding(5) var<storage, read> light_cdf: array<f32>;
+// The GGX lobe's directional albedo and its averages (src/bsdf.rs), for bsdf.wgsl.
+@group(0) @binding(6) var<storage, read> ggx_albedo: array<vec4<f32>>;
 
 // The material of a camera G-buffer texel, whose w holds ±(triangle + 1).
 fn gbuffer_material(w: f32) -> Material {

@@ -201,7 +201,7 @@ pub(super) fn init_bench_pipelines(
 }
 
 /// Group 1 is the per-iteration constants in the PPM stages; the harness has none.
-fn empty_layout() -> BindGroupLayoutDescriptor {
+pub(super) fn empty_layout() -> BindGroupLayoutDescriptor {
     BindGroupLayoutDescriptor::new("rppm_bench_empty_layout", &[])
 }
 

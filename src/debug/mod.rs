@@ -1,9 +1,10 @@
 //! Checks by eye and by number, behind the `debug` feature: debug images that compare the deep
 //! cubemap with rasterisation (the G-buffer's shading normals, and those of primary rays traced
 //! through the cubemap with the same jitter), and the deep-cubemap correctness harness
-//! ([`bench`]).
+//! ([`bench`]), and the BSDF's white furnace ([`furnace`]).
 
 pub mod bench;
+pub mod furnace;
 
 use bevy::prelude::*;
 use bevy::render::render_resource::*;
@@ -24,20 +25,34 @@ impl Plugin for DebugPlugin {
         app.add_plugins(bevy::render::extract_resource::ExtractResourcePlugin::<
             bench::CubemapBenchRequest,
         >::default())
+            .add_plugins(bevy::render::extract_resource::ExtractResourcePlugin::<
+                furnace::FurnaceRequest,
+            >::default())
             .init_resource::<bench::CubemapBenchResults>()
-            .add_systems(PreUpdate, bench::receive_results);
+            .init_resource::<furnace::FurnaceResults>()
+            .add_systems(
+                PreUpdate,
+                (bench::receive_results, furnace::receive_furnace),
+            );
         let (sender, receiver) = crossbeam_channel::unbounded();
-        app.insert_resource(bench::BenchReceiver(receiver));
+        let (furnace_sender, furnace_receiver) = crossbeam_channel::unbounded();
+        app.insert_resource(bench::BenchReceiver(receiver))
+            .insert_resource(furnace::FurnaceReceiver(furnace_receiver));
         if let Some(render_app) = app.get_sub_app_mut(RenderApp) {
             render_app
                 .insert_resource(bench::BenchSender(sender))
+                .insert_resource(furnace::FurnaceSender(furnace_sender))
                 .add_systems(
                     RenderStartup,
-                    (init_debug_view_pipelines, bench::init_bench_pipelines),
+                    (
+                        init_debug_view_pipelines,
+                        bench::init_bench_pipelines,
+                        furnace::init_furnace_pipeline,
+                    ),
                 )
                 .add_systems(
                     Render,
-                    bench::run_cubemap_bench
+                    (bench::run_cubemap_bench, furnace::run_furnace)
                         .after(RenderSystems::PrepareResources)
                         .before(RenderSystems::Render),
                 );

@@ -18,6 +18,8 @@ use bevy::render::{Render, RenderApp, RenderSystems};
 use bevy::transform::TransformSystems;
 use bytemuck::{Pod, Zeroable};
 
+use crate::bsdf::{DELTA_ROUGHNESS, specular_energy_average};
+
 pub use lights::{LightKind, spot_cone_fraction};
 pub use prepare::SceneBuffers;
 
@@ -197,23 +199,24 @@ impl SceneData {
     }
 
     /// The largest probability that a photon goes on after a hit, over the scene's materials
-    /// (the Russian roulette of shaders/photons/trace.wgsl: diffuse, glossy, mirror and glass albedos).
+    /// (`scatter_photon` in shaders/common/bsdf.wgsl), for light arriving cosine-distributed:
+    /// the base colour's albedo (at least the specular layer's), or the mirror and glass ones.
     pub fn max_scatter_probability(&self) -> f32 {
         self.materials
             .iter()
             .map(|m| {
-                let rgb = |c: [f32; 4]| [c[0], c[1], c[2]];
-                let delta = m.perceptual_roughness < DELTA_ROUGHNESS;
-                let layer = 0.16 * m.reflectance * m.reflectance;
-                let diffuse = (1.0 - m.metallic) * (1.0 - m.specular_transmission) * (1.0 - layer);
-                let base = luminance(rgb(m.base_color));
-                let f0 = layer * (1.0 - m.metallic) + base * m.metallic;
-                let scatter = if delta {
-                    base * m.metallic + m.specular_transmission * (1.0 - m.metallic)
-                } else {
-                    f0
-                };
-                (diffuse * base + scatter).min(1.0)
+                let base = [m.base_color[0], m.base_color[1], m.base_color[2]];
+                let diffuse = (1.0 - m.metallic) * (1.0 - m.specular_transmission);
+                if m.perceptual_roughness < DELTA_ROUGHNESS {
+                    let delta =
+                        luminance(base) * m.metallic + m.specular_transmission * (1.0 - m.metallic);
+                    return (diffuse * luminance(base) + delta).min(1.0);
+                }
+                let dielectric = 0.16 * m.reflectance * m.reflectance;
+                let f0 = base.map(|c| dielectric + (c - dielectric) * m.metallic);
+                let specular = specular_energy_average(m.perceptual_roughness, f0);
+                let albedo = [0, 1, 2].map(|k| (base[k] * diffuse).max(specular[k]));
+                luminance(albedo).min(1.0)
             })
             .fold(0.0, f32::max)
     }
@@ -223,9 +226,6 @@ impl SceneData {
 pub(crate) fn luminance(rgb: [f32; 3]) -> f32 {
     0.2126 * rgb[0] + 0.7152 * rgb[1] + 0.0722 * rgb[2]
 }
-
-/// Below this perceptual roughness a lobe is a delta (`DELTA_ROUGHNESS` in bsdf.wgsl).
-pub(crate) const DELTA_ROUGHNESS: f32 = 0.02;
 
 /// The extracted scene and the epoch that counts its changes. Any change to meshes, materials,
 /// lights or transforms increments `epoch`, which restarts progressive accumulation.

@@ -11,6 +11,7 @@ use bevy::render::renderer::RenderDevice;
 use bytemuck::Pod;
 
 use super::{RppmScene, ScatterPaths, SceneData};
+use crate::bsdf::ggx_albedo_table;
 
 /// Scene tables as storage buffers, in the render world.
 #[derive(Resource)]
@@ -22,6 +23,8 @@ pub struct SceneBuffers {
     pub lights: Buffer,
     pub emitters: Buffer,
     pub light_cdf: Buffer,
+    /// The GGX lobe's albedo table ([`crate::bsdf::ggx_albedo_table`]).
+    pub ggx_albedo: Buffer,
     /// The scattering paths the materials have (made once per scene change).
     pub paths: ScatterPaths,
     /// The largest probability a photon goes on after a hit (sizes the photon store).
@@ -34,13 +37,14 @@ impl SceneBuffers {
     }
 
     /// (name, bytes) of every buffer held.
-    pub fn memory(&self) -> [(&'static str, u64); 5] {
+    pub fn memory(&self) -> [(&'static str, u64); 6] {
         [
             ("scene_triangles", self.triangles.size()),
             ("scene_materials", self.materials.size()),
             ("scene_lights", self.lights.size()),
             ("scene_emitters", self.emitters.size()),
             ("scene_light_cdf", self.light_cdf.size()),
+            ("scene_ggx_albedo", self.ggx_albedo.size()),
         ]
     }
 
@@ -62,6 +66,7 @@ impl SceneBuffers {
                 self.lights.as_entire_binding(),
                 self.emitters.as_entire_binding(),
                 self.light_cdf.as_entire_binding(),
+                self.ggx_albedo.as_entire_binding(),
             )),
         )
     }
@@ -123,5 +128,6 @@ pub(crate) fn prepare_scene(
         lights: storage_buffer(&device, "rppm_lights", &data.lights),
         emitters: storage_buffer(&device, "rppm_emitters", &data.emitters),
         light_cdf: storage_buffer(&device, "rppm_light_cdf", &data.light_cdf),
+        ggx_albedo: storage_buffer(&device, "rppm_ggx_albedo", ggx_albedo_table()),
     });
 }

@@ -14,7 +14,8 @@ use super::params::IterationParams;
 /// Layouts of the groups every stage binds.
 #[derive(Resource, Clone)]
 pub struct ViewLayouts {
-    /// 0 triangles, 1 shadow views, 2 materials, 3 lights, 4 emitters, 5 light CDF.
+    /// 0 triangles, 1 shadow views, 2 materials, 3 lights, 4 emitters, 5 light CDF, 6 the
+    /// GGX albedo table ([`crate::bsdf`]).
     pub scene: BindGroupLayoutDescriptor,
     /// 0 per-iteration params (dynamic offset).
     pub params: BindGroupLayoutDescriptor,
@@ -34,7 +35,7 @@ impl Default for ViewLayouts {
                 "rppm_scene_layout",
                 &BindGroupLayoutEntries::sequential(
                     all,
-                    (read(), read(), read(), read(), read(), read()),
+                    (read(), read(), read(), read(), read(), read(), read()),
                 ),
             ),
             params: BindGroupLayoutDescriptor::new(

@@ -10,6 +10,7 @@ compile_error!(
      crate turns the `debug` feature on) or with `--features debug`"
 );
 
+mod bsdf;
 mod cli;
 mod cubemap;
 mod examples;

@@ -149,7 +149,7 @@ def emission_of(material):
     return e if max(e) > 0 else None
 
 
-def build_scene(path, width, height, tmp):
+def build_scene(path, width, height, tmp, max_depth=16):
     import mitsuba as mi
 
     folder = os.path.dirname(os.path.abspath(path))
@@ -158,7 +158,7 @@ def build_scene(path, width, height, tmp):
     buffers = load_buffers(gltf, folder)
     materials = gltf.get("materials", [])
     lights = gltf.get("extensions", {}).get("KHR_lights_punctual", {}).get("lights", [])
-    scene = {"type": "scene", "integrator": {"type": "path", "max_depth": 16, "rr_depth": 8}}
+    scene = {"type": "scene", "integrator": {"type": "path", "max_depth": max_depth, "rr_depth": 8}}
     mapping = []
     camera = None
     for node, world in walk(gltf):
@@ -254,12 +254,14 @@ def main():
     parser.add_argument("--spp", type=int, default=1024)
     parser.add_argument("--variant", default="llvm_ad_rgb")
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--max-depth", type=int, default=16,
+                        help="path vertices; 2 renders direct light only (as rppm with --photon-depth 1)")
     args = parser.parse_args()
     variant = pick_variant(args.variant)
     import mitsuba as mi
 
     with tempfile.TemporaryDirectory() as tmp:
-        description, mapping = build_scene(args.scene, args.width, args.height, tmp)
+        description, mapping = build_scene(args.scene, args.width, args.height, tmp, args.max_depth)
         scene = mi.load_dict(description)
         start = time.time()
         bitmap = mi.Bitmap(mi.render(scene, spp=args.spp, seed=args.seed))  # evaluates the render
@@ -269,7 +271,7 @@ def main():
         with open(args.json, "w") as f:
             json.dump(
                 {"scene": os.path.basename(args.scene), "width": args.width, "height": args.height, "spp": args.spp,
-                 "variant": variant, "max_depth": 16, "rr_depth": 8, "seed": args.seed, "mapping": mapping,
+                 "variant": variant, "max_depth": args.max_depth, "rr_depth": 8, "seed": args.seed, "mapping": mapping,
                  "time_render_s": round(seconds, 1)},
                 f,
                 indent=1,

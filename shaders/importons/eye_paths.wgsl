@@ -3,12 +3,12 @@
 // With IMPORTONS, a pixel that sees a specular surface (mirror, glass) follows the camera path
 // through the deep cubemap to the first non-specular surface, lights it the same way, and
 // leaves an importon there for indirect splatting.
-#import bevy_rppm::common::{Material, IterationParams, Importon, NO_IMPORTON, cubemap_tile, gather_radius}
+#import bevy_rppm::common::{Material, IterationParams, Importon, NO_IMPORTON, cubemap_tile, gather_radius, random, pcg_hash}
 #import bevy_rppm::scene::{triangles, materials}
 #import bevy_rppm::lighting::{params, surface_light}
 #ifdef IMPORTONS
 #import bevy_rppm::bsdf::{DELTA_ROUGHNESS, fresnel_dielectric}
-#import bevy_rppm::common::{random, pcg_hash, luminance}
+#import bevy_rppm::common::luminance
 #import bevy_rppm::cubemap::{cubemap, trace_cubemap, NO_HIT}
 #endif
 
@@ -61,9 +61,8 @@ fn specular_bounce(m: Material, d: vec3<f32>, n: vec3<f32>, front: bool, rng: pt
 
 // Follows the camera path from a specular G-buffer point; returns the light it finds and
 // leaves an importon at its first non-specular vertex.
-fn follow_camera_path(pixel: u32, x0: vec3<f32>, n0: vec3<f32>, m0: Material, triangle: u32, front0: bool, wo0: vec3<f32>) -> vec3<f32> {
-    var rng = pcg_hash(pixel ^ pcg_hash(params.iteration * 0x85ebca6bu + 0x27d4eb2fu));
-    var bounce = specular_bounce(m0, -wo0, n0, front0, &rng);
+fn follow_camera_path(pixel: u32, x0: vec3<f32>, n0: vec3<f32>, m0: Material, triangle: u32, front0: bool, wo0: vec3<f32>, rng: ptr<function, u32>) -> vec3<f32> {
+    var bounce = specular_bounce(m0, -wo0, n0, front0, rng);
     var throughput = bounce.weight;
     var o = x0;
     var d = bounce.direction;
@@ -95,15 +94,15 @@ fn follow_camera_path(pixel: u32, x0: vec3<f32>, n0: vec3<f32>, m0: Material, tr
             atomicMax(&importon_stats[0], bitcast<u32>(radius));
             atomicAdd(&importon_stats[1], 1u);
             atomicMax(&importon_stats[4], (params.photon_capacity + 63u) / 64u);
-            return throughput * surface_light(m, x, n, -d, front);
+            return throughput * surface_light(m, x, n, -d, front, hit.triangle, rng);
         }
-        bounce = specular_bounce(m, d, n, front, &rng);
+        bounce = specular_bounce(m, d, n, front, rng);
         throughput *= bounce.weight;
         // Russian roulette past the first vertices, so that paths trapped in glass (total
         // internal reflection) end early on average yet the estimate keeps its mean.
         if depth >= EYE_ROULETTE_DEPTH {
             let survive = min(max(throughput.x, max(throughput.y, throughput.z)), 0.95);
-            if random(&rng) >= survive {
+            if random(rng) >= survive {
                 return vec3<f32>(0.0);
             }
             throughput /= survive;
@@ -124,6 +123,7 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     let pixel = id.y * params.size.x + id.x;
     let gp = textureLoad(gbuffer_position, vec2<i32>(id.xy), 0);
     var sample = vec3<f32>(0.0);
+    var rng = pcg_hash(pixel ^ pcg_hash(params.iteration * 0x85ebca6bu + 0x27d4eb2fu));
 #ifdef IMPORTONS
     importons[pixel].material = NO_IMPORTON;
 #endif
@@ -134,11 +134,11 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
         let wo = normalize(params.camera_position.xyz - gp.xyz);
         // Mode Indirect: Bevy renders the first hit's emission and direct light itself.
         if params.indirect_only == 0u {
-            sample = surface_light(m, gp.xyz, n, wo, gp.w > 0.0);
+            sample = surface_light(m, gp.xyz, n, wo, gp.w > 0.0, triangle, &rng);
         }
 #ifdef IMPORTONS
         if is_specular(m) {
-            sample += follow_camera_path(pixel, gp.xyz, n, m, triangle, gp.w > 0.0, wo);
+            sample += follow_camera_path(pixel, gp.xyz, n, m, triangle, gp.w > 0.0, wo, &rng);
         }
 #endif
     }

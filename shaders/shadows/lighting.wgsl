@@ -1,11 +1,17 @@
-// Light arriving at a surface point straight from the lights: emission, punctual lights with
-// their shadow maps, and this iteration's area-light sample. Shared by the camera's G-buffer
-// points and the importons reached through specular surfaces.
+// Light arriving at a surface point straight from the lights: emission, punctual lights and
+// the emissive surfaces, shadowed. With TRACED_SHADOWS (whenever the view has a deep cubemap)
+// shadows are rays traced through it, toward a point on the emitters drawn per pixel and
+// iteration, so direct light converges to the exact answer; else shadow maps (and one
+// area-light sample per iteration). Shared by the camera's G-buffer points and the importons
+// reached through specular surfaces.
 #define_import_path bevy_rppm::lighting
 
-#import bevy_rppm::common::{Material, Light, IterationParams, LIGHT_SPOT, LIGHT_DIRECTIONAL, face_of}
+#import bevy_rppm::common::{Material, Light, IterationParams, LIGHT_SPOT, LIGHT_DIRECTIONAL, face_of, random}
 #import bevy_rppm::bsdf::bsdf_eval
-#import bevy_rppm::scene::{shadow_views, lights}
+#import bevy_rppm::scene::{shadow_views, lights, triangles, materials, emitters, light_cdf}
+#ifdef TRACED_SHADOWS
+#import bevy_rppm::cubemap::{trace_cubemap, NO_HIT}
+#endif
 
 @group(1) @binding(0) var<uniform> params: IterationParams;
 @group(2) @binding(2) var shadow_maps: texture_depth_2d_array;
@@ -49,7 +55,17 @@ fn cube_visibility(view_base: u32, layer: u32, eye: vec3<f32>, x: vec3<f32>, n: 
     return shadow_visibility(view_base + face, layer + face, p);
 }
 
-fn direct_light(m: Material, x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>) -> vec3<f32> {
+#ifdef TRACED_SHADOWS
+// 1 where nothing lies between x (on triangle `origin_triangle`) and the point `distance` along `dir`
+// (a light; 1e30 for a direction), 0 otherwise.
+fn visibility(x: vec3<f32>, dir: vec3<f32>, distance: f32, origin_triangle: u32) -> f32 {
+    let t_min = params.scene_sphere.w * 1e-6;
+    let t_max = select(distance * (1.0 - 1e-4), 1.0e30, distance >= 1.0e30);
+    return select(0.0, 1.0, trace_cubemap(x, dir, t_min, t_max, origin_triangle).triangle == NO_HIT);
+}
+#endif
+
+fn direct_light(m: Material, x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, origin_triangle: u32) -> vec3<f32> {
     var sum = vec3<f32>(0.0);
     for (var i = 0u; i < params.light_count; i += 1u) {
         let l = lights[i];
@@ -62,8 +78,12 @@ fn direct_light(m: Material, x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>) -> vec3<
             if dot(n, wi) <= 0.0 {
                 continue;
             }
+#ifdef TRACED_SHADOWS
+            v = visibility(x, wi, 1.0e30, origin_triangle);
+#else
             let view = shadow_views[l.shadow_layer];
             v = shadow_visibility(l.shadow_layer, l.shadow_layer, x + n * 2.0 * view.texel);
+#endif
         } else {
             let to_light = l.position.xyz - x;
             let d2 = max(dot(to_light, to_light), 1e-12);
@@ -77,7 +97,11 @@ fn direct_light(m: Material, x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>) -> vec3<
                 let a = clamp((c - l.cos_outer) / max(l.cos_inner - l.cos_outer, 1e-6), 0.0, 1.0);
                 li *= select(a * a, select(0.0, 1.0, c >= l.cos_outer), l.cos_inner <= l.cos_outer);
             }
+#ifdef TRACED_SHADOWS
+            v = visibility(x, wi, sqrt(d2), origin_triangle);
+#else
             v = cube_visibility(l.shadow_layer, l.shadow_layer, l.position.xyz, x, n);
+#endif
         }
         sum += bsdf_eval(m, n, wo, wi) * li * (dot(n, wi) * v);
     }
@@ -103,11 +127,60 @@ fn area_light(m: Material, x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>) -> vec3<f3
     return bsdf_eval(m, n, wo, wi) * params.area_weight.rgb * (cos_x * cos_y * v / d2);
 }
 
-// Radiance leaving x towards wo by emission (front faces only) and direct light.
-fn surface_light(m: Material, x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, front: bool) -> vec3<f32> {
+#ifdef TRACED_SHADOWS
+// Light from the emissive triangles: one triangle drawn by power, one point on it by area,
+// a shadow ray to it.
+fn emitter_light(m: Material, x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, origin_triangle: u32, rng: ptr<function, u32>) -> vec3<f32> {
+    if params.source_count <= params.light_count {
+        return vec3<f32>(0.0);
+    }
+    let first = select(0.0, light_cdf[params.light_count - 1u], params.light_count > 0u);
+    let share = 1.0 - first;
+    if share <= 0.0 {
+        return vec3<f32>(0.0);
+    }
+    let u = first + random(rng) * share;
+    var lo = params.light_count;
+    var hi = params.source_count - 1u;
+    while lo < hi {
+        let mid = (lo + hi) / 2u;
+        if light_cdf[mid] < u {
+            lo = mid + 1u;
+        } else {
+            hi = mid;
+        }
+    }
+    let previous = select(0.0, light_cdf[lo - 1u], lo > 0u);
+    let p = max(light_cdf[lo] - previous, 1e-12) / share;
+    let e = emitters[lo - params.light_count];
+    let t = triangles[e.triangle];
+    let r1 = sqrt(random(rng));
+    let r2 = random(rng);
+    let y = t.position_a * (1.0 - r1) + t.position_b * (r1 * (1.0 - r2)) + t.position_c * (r1 * r2);
+    let to_light = y - x;
+    let d2 = max(dot(to_light, to_light), 1e-12);
+    let wi = to_light * inverseSqrt(d2);
+    let cos_x = dot(n, wi);
+    let cos_y = -dot(normalize(cross(t.position_b - t.position_a, t.position_c - t.position_a)), wi);
+    if cos_x <= 0.0 || cos_y <= 0.0 || e.triangle == origin_triangle {
+        return vec3<f32>(0.0);
+    }
+    let v = visibility(x, wi, sqrt(d2), origin_triangle);
+    let radiance = materials[t.material].emissive.rgb;
+    return bsdf_eval(m, n, wo, wi) * radiance * (cos_x * cos_y * v * e.area / (d2 * p));
+}
+#endif
+
+// Radiance leaving x (on triangle `origin_triangle`) towards wo by emission (front faces only) and
+// direct light; `rng` draws the emitter sample.
+fn surface_light(m: Material, x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, front: bool, origin_triangle: u32, rng: ptr<function, u32>) -> vec3<f32> {
     let emitted = select(vec3<f32>(0.0), m.emissive.rgb, front);
     if params.direct_photons != 0u {
         return emitted;
     }
-    return emitted + direct_light(m, x, n, wo) + area_light(m, x, n, wo);
+#ifdef TRACED_SHADOWS
+    return emitted + direct_light(m, x, n, wo, origin_triangle) + emitter_light(m, x, n, wo, origin_triangle, rng);
+#else
+    return emitted + direct_light(m, x, n, wo, origin_triangle) + area_light(m, x, n, wo);
+#endif
 }

@@ -109,8 +109,9 @@ pub(crate) fn rppm_node(
     timer.end_frame(encoder);
 }
 
-/// One PPM iteration up to its photons: shadow maps (light maps once per scene change, the
-/// area-light cube every iteration), the G-buffer, the cubemap, eye paths, photon tracing.
+/// One PPM iteration up to its photons: shadow maps when shadows are not traced (light maps
+/// once per scene change, the area-light cube every iteration), the G-buffer, the cubemap,
+/// eye paths, photon tracing.
 fn encode_iteration(
     encoder: &mut CommandEncoder,
     node: &NodePipelines,
@@ -121,15 +122,17 @@ fn encode_iteration(
     timer: &mut StageTimer,
 ) {
     let triangles = scene.triangle_count();
-    render_layers(
-        encoder,
-        node.shadow,
-        &state.scene_group,
-        &state.shadows,
-        triangles,
-        state.shadows.layers(slot).into_iter(),
-        timer,
-    );
+    if !state.traced_shadows {
+        render_layers(
+            encoder,
+            node.shadow,
+            &state.scene_group,
+            &state.shadows,
+            triangles,
+            state.shadows.layers(slot).into_iter(),
+            timer,
+        );
+    }
     let groups = [&state.scene_group, &state.params_group];
     state
         .gbuffer
@@ -141,7 +144,9 @@ fn encode_iteration(
     if state.importons {
         state.eye_paths.encode_clear(encoder);
     }
-    let trace_group = cubemap.filter(|_| state.importons).map(|c| &c.trace_group);
+    let trace_group = cubemap
+        .filter(|_| state.importons || state.traced_shadows)
+        .map(|c| &c.trace_group);
     state.eye_paths.encode(
         encoder,
         node.eye_paths,

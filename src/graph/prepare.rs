@@ -13,7 +13,7 @@ use super::state::{ResourceKey, RppmViewState, StageIds, StagePipelines, ViewTim
 use crate::accumulate::{AccumulateKey, AccumulatePipeline};
 use crate::cubemap::{BuildContext, CubemapConfig, CubemapPipelines};
 use crate::gbuffer::GBufferPipeline;
-use crate::importons::EyePathPipeline;
+use crate::importons::{EyePathKey, EyePathPipeline};
 use crate::indirect_splat::IndirectSplatPipeline;
 use crate::output::{OutputPipeline, output_key};
 use crate::photons::{PHOTON_BYTES, PhotonPipeline};
@@ -161,7 +161,10 @@ fn select_stages(
         eye_paths: pipelines.eye_path_variants.specialize(
             cache,
             &pipelines.eye_paths,
-            state.importons.then_some(scene.paths.specular()),
+            EyePathKey {
+                importons: state.importons.then_some(scene.paths.specular()),
+                traced_shadows: state.traced_shadows,
+            },
         ),
         trace: traced.then(|| {
             pipelines
@@ -357,8 +360,11 @@ fn prepare_view(
     state.debug_view = settings.debug_view;
     state.error = frame.error;
     state.importons = key.importon_tiles > 0 && settings.debug_view == RppmDebugView::None;
+    // Shadow rays need the cubemap too: it is built whenever something lights the scene.
+    let lit = estimate && !scene.data.light_cdf.is_empty();
     let traces = state.photons > 0
         || state.importons
+        || lit
         || settings.debug_view == RppmDebugView::CubemapNormals;
     let config = traces.then(|| cubemap_config(settings));
     let centre = frame.view.world_from_view.translation();
@@ -375,6 +381,8 @@ fn prepare_view(
     }
     // Importons need the cubemap bound; without one (its buffers refused) none are made.
     state.importons &= state.cubemap.cubemap.is_some();
+    // Without a cubemap (its buffers refused) shadows fall back to shadow maps.
+    state.traced_shadows = lit && state.cubemap.cubemap.is_some();
     state.stages = Some(select_stages(state, scene, frame.output, pipelines));
     let ready = match stages_ready(state, &pipelines.cache) {
         Ok(view_ready) => frame.ready && view_ready,
@@ -417,17 +425,19 @@ fn prepare_view(
             slot as u64 * PARAMS_STRIDE,
             bytemuck::bytes_of(&params),
         );
-        if slot < count && state.shadows.has_area {
+        if slot < count && state.shadows.has_area && !state.traced_shadows {
             let eye = Vec4::from(params.area_position).truncate()
                 + Vec4::from(params.area_normal).truncate() * scene.data.bounding_sphere().1 * 1e-4;
             let views = cube_views(eye, &scene.data, state.shadows.resolution);
             state.shadows.write_area_views(queue, slot, &views);
         }
     }
-    // Debug images render no shadow maps; their frames leave the light maps due.
+    // Debug images and traced shadows render no shadow maps; their frames leave the light
+    // maps due.
+    let mapped = estimate && !state.traced_shadows;
     state
         .shadows
-        .schedule_light_maps(scene.epoch, if estimate { count } else { 0 });
+        .schedule_light_maps(scene.epoch, if mapped { count } else { 0 });
     state.frame = (base, count);
     state.iteration += count;
     state.readback_pending = frame.rppm.readback;

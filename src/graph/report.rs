@@ -23,8 +23,11 @@ fn passes(state: &RppmViewState) -> Vec<String> {
     [
         (
             "shadow_maps",
-            !debug && (state.shadows.light_layers > 0 || state.shadows.has_area),
+            !debug
+                && !state.traced_shadows
+                && (state.shadows.light_layers > 0 || state.shadows.has_area),
         ),
+        ("traced_shadows", !debug && state.traced_shadows),
         ("gbuffer", state.debug_view != RppmDebugView::CubemapNormals),
         ("cubemap_build", has_cubemap),
         ("local_illumination", !debug),

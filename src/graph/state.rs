@@ -64,6 +64,9 @@ pub struct RppmViewState {
     /// Whether camera paths go past the G-buffer this frame (importon tracing and indirect
     /// splatting).
     pub importons: bool,
+    /// Whether shadows are rays through the deep cubemap (whenever the view has one) rather
+    /// than shadow maps, which are then not rendered.
+    pub traced_shadows: bool,
     /// Photons stored, and importons made, by the last iteration read back.
     pub photons_stored: u32,
     pub importons_made: u32,
@@ -164,6 +167,7 @@ impl RppmViewState {
             fast_forward: None,
             photons: 0,
             importons: false,
+            traced_shadows: false,
             photons_stored: 0,
             importons_made: 0,
             mode: RppmMode::Full,

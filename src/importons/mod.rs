@@ -47,10 +47,16 @@ pub struct EyePathPipeline {
     shader: Handle<Shader>,
 }
 
-/// Which eye-path variant a view runs: `None` lights the first hits only; `Some(paths)`
-/// follows camera paths through these specular paths (`MIRRORS`, `REFRACTION`) and leaves
-/// importons.
-pub type EyePathKey = Option<ScatterPaths>;
+/// Which eye-path variant a view runs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct EyePathKey {
+    /// `None` lights the first hits only; `Some(paths)` follows camera paths through these
+    /// specular paths (`MIRRORS`, `REFRACTION`) and leaves importons.
+    pub importons: Option<ScatterPaths>,
+    /// Shadows by rays through the view's deep cubemap (`TRACED_SHADOWS`) instead of shadow
+    /// maps: whenever the view has a cubemap.
+    pub traced_shadows: bool,
+}
 
 impl SpecializedComputePipeline for EyePathPipeline {
     type Key = EyePathKey;
@@ -62,10 +68,15 @@ impl SpecializedComputePipeline for EyePathPipeline {
             self.layout.clone(),
         ];
         let mut shader_defs = Vec::new();
-        if let Some(paths) = key {
+        if key.importons.is_some() || key.traced_shadows {
             layout.push(cubemap::trace_layout());
+        }
+        if let Some(paths) = key.importons {
             shader_defs.push("IMPORTONS".into());
             shader_defs.extend(paths.shader_defs().into_iter().map(Into::into));
+        }
+        if key.traced_shadows {
+            shader_defs.push("TRACED_SHADOWS".into());
         }
         ComputePipelineDescriptor {
             label: Some("rppm_local_illumination_pipeline".into()),

@@ -131,8 +131,8 @@ fn indirect_mode_adds_our_light_to_bevys_and_off_gives_bevys_image() {
 }
 
 /// Passes and shader paths follow the scene and settings: a matte plane compiles no
-/// specular path, depth 1 runs no photon pass, eye depth 1 no importons; glass adds
-/// refraction.
+/// specular path, depth 1 runs no photon pass (its shadows are still traced), eye depth 1 no
+/// importons; glass adds refraction.
 #[test]
 fn only_the_passes_and_code_paths_the_scene_needs_run() {
     let passes = |settings: PhotonMapping, glass: bool| {
@@ -192,6 +192,14 @@ fn only_the_passes_and_code_paths_the_scene_needs_run() {
         "{one_bounce:?}"
     );
     assert!(!memory.contains_key("photons"));
+    // Direct light alone still traces its shadows through the deep cubemap, no shadow maps.
+    for pass in ["cubemap_build", "traced_shadows"] {
+        assert!(one_bounce.contains(&pass.to_string()), "{one_bounce:?}");
+    }
+    assert!(
+        !one_bounce.contains(&"shadow_maps".to_string()),
+        "{one_bounce:?}"
+    );
     let (glass, paths, _) = passes(PhotonMapping::default(), true);
     assert!(paths.contains(&"REFRACTION".to_string()), "{paths:?}");
     assert!(glass.contains(&"importon_tracing".to_string()), "{glass:?}");

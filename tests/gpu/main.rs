@@ -19,4 +19,5 @@ mod lighting;
 mod modes;
 mod ppm;
 mod robustness;
+mod suite;
 mod util;

@@ -2,8 +2,8 @@
 # GPU milliseconds per stage per iteration, and memory, for a list of glTF scenes, as a
 # markdown table: the numbers the issues ask for on a real GPU.
 #   tools/stage_times.sh OUT_DIR SCENE.gltf... [-- extra rppm render flags]
-# Defaults: 1024×1024, 262 144 photons, photon and eye depth 3, 32 iterations. RPPM names the
-# binary (default: built with cargo).
+# Defaults: 1024×1024, 262 144 photons, photon and eye depth 3 (PHOTON_DEPTH, EYE_DEPTH), 32
+# iterations. RPPM names the binary (default: built with cargo).
 set -euo pipefail
 out=$1
 shift
@@ -21,8 +21,9 @@ if [[ -z $rppm ]]; then
 fi
 for scene in "${scenes[@]}"; do
     name=$(basename "${scene%.*}")
-    "$rppm" render "$scene" --width 1024 --height 1024 --photons 262144 --photon-depth 3 \
-        --eye-depth 3 --iterations 32 "$@" --stats "$out/$name.json" >"$out/$name.log" 2>&1 ||
+    "$rppm" render "$scene" --width 1024 --height 1024 --photons 262144 \
+        --photon-depth "${PHOTON_DEPTH:-3}" --eye-depth "${EYE_DEPTH:-3}" --iterations 32 "$@" \
+        --stats "$out/$name.json" >"$out/$name.log" 2>&1 ||
         echo "$name failed: $(tail -3 "$out/$name.log")"
 done
 python3 - "$out" "${scenes[@]}" <<'PY'

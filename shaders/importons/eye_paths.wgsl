@@ -7,7 +7,7 @@
 #import bevy_rppm::scene::{triangles, materials}
 #import bevy_rppm::lighting::{params, surface_light}
 #ifdef IMPORTONS
-#import bevy_rppm::bsdf::{DELTA_ROUGHNESS, fresnel_dielectric}
+#import bevy_rppm::bsdf::{DELTA_ROUGHNESS, GLOSSY_STORE_ROUGHNESS, fresnel_dielectric, scatter_photon}
 #import bevy_rppm::common::luminance
 #import bevy_rppm::cubemap::{cubemap, trace_cubemap, NO_HIT}
 #endif
@@ -25,10 +25,12 @@
 // Camera-path vertex from which Russian roulette may end a path.
 const EYE_ROULETTE_DEPTH: u32 = 3u;
 
-// Whether a material only reflects or refracts specularly (no diffuse, no rough lobe).
-fn is_specular(m: Material) -> bool {
+// Whether camera paths go on through a surface: mirrors and clear glass (delta lobes only), and
+// smooth glossy metals (roughness under GLOSSY_STORE_ROUGHNESS, no diffuse lobe), where no
+// photon is stored; the CPU's mirror is SceneData::has_path_surfaces.
+fn continues_path(m: Material) -> bool {
     let diffuse = (1.0 - m.metallic) * (1.0 - m.specular_transmission);
-    return m.perceptual_roughness < DELTA_ROUGHNESS && diffuse * luminance(m.base_color.rgb) <= 0.0;
+    return m.perceptual_roughness < GLOSSY_STORE_ROUGHNESS && diffuse * luminance(m.base_color.rgb) <= 0.0;
 }
 
 struct Bounce {
@@ -59,11 +61,25 @@ fn specular_bounce(m: Material, d: vec3<f32>, n: vec3<f32>, front: bool, rng: pt
 #endif
 }
 
-// Follows the camera path from a specular G-buffer point; returns the light it finds and
-// leaves an importon at its first non-specular vertex.
+// The camera path's next direction at a surface it goes on through: a delta lobe, or the
+// glossy lobes sampled as photons sample them (the BSDF is reciprocal).
+fn next_bounce(m: Material, d: vec3<f32>, n: vec3<f32>, front: bool, rng: ptr<function, u32>) -> Bounce {
+#ifdef GLOSSY
+    if m.perceptual_roughness >= DELTA_ROUGHNESS {
+        let s = scatter_photon(m, n, -d, front, rng);
+        return Bounce(s.direction, s.weight);
+    }
+#endif
+    return specular_bounce(m, d, n, front, rng);
+}
+
+// Follows the camera path from a G-buffer point it goes on through; returns the light it
+// finds (emission and punctual lights at glossy vertices on the way, all light at its end)
+// and leaves an importon at its first vertex that stores photons.
 fn follow_camera_path(pixel: u32, x0: vec3<f32>, n0: vec3<f32>, m0: Material, triangle: u32, front0: bool, wo0: vec3<f32>, rng: ptr<function, u32>) -> vec3<f32> {
-    var bounce = specular_bounce(m0, -wo0, n0, front0, rng);
+    var bounce = next_bounce(m0, -wo0, n0, front0, rng);
     var throughput = bounce.weight;
+    var found = vec3<f32>(0.0);
     var o = x0;
     var d = bounce.direction;
     var ignore = triangle;
@@ -72,7 +88,7 @@ fn follow_camera_path(pixel: u32, x0: vec3<f32>, n0: vec3<f32>, m0: Material, tr
     for (var depth = 2u; depth <= params.max_eye_depth; depth += 1u) {
         let hit = trace_cubemap(o, d, t_min, 1.0e30, ignore);
         if hit.triangle == NO_HIT || all(throughput <= vec3<f32>(0.0)) {
-            return vec3<f32>(0.0);
+            return found;
         }
         let t = triangles[hit.triangle];
         let m = materials[t.material];
@@ -85,7 +101,7 @@ fn follow_camera_path(pixel: u32, x0: vec3<f32>, n0: vec3<f32>, m0: Material, tr
         if !front {
             n = -n;
         }
-        if !is_specular(m) {
+        if !continues_path(m) {
             let footprint = params.pixel_spread * select(length, 1.0, params.orthographic != 0u);
             let radius = gather_radius(params, params.splat_radius, footprint);
             importons[pixel] = Importon(x, t.material, n, 0u, throughput, radius, -d, 0u);
@@ -94,16 +110,19 @@ fn follow_camera_path(pixel: u32, x0: vec3<f32>, n0: vec3<f32>, m0: Material, tr
             atomicMax(&importon_stats[0], bitcast<u32>(radius));
             atomicAdd(&importon_stats[1], 1u);
             atomicMax(&importon_stats[4], (params.photon_capacity + 63u) / 64u);
-            return throughput * surface_light(m, x, n, -d, front, hit.triangle, rng);
+            return found + throughput * surface_light(m, x, n, -d, front, hit.triangle, true, rng);
         }
-        bounce = specular_bounce(m, d, n, front, rng);
+        // Emitters are found by the path itself past a glossy vertex, so only punctual
+        // lights are sampled there.
+        found += throughput * surface_light(m, x, n, -d, front, hit.triangle, false, rng);
+        bounce = next_bounce(m, d, n, front, rng);
         throughput *= bounce.weight;
         // Russian roulette past the first vertices, so that paths trapped in glass (total
         // internal reflection) end early on average yet the estimate keeps its mean.
         if depth >= EYE_ROULETTE_DEPTH {
             let survive = min(max(throughput.x, max(throughput.y, throughput.z)), 0.95);
             if random(rng) >= survive {
-                return vec3<f32>(0.0);
+                return found;
             }
             throughput /= survive;
         }
@@ -111,7 +130,7 @@ fn follow_camera_path(pixel: u32, x0: vec3<f32>, n0: vec3<f32>, m0: Material, tr
         d = bounce.direction;
         ignore = hit.triangle;
     }
-    return vec3<f32>(0.0);
+    return found;
 }
 #endif
 
@@ -133,11 +152,16 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
         let m = materials[triangles[triangle].material];
         let wo = normalize(params.camera_position.xyz - gp.xyz);
         // Mode Indirect: Bevy renders the first hit's emission and direct light itself.
+#ifdef IMPORTONS
+        let onward = continues_path(m);
+#else
+        let onward = false;
+#endif
         if params.indirect_only == 0u {
-            sample = surface_light(m, gp.xyz, n, wo, gp.w > 0.0, triangle, &rng);
+            sample = surface_light(m, gp.xyz, n, wo, gp.w > 0.0, triangle, !onward, &rng);
         }
 #ifdef IMPORTONS
-        if is_specular(m) {
+        if onward {
             sample += follow_camera_path(pixel, gp.xyz, n, m, triangle, gp.w > 0.0, wo, &rng);
         }
 #endif

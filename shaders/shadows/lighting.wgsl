@@ -71,39 +71,39 @@ fn direct_light(m: Material, x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, origin_t
         let l = lights[i];
         var wi: vec3<f32>;
         var li: vec3<f32>;
-        var v: f32;
+        // How far the light is (1e30: a direction).
+        var distance = 1.0e30;
         if l.kind == LIGHT_DIRECTIONAL {
             wi = -l.direction.xyz;
             li = l.radiance.rgb;
-            if dot(n, wi) <= 0.0 {
-                continue;
-            }
-#ifdef TRACED_SHADOWS
-            v = visibility(x, wi, 1.0e30, origin_triangle);
-#else
-            let view = shadow_views[l.shadow_layer];
-            v = shadow_visibility(l.shadow_layer, l.shadow_layer, x + n * 2.0 * view.texel);
-#endif
         } else {
             let to_light = l.position.xyz - x;
             let d2 = max(dot(to_light, to_light), 1e-12);
-            wi = to_light * inverseSqrt(d2);
-            if dot(n, wi) <= 0.0 {
-                continue;
-            }
+            distance = sqrt(d2);
+            wi = to_light / distance;
             li = l.radiance.rgb / d2;
             if l.kind == LIGHT_SPOT {
                 let c = dot(-wi, l.direction.xyz);
                 let a = clamp((c - l.cos_outer) / max(l.cos_inner - l.cos_outer, 1e-6), 0.0, 1.0);
                 li *= select(a * a, select(0.0, 1.0, c >= l.cos_outer), l.cos_inner <= l.cos_outer);
             }
-#ifdef TRACED_SHADOWS
-            v = visibility(x, wi, sqrt(d2), origin_triangle);
-#else
-            v = cube_visibility(l.shadow_layer, l.shadow_layer, l.position.xyz, x, n);
-#endif
         }
-        sum += bsdf_eval(m, n, wo, wi) * li * (dot(n, wi) * v);
+        let lit = bsdf_eval(m, n, wo, wi) * li * max(dot(n, wi), 0.0);
+        // No shadow test where nothing would arrive (behind the surface, outside a cone, a
+        // delta lobe).
+        if all(lit <= vec3<f32>(0.0)) {
+            continue;
+        }
+#ifdef TRACED_SHADOWS
+        sum += lit * visibility(x, wi, distance, origin_triangle);
+#else
+        if l.kind == LIGHT_DIRECTIONAL {
+            let view = shadow_views[l.shadow_layer];
+            sum += lit * shadow_visibility(l.shadow_layer, l.shadow_layer, x + n * 2.0 * view.texel);
+        } else {
+            sum += lit * cube_visibility(l.shadow_layer, l.shadow_layer, l.position.xyz, x, n);
+        }
+#endif
     }
     return sum;
 }
@@ -165,22 +165,30 @@ fn emitter_light(m: Material, x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, origin_
     if cos_x <= 0.0 || cos_y <= 0.0 || e.triangle == origin_triangle {
         return vec3<f32>(0.0);
     }
-    let v = visibility(x, wi, sqrt(d2), origin_triangle);
     let radiance = materials[t.material].emissive.rgb;
-    return bsdf_eval(m, n, wo, wi) * radiance * (cos_x * cos_y * v * e.area / (d2 * p));
+    let lit = bsdf_eval(m, n, wo, wi) * radiance * (cos_x * cos_y * e.area / (d2 * p));
+    if all(lit <= vec3<f32>(0.0)) {
+        return lit;
+    }
+    return lit * visibility(x, wi, sqrt(d2), origin_triangle);
 }
 #endif
 
-// Radiance leaving x (on triangle `origin_triangle`) towards wo by emission (front faces only) and
-// direct light; `rng` draws the emitter sample.
-fn surface_light(m: Material, x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, front: bool, origin_triangle: u32, rng: ptr<function, u32>) -> vec3<f32> {
+// Radiance leaving x (on triangle `origin_triangle`) towards wo by emission (front faces only)
+// and direct light, from the emitters too when `emitters` (camera paths that go on past x find
+// them themselves); `rng` draws the emitter sample.
+fn surface_light(m: Material, x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, front: bool, origin_triangle: u32, emitters: bool, rng: ptr<function, u32>) -> vec3<f32> {
     let emitted = select(vec3<f32>(0.0), m.emissive.rgb, front);
     if params.direct_photons != 0u {
         return emitted;
     }
+    let punctual = emitted + direct_light(m, x, n, wo, origin_triangle);
+    if !emitters {
+        return punctual;
+    }
 #ifdef TRACED_SHADOWS
-    return emitted + direct_light(m, x, n, wo, origin_triangle) + emitter_light(m, x, n, wo, origin_triangle, rng);
+    return punctual + emitter_light(m, x, n, wo, origin_triangle, rng);
 #else
-    return emitted + direct_light(m, x, n, wo, origin_triangle) + area_light(m, x, n, wo);
+    return punctual + area_light(m, x, n, wo);
 #endif
 }

@@ -93,7 +93,7 @@ fn photon_capacity(settings: &PhotonMapping, scene: &SceneBuffers, device: &Rend
 
 /// Tiles of the view's cubemap, when camera paths go past the G-buffer; else 0.
 fn importon_tiles(settings: &PhotonMapping, scene: &SceneData) -> u32 {
-    if settings.max_eye_depth < 2 || !scene.has_specular_surfaces() {
+    if settings.max_eye_depth < 2 || !scene.has_path_surfaces() {
         return 0;
     }
     let grid = cubemap_config(settings).grid();
@@ -162,7 +162,7 @@ fn select_stages(
             cache,
             &pipelines.eye_paths,
             EyePathKey {
-                importons: state.importons.then_some(scene.paths.specular()),
+                importons: state.importons.then_some(scene.paths),
                 traced_shadows: state.traced_shadows,
             },
         ),

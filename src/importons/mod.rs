@@ -50,8 +50,9 @@ pub struct EyePathPipeline {
 /// Which eye-path variant a view runs.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct EyePathKey {
-    /// `None` lights the first hits only; `Some(paths)` follows camera paths through these
-    /// specular paths (`MIRRORS`, `REFRACTION`) and leaves importons.
+    /// `None` lights the first hits only; `Some(paths)` follows camera paths through mirrors,
+    /// glass and smooth glossy metals with these lobes (`GLOSSY`, `MIRRORS`, `REFRACTION`)
+    /// and leaves importons.
     pub importons: Option<ScatterPaths>,
     /// Shadows by rays through the view's deep cubemap (`TRACED_SHADOWS`) instead of shadow
     /// maps: whenever the view has a cubemap.

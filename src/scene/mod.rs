@@ -18,7 +18,7 @@ use bevy::render::{Render, RenderApp, RenderSystems};
 use bevy::transform::TransformSystems;
 use bytemuck::{Pod, Zeroable};
 
-use crate::bsdf::{DELTA_ROUGHNESS, specular_energy_average};
+use crate::bsdf::{DELTA_ROUGHNESS, GLOSSY_STORE_ROUGHNESS, specular_energy_average};
 
 pub use lights::{LightKind, spot_cone_fraction};
 pub use prepare::SceneBuffers;
@@ -38,11 +38,6 @@ bitflags::bitflags! {
 }
 
 impl ScatterPaths {
-    /// The paths camera rays follow past the G-buffer (the specular ones).
-    pub fn specular(self) -> Self {
-        self - Self::GLOSSY
-    }
-
     /// The shader defs of these paths.
     pub fn shader_defs(self) -> Vec<&'static str> {
         [
@@ -169,13 +164,14 @@ impl SceneData {
         ((lo + hi) * 0.5, ((hi - lo) * 0.5).length())
     }
 
-    /// Whether some surface only reflects or refracts specularly (a mirror, clear glass): then
-    /// camera paths go on past the G-buffer (`is_specular` in shaders/importons/eye_paths.wgsl).
-    pub fn has_specular_surfaces(&self) -> bool {
+    /// Whether camera paths go on past some surface: a mirror, clear glass, or a smooth
+    /// glossy metal (roughness under [`GLOSSY_STORE_ROUGHNESS`], no diffuse lobe), where no
+    /// photon is stored (`continues_path` in shaders/importons/eye_paths.wgsl).
+    pub fn has_path_surfaces(&self) -> bool {
         self.materials.iter().any(|m| {
             let diffuse = (1.0 - m.metallic) * (1.0 - m.specular_transmission);
             let albedo = luminance([m.base_color[0], m.base_color[1], m.base_color[2]]);
-            m.perceptual_roughness < DELTA_ROUGHNESS && diffuse * albedo <= 0.0
+            m.perceptual_roughness < GLOSSY_STORE_ROUGHNESS && diffuse * albedo <= 0.0
         })
     }
 

@@ -3,7 +3,7 @@
 // (direct light is the local-illumination stage's), then scattered by the material
 // (bsdf.wgsl's scatter_photon: diffuse, GGX glossy, mirror, Fresnel glass) or absorbed.
 #import bevy_rppm::common::{Light, Photon, IterationParams, PI, LIGHT_POINT, LIGHT_SPOT, LIGHT_DIRECTIONAL, random, pcg_hash, basis_around, cosine_direction}
-#import bevy_rppm::scene::{triangles, materials, lights, emitters, light_cdf}
+#import bevy_rppm::scene::{triangles, materials, lights, emitters, light_cdf, find_source}
 #import bevy_rppm::cubemap::{trace_cubemap, NO_HIT}
 #import bevy_rppm::bsdf::{GLOSSY_STORE_ROUGHNESS, has_glossy_lobe, diffuse_color, scatter_photon}
 
@@ -28,23 +28,8 @@ fn uniform_sphere(u: vec2<f32>) -> vec3<f32> {
     return vec3<f32>(r * cos(phi), r * sin(phi), z);
 }
 
-// Index of the source whose CDF interval holds u.
-fn pick_source(u: f32) -> u32 {
-    var lo = 0u;
-    var hi = params.source_count - 1u;
-    while lo < hi {
-        let mid = (lo + hi) / 2u;
-        if light_cdf[mid] < u {
-            lo = mid + 1u;
-        } else {
-            hi = mid;
-        }
-    }
-    return lo;
-}
-
 fn emit(rng: ptr<function, u32>) -> Ray {
-    let index = pick_source(random(rng));
+    let index = find_source(random(rng), 0u, params.source_count - 1u);
     let previous = select(0.0, light_cdf[index - 1u], index > 0u);
     // Each photon carries the source's power over (its probability × photons emitted).
     let share = 1.0 / (max(light_cdf[index] - previous, 1e-12) * f32(params.photons));

@@ -16,3 +16,18 @@
 fn gbuffer_material(w: f32) -> Material {
     return materials[triangles[u32(abs(w)) - 1u].material];
 }
+
+// Index of the light source in first..=last whose interval of the power CDF holds u.
+fn find_source(u: f32, first: u32, last: u32) -> u32 {
+    var lo = first;
+    var hi = last;
+    while lo < hi {
+        let mid = (lo + hi) / 2u;
+        if light_cdf[mid] < u {
+            lo = mid + 1u;
+        } else {
+            hi = mid;
+        }
+    }
+    return lo;
+}

@@ -8,7 +8,7 @@
 
 #import bevy_rppm::common::{Material, Light, IterationParams, LIGHT_SPOT, LIGHT_DIRECTIONAL, face_of, random}
 #import bevy_rppm::bsdf::bsdf_eval
-#import bevy_rppm::scene::{shadow_views, lights, triangles, materials, emitters, light_cdf}
+#import bevy_rppm::scene::{shadow_views, lights, triangles, materials, emitters, light_cdf, find_source}
 #ifdef TRACED_SHADOWS
 #import bevy_rppm::cubemap::{trace_cubemap, NO_HIT}
 #endif
@@ -139,20 +139,10 @@ fn emitter_light(m: Material, x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, origin_
     if share <= 0.0 {
         return vec3<f32>(0.0);
     }
-    let u = first + random(rng) * share;
-    var lo = params.light_count;
-    var hi = params.source_count - 1u;
-    while lo < hi {
-        let mid = (lo + hi) / 2u;
-        if light_cdf[mid] < u {
-            lo = mid + 1u;
-        } else {
-            hi = mid;
-        }
-    }
-    let previous = select(0.0, light_cdf[lo - 1u], lo > 0u);
-    let p = max(light_cdf[lo] - previous, 1e-12) / share;
-    let e = emitters[lo - params.light_count];
+    let index = find_source(first + random(rng) * share, params.light_count, params.source_count - 1u);
+    let previous = select(0.0, light_cdf[index - 1u], index > 0u);
+    let p = max(light_cdf[index] - previous, 1e-12) / share;
+    let e = emitters[index - params.light_count];
     let t = triangles[e.triangle];
     let r1 = sqrt(random(rng));
     let r2 = random(rng);

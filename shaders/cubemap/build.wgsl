@@ -156,10 +156,12 @@ fn fragment_insert(in: VertexOut) {
     let span = tile_span(in.triangle, in.face, tile.xy, in.depth);
     let range = tile_range(tile.z);
     for (var b = bin_of(span.x, range); b <= bin_of(span.y, range); b += 1u) {
+        // Every entry asked for is counted, also past the capacity, so that one regrowth to
+        // the count read back fits them all.
         let node = atomicAdd(&counters[0], 1u);
         if node >= cubemap.node_capacity {
             atomicAdd(&counters[1], 1u);
-            return;
+            continue;
         }
         // Lists are linked through node + 1, so that 0 ends a list.
         let next = atomicExchange(&heads[tile.z * cubemap.bins + b], node + 1u);

@@ -150,6 +150,14 @@ fn bsdf_eval(m: Material, n: vec3<f32>, wo: vec3<f32>, wi: vec3<f32>) -> vec3<f3
 // lobe wide enough to gather over); smoother ones only scatter them.
 const GLOSSY_STORE_ROUGHNESS: f32 = 0.3;
 
+// Whether photons are stored at a surface (its light is gathered there by density
+// estimation): a diffuse lobe, or a glossy one at least GLOSSY_STORE_ROUGHNESS rough. Camera
+// paths go on through the others: mirrors, clear glass, smooth glossy metals.
+fn stores_photons(m: Material) -> bool {
+    let glossy_store = has_glossy_lobe(m) && m.perceptual_roughness >= GLOSSY_STORE_ROUGHNESS;
+    return any(diffuse_color(m) > vec3<f32>(0.0)) || glossy_store;
+}
+
 // Whether the GGX lobe is a rough (non-delta) lobe.
 fn has_glossy_lobe(m: Material) -> bool {
     return m.perceptual_roughness >= DELTA_ROUGHNESS;

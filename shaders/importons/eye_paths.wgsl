@@ -7,7 +7,7 @@
 #import bevy_rppm::scene::{triangles, materials}
 #import bevy_rppm::lighting::{params, surface_light}
 #ifdef IMPORTONS
-#import bevy_rppm::bsdf::{DELTA_ROUGHNESS, GLOSSY_STORE_ROUGHNESS, fresnel_dielectric, scatter_photon}
+#import bevy_rppm::bsdf::{DELTA_ROUGHNESS, fresnel_dielectric, scatter_photon, stores_photons}
 #import bevy_rppm::common::luminance
 #import bevy_rppm::cubemap::{cubemap, trace_cubemap, NO_HIT}
 #endif
@@ -24,14 +24,6 @@
 
 // Camera-path vertex from which Russian roulette may end a path.
 const EYE_ROULETTE_DEPTH: u32 = 3u;
-
-// Whether camera paths go on through a surface: mirrors and clear glass (delta lobes only), and
-// smooth glossy metals (roughness under GLOSSY_STORE_ROUGHNESS, no diffuse lobe), where no
-// photon is stored; the CPU's mirror is SceneData::has_path_surfaces.
-fn continues_path(m: Material) -> bool {
-    let diffuse = (1.0 - m.metallic) * (1.0 - m.specular_transmission);
-    return m.perceptual_roughness < GLOSSY_STORE_ROUGHNESS && diffuse * luminance(m.base_color.rgb) <= 0.0;
-}
 
 struct Bounce {
     direction: vec3<f32>,
@@ -101,7 +93,7 @@ fn follow_camera_path(pixel: u32, x0: vec3<f32>, n0: vec3<f32>, m0: Material, tr
         if !front {
             n = -n;
         }
-        if !continues_path(m) {
+        if stores_photons(m) {
             let footprint = params.pixel_spread * select(length, 1.0, params.orthographic != 0u);
             let radius = gather_radius(params, params.splat_radius, footprint);
             importons[pixel] = Importon(x, t.material, n, 0u, throughput, radius, -d, 0u);
@@ -153,7 +145,7 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
         let wo = normalize(params.camera_position.xyz - gp.xyz);
         // Mode Indirect: Bevy renders the first hit's emission and direct light itself.
 #ifdef IMPORTONS
-        let onward = continues_path(m);
+        let onward = !stores_photons(m);
 #else
         let onward = false;
 #endif

@@ -5,7 +5,7 @@
 #import bevy_rppm::common::{Light, Photon, IterationParams, PI, LIGHT_POINT, LIGHT_SPOT, LIGHT_DIRECTIONAL, random, pcg_hash, basis_around, cosine_direction}
 #import bevy_rppm::scene::{triangles, materials, lights, emitters, light_cdf, find_source}
 #import bevy_rppm::cubemap::{trace_cubemap, NO_HIT}
-#import bevy_rppm::bsdf::{GLOSSY_STORE_ROUGHNESS, has_glossy_lobe, diffuse_color, scatter_photon}
+#import bevy_rppm::bsdf::{stores_photons, scatter_photon}
 
 @group(1) @binding(0) var<uniform> params: IterationParams;
 
@@ -108,8 +108,7 @@ fn trace(@builtin(global_invocation_id) id: vec3<u32>) {
             n = -n;
         }
         let direct_only = params.direct_photons != 0u;
-        let glossy_store = has_glossy_lobe(m) && m.perceptual_roughness >= GLOSSY_STORE_ROUGHNESS;
-        if (depth > 0u || direct_only) && (any(diffuse_color(m) > vec3<f32>(0.0)) || glossy_store) {
+        if (depth > 0u || direct_only) && stores_photons(m) {
             store(x, ray, n);
         }
         if direct_only {

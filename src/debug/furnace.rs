@@ -14,8 +14,7 @@ use bytemuck::{Pod, Zeroable};
 use serde::Serialize;
 
 use super::bench::empty_layout;
-use crate::bsdf::ggx_albedo_table;
-use crate::scene::prepare::storage_buffer;
+use crate::scene::prepare::{GgxAlbedoBuffer, storage_buffer};
 use crate::scene::{GpuMaterial, ScatterPaths};
 use crate::shaders::RppmShaders;
 use crate::stats::readback::read_back;
@@ -120,6 +119,7 @@ pub(super) fn run_furnace(
     queue: Res<RenderQueue>,
     cache: Res<PipelineCache>,
     layouts: Res<ViewLayouts>,
+    ggx_albedo: Res<GgxAlbedoBuffer>,
     furnace: Res<FurnacePipeline>,
     sender: Res<FurnaceSender>,
     mut done: Local<bool>,
@@ -146,7 +146,6 @@ pub(super) fn run_furnace(
         .collect();
     // Group 0 as the stages bind it; the furnace reads only the albedo table.
     let empty = storage_buffer(&device, "rppm_furnace_empty", &[[0u32; 4]; 8]);
-    let table = storage_buffer(&device, "rppm_furnace_ggx_albedo", ggx_albedo_table());
     let scene_group = device.create_bind_group(
         "rppm_furnace_scene_group",
         &cache.get_bind_group_layout(&layouts.scene),
@@ -157,7 +156,7 @@ pub(super) fn run_furnace(
             empty.as_entire_binding(),
             empty.as_entire_binding(),
             empty.as_entire_binding(),
-            table.as_entire_binding(),
+            ggx_albedo.as_entire_binding(),
         )),
     );
     let empty_group = device.create_bind_group(

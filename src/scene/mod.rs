@@ -14,7 +14,7 @@ use std::sync::Arc;
 use bevy::camera::visibility::VisibilitySystems;
 use bevy::prelude::*;
 use bevy::render::extract_resource::{ExtractResource, ExtractResourcePlugin};
-use bevy::render::{Render, RenderApp, RenderSystems};
+use bevy::render::{Render, RenderApp, RenderStartup, RenderSystems};
 use bevy::transform::TransformSystems;
 use bytemuck::{Pod, Zeroable};
 
@@ -166,7 +166,7 @@ impl SceneData {
 
     /// Whether camera paths go on past some surface: a mirror, clear glass, or a smooth
     /// glossy metal (roughness under [`GLOSSY_STORE_ROUGHNESS`], no diffuse lobe), where no
-    /// photon is stored (`continues_path` in shaders/importons/eye_paths.wgsl).
+    /// photon is stored (`!stores_photons` in shaders/common/bsdf.wgsl).
     pub fn has_path_surfaces(&self) -> bool {
         self.materials.iter().any(|m| {
             let diffuse = (1.0 - m.metallic) * (1.0 - m.specular_transmission);
@@ -247,10 +247,12 @@ impl Plugin for ScenePlugin {
                     .after(bevy::camera::CameraUpdateSystems),
             );
         if let Some(render_app) = app.get_sub_app_mut(RenderApp) {
-            render_app.add_systems(
-                Render,
-                prepare::prepare_scene.in_set(RenderSystems::PrepareResources),
-            );
+            render_app
+                .add_systems(RenderStartup, prepare::init_ggx_albedo)
+                .add_systems(
+                    Render,
+                    prepare::prepare_scene.in_set(RenderSystems::PrepareResources),
+                );
         }
     }
 }

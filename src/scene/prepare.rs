@@ -23,7 +23,7 @@ pub struct SceneBuffers {
     pub lights: Buffer,
     pub emitters: Buffer,
     pub light_cdf: Buffer,
-    /// The GGX lobe's albedo table ([`crate::bsdf::ggx_albedo_table`]).
+    /// The GGX lobe's albedo table, shared ([`GgxAlbedoBuffer`]).
     pub ggx_albedo: Buffer,
     /// The scattering paths the materials have (made once per scene change).
     pub paths: ScatterPaths,
@@ -92,6 +92,19 @@ pub fn storage_buffer<T: Pod + Default>(
     })
 }
 
+/// The GGX albedo table ([`crate::bsdf::ggx_albedo_table`]) on the GPU: a constant, uploaded
+/// once and bound with every scene.
+#[derive(Resource, Clone, Deref)]
+pub struct GgxAlbedoBuffer(pub Buffer);
+
+pub(crate) fn init_ggx_albedo(mut commands: Commands, device: Res<RenderDevice>) {
+    commands.insert_resource(GgxAlbedoBuffer(storage_buffer(
+        &device,
+        "rppm_ggx_albedo",
+        ggx_albedo_table(),
+    )));
+}
+
 /// Uploads the scene when its epoch changed. A scene too large for one storage binding is
 /// refused with one error instead of failing inside wgpu.
 pub(crate) fn prepare_scene(
@@ -99,6 +112,7 @@ pub(crate) fn prepare_scene(
     scene: Option<Res<RppmScene>>,
     buffers: Option<Res<SceneBuffers>>,
     device: Res<RenderDevice>,
+    ggx_albedo: Res<GgxAlbedoBuffer>,
     mut refused_epoch: Local<Option<u64>>,
 ) {
     let Some(scene) = scene else { return };
@@ -128,6 +142,6 @@ pub(crate) fn prepare_scene(
         lights: storage_buffer(&device, "rppm_lights", &data.lights),
         emitters: storage_buffer(&device, "rppm_emitters", &data.emitters),
         light_cdf: storage_buffer(&device, "rppm_light_cdf", &data.light_cdf),
-        ggx_albedo: storage_buffer(&device, "rppm_ggx_albedo", ggx_albedo_table()),
+        ggx_albedo: ggx_albedo.0.clone(),
     });
 }

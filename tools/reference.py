@@ -14,6 +14,10 @@ Material mapping (as the references in shared/scenes): metallic 0 and no transmi
 Lambertian `diffuse` (Bevy's 4% specular layer is left out, see CONVENTIONS.md); metallic with
 roughness < 0.02 → perfect `conductor`; metallic otherwise → `roughconductor` (GGX, α =
 roughness²); transmission with roughness < 0.02 → `dielectric`; emissive → area emitter.
+Textures (numpy needed): base colour texture × factor and emissive texture × factor as
+bilinear repeating bitmaps, COLOR_0 as the `vertex_color` mesh attribute, alpha `MASK` as a
+`mask` BSDF, `doubleSided` as `twosided`; metallic-roughness and normal textures and
+KHR_texture_transform are left out (with a warning).
 Lights: KHR_lights_punctual point (W/sr = cd), spot (hard cone at the outer angle: Mitsuba's
 falloff differs from Bevy's a², so only the cone is kept), directional (W/m² = lux).
 """
@@ -105,22 +109,82 @@ def transform_dir(m, d):
     return [sum(m[r][c] * d[c] for c in range(3)) for r in range(3)]
 
 
-def write_ply(path, positions, faces):
+def write_ply(path, positions, faces, uvs=None, colors=None):
+    extra = ("property float u\nproperty float v\n" if uvs else "") + (
+        "property float r\nproperty float g\nproperty float b\n" if colors else "")
     with open(path, "wb") as f:
         f.write(
             (
                 "ply\nformat binary_little_endian 1.0\n"
-                f"element vertex {len(positions)}\nproperty float x\nproperty float y\nproperty float z\n"
+                f"element vertex {len(positions)}\nproperty float x\nproperty float y\nproperty float z\n{extra}"
                 f"element face {len(faces)}\nproperty list uchar int vertex_indices\nend_header\n"
             ).encode()
         )
-        for p in positions:
+        for i, p in enumerate(positions):
             f.write(struct.pack("<3f", *p))
+            if uvs:
+                f.write(struct.pack("<2f", *uvs[i]))
+            if colors:
+                f.write(struct.pack("<3f", *colors[i][:3]))
         for t in faces:
             f.write(struct.pack("<B3i", 3, *t))
 
 
-def bsdf_of(material):
+class Textures:
+    """glTF textures as linear EXRs for Mitsuba's `bitmap` (factor baked in), made with numpy."""
+
+    def __init__(self, gltf, folder, tmp):
+        self.gltf, self.folder, self.tmp = gltf, folder, tmp
+
+    def _pixels(self, info):
+        import mitsuba as mi
+        import numpy as np
+
+        if "KHR_texture_transform" in info.get("extensions", {}):
+            print("reference.py: KHR_texture_transform is ignored", file=sys.stderr)
+        image = self.gltf["images"][self.gltf["textures"][info["index"]]["source"]]
+        pixels = np.array(mi.Bitmap(os.path.join(self.folder, image["uri"])), dtype=np.float32) / 255.0
+        if pixels.ndim == 2:
+            pixels = pixels[..., None]
+        if pixels.shape[2] < 3:
+            pixels = np.concatenate([pixels[..., :1]] * 3 + [pixels[..., 1:]], axis=2)
+        return pixels
+
+    def _write(self, array, name):
+        import mitsuba as mi
+        import numpy as np
+
+        path = os.path.join(self.tmp, f"{name}_{len(os.listdir(self.tmp))}.exr")
+        mi.Bitmap(np.ascontiguousarray(array, dtype=np.float32)).write(path)
+        return {"type": "bitmap", "filename": path, "raw": True, "filter_type": "bilinear", "wrap_mode": "repeat"}
+
+    def colour(self, info, factor):
+        """An sRGB colour texture times a linear factor."""
+        import numpy as np
+
+        c = self._pixels(info)[..., :3]
+        linear = np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
+        return self._write(linear * np.array(factor[:3], dtype=np.float32), "colour")
+
+    def mask(self, info, alpha_factor, cutoff):
+        """Opacity of an alpha cut-out: alpha upsampled 4× bilinearly, then thresholded (as
+        rppm thresholds its bilinear alpha)."""
+        import numpy as np
+
+        p = self._pixels(info)
+        alpha = (p[..., 3] if p.shape[2] > 3 else np.ones(p.shape[:2], np.float32)) * alpha_factor
+        h, w = alpha.shape
+        ys = (np.arange(4 * h) + 0.5) / 4 - 0.5
+        xs = (np.arange(4 * w) + 0.5) / 4 - 0.5
+        y0, x0 = np.floor(ys).astype(int), np.floor(xs).astype(int)
+        fy, fx = (ys - y0)[:, None], (xs - x0)[None, :]
+        a = lambda dy, dx: alpha[(y0 + dy) % h][:, (x0 + dx) % w]
+        up = (a(0, 0) * (1 - fx) + a(0, 1) * fx) * (1 - fy) + (a(1, 0) * (1 - fx) + a(1, 1) * fx) * fy
+        opacity = (up >= cutoff).astype(np.float32)
+        return self._write(np.stack([opacity] * 3, axis=2), "mask")
+
+
+def bsdf_of(material, textures=None, vertex_colors=False):
     """Mitsuba BSDF dict and a one-line description, per the mapping in this file's header."""
     pbr = material.get("pbrMetallicRoughness", {})
     base = pbr.get("baseColorFactor", [1, 1, 1, 1])[:3]
@@ -140,13 +204,40 @@ def bsdf_of(material):
             {"type": "roughconductor", "material": "none", "distribution": "ggx", "alpha": alpha, "specular_reflectance": rgb},
             f"roughconductor(alpha={alpha:.3f})",
         )
-    return {"type": "diffuse", "reflectance": rgb}, "diffuse(lambert)"
+    for unsupported in ("metallicRoughnessTexture", "normalTexture"):
+        if unsupported in pbr or unsupported in material:
+            print(f"reference.py: {unsupported} is ignored", file=sys.stderr)
+    description = "diffuse(lambert)"
+    if "baseColorTexture" in pbr and textures:
+        rgb = textures.colour(pbr["baseColorTexture"], base)
+        description += " x base colour texture"
+        if vertex_colors:
+            print("reference.py: vertex colours under a base colour texture are ignored", file=sys.stderr)
+    elif vertex_colors:
+        if any(c != 1 for c in base):
+            print("reference.py: the base colour factor under vertex colours is ignored", file=sys.stderr)
+        rgb = {"type": "mesh_attribute", "name": "vertex_color"}
+        description += " x vertex colours"
+    bsdf = {"type": "diffuse", "reflectance": rgb}
+    if material.get("doubleSided"):
+        bsdf = {"type": "twosided", "bsdf": bsdf}
+        description = f"twosided({description})"
+    if material.get("alphaMode") == "MASK" and textures and "baseColorTexture" in pbr:
+        opacity = textures.mask(pbr["baseColorTexture"], pbr.get("baseColorFactor", [1, 1, 1, 1])[3], material.get("alphaCutoff", 0.5))
+        bsdf = {"type": "mask", "opacity": opacity, "bsdf": bsdf}
+        description = f"mask({description})"
+    return bsdf, description
 
 
-def emission_of(material):
+def emission_of(material, textures=None):
+    """Area emitter radiance: an RGB value, or the emissive texture times factor and strength."""
     strength = material.get("extensions", {}).get("KHR_materials_emissive_strength", {}).get("emissiveStrength", 1.0)
     e = [c * strength for c in material.get("emissiveFactor", [0, 0, 0])]
-    return e if max(e) > 0 else None
+    if max(e) <= 0:
+        return None
+    if "emissiveTexture" in material and textures:
+        return textures.colour(material["emissiveTexture"], e)
+    return {"type": "rgb", "value": e}
 
 
 def build_scene(path, width, height, tmp, max_depth=16):
@@ -156,6 +247,7 @@ def build_scene(path, width, height, tmp, max_depth=16):
     with open(path) as f:
         gltf = json.load(f)
     buffers = load_buffers(gltf, folder)
+    textures = Textures(gltf, folder, tmp)
     materials = gltf.get("materials", [])
     lights = gltf.get("extensions", {}).get("KHR_lights_punctual", {}).get("lights", [])
     scene = {"type": "scene", "integrator": {"type": "path", "max_depth": max_depth, "rr_depth": 8}}
@@ -177,14 +269,17 @@ def build_scene(path, width, height, tmp, max_depth=16):
                 else:
                     faces = [(idx[i], idx[i + 1], idx[i + 2]) for i in range(0, len(idx) - 2, 3)]
                 ply = os.path.join(tmp, f"{len(scene)}.ply")
-                write_ply(ply, positions, faces)
+                attributes = prim["attributes"]
+                uvs = accessor(gltf, buffers, attributes["TEXCOORD_0"]) if "TEXCOORD_0" in attributes else None
+                colors = accessor(gltf, buffers, attributes["COLOR_0"]) if "COLOR_0" in attributes else None
+                write_ply(ply, positions, faces, uvs, colors)
                 material = materials[prim["material"]] if "material" in prim else {}
-                bsdf, description = bsdf_of(material)
+                bsdf, description = bsdf_of(material, textures, colors is not None)
                 shape = {"type": "ply", "filename": ply, "bsdf": bsdf, "face_normals": "NORMAL" not in prim["attributes"]}
-                emitted = emission_of(material)
+                emitted = emission_of(material, textures)
                 if emitted:
-                    shape["emitter"] = {"type": "area", "radiance": {"type": "rgb", "value": emitted}}
-                    description += f" + area emitter radiance {emitted}"
+                    shape["emitter"] = {"type": "area", "radiance": emitted}
+                    description += f" + area emitter radiance {emitted.get('value', 'texture')}"
                 scene[f"{name}_{k}_{len(scene)}"] = shape
                 mapping.append(f"{name}[{k}]: {len(faces)} tris, material '{material.get('name', '')}' -> {description}")
         if "camera" in node and camera is None:

@@ -66,7 +66,7 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     let gp = textureLoad(gbuffer_position, vec2<i32>(id.xy), 0);
     if gp.w != 0.0 {
         let gn = textureLoad(gbuffer_normal, vec2<i32>(id.xy), 0);
-        let m = gbuffer_material(gp.w);
+        let m = gbuffer_material(gp, gn.w);
         let wo = normalize(params.camera_position.xyz - gp.xyz);
         let light = upsampled_light(id.xy, gp.xyz, gn.xyz, gn.w);
         sample += bsdf_eval(m, gn.xyz, wo, gn.xyz) * light;

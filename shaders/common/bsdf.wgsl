@@ -4,12 +4,11 @@
 // (the furnace test, tests/gpu/bsdf.rs).
 #define_import_path bevy_rppm::bsdf
 
-#import bevy_rppm::common::{Material, PI, luminance, random, cosine_direction}
+#import bevy_rppm::common::{Material, PI, DELTA_ROUGHNESS, luminance, random, cosine_direction}
 #import bevy_rppm::scene::ggx_albedo
 
-// Below this perceptual roughness the specular lobe is a perfect mirror: it carries no light
-// from a point in a direction other than the mirror one, so evaluation gives zero.
-const DELTA_ROUGHNESS: f32 = 0.02;
+// Below DELTA_ROUGHNESS (common.wgsl) the specular lobe is a perfect mirror: it carries no
+// light from a point in a direction other than the mirror one, so evaluation gives zero.
 
 fn specular_f0(m: Material) -> vec3<f32> {
     let dielectric = vec3<f32>(0.16 * m.reflectance * m.reflectance);

@@ -4,6 +4,9 @@
 
 const PI: f32 = 3.141592653589793;
 
+// Below this perceptual roughness the specular lobe is a perfect mirror (src/bsdf.rs).
+const DELTA_ROUGHNESS: f32 = 0.02;
+
 struct Triangle {
     position_a: vec3<f32>,
     material: u32,
@@ -28,8 +31,44 @@ struct Material {
     specular_transmission: f32,
     ior: f32,
     flags: u32,
+    alpha_cutoff: f32,
+    pad: u32,
+    // Bevy's uv_transform: 2×2 part by columns (xy, zw), translation in uv_offset.xy.
+    uv_transform: vec4<f32>,
+    uv_offset: vec4<f32>,
+    // Base colour, metallic-roughness, emissive and normal map textures, or NO_TEXTURE.
+    textures: vec4<u32>,
+}
+
+// Material flags (MaterialFlags in src/scene/mod.rs).
+const MATERIAL_DOUBLE_SIDED: u32 = 1u;
+const MATERIAL_TEXTURED: u32 = 2u;
+const MATERIAL_ALPHA_MASK: u32 = 4u;
+const MATERIAL_ALPHA_HASHED: u32 = 8u;
+const MATERIAL_UNLIT: u32 = 16u;
+const MATERIAL_FLIP_NORMAL_Y: u32 = 32u;
+const NO_TEXTURE: u32 = 0xffffffffu;
+
+// Texture coordinates and linear vertex colours (16-bit unorm rg, ba) of a triangle's corners.
+struct TriangleAttributes {
+    uv_a: vec2<f32>,
+    uv_b: vec2<f32>,
+    uv_c: vec2<f32>,
+    color_a: vec2<u32>,
+    color_b: vec2<u32>,
+    color_c: vec2<u32>,
+}
+
+// A packed texture: RGBA8 texels from `offset`, level l + 1 right after level l.
+struct Texture {
+    offset: u32,
+    width: u32,
+    height: u32,
+    levels: u32,
+    srgb: u32,
     pad_a: u32,
     pad_b: u32,
+    pad_c: u32,
 }
 
 const LIGHT_POINT: u32 = 0u;
@@ -255,8 +294,8 @@ fn cosine_direction(n: vec3<f32>, u: vec2<f32>) -> vec3<f32> {
 // in its radius (indirect splatting). 64 bytes; one per pixel, index = pixel.
 struct Importon {
     position: vec3<f32>,
-    // Material index; NO_IMPORTON when the pixel has none this iteration.
-    material: u32,
+    // Triangle it lies on; NO_IMPORTON when the pixel has none this iteration.
+    triangle: u32,
     normal: vec3<f32>,
     // Next importon in its cubemap tile's list, as index + 1 (0 ends the list).
     next: u32,

@@ -6,7 +6,7 @@
 #define_import_path bevy_rppm::cubemap
 
 #import bevy_rppm::common::{CubemapParams, face_basis, level_offset, face_of}
-#import bevy_rppm::scene::triangles
+#import bevy_rppm::scene::{triangles, opaque_at}
 
 @group(3) @binding(0) var<uniform> cubemap: CubemapParams;
 @group(3) @binding(1) var<storage, read> hierarchy: array<vec2<f32>>;
@@ -70,7 +70,7 @@ fn intersect_triangle(o: vec3<f32>, d: vec3<f32>, id: u32) -> vec3<f32> {
 
 fn consider(o: vec3<f32>, d: vec3<f32>, id: u32, t_min: f32, best: ptr<function, Hit>) {
     let h = intersect_triangle(o, d, id);
-    if h.x > t_min && h.x < (*best).t {
+    if h.x > t_min && h.x < (*best).t && opaque_at(id, h.yz) {
         *best = Hit(h.x, id, h.yz);
     }
 }

@@ -1,7 +1,8 @@
-// Camera G-buffer: world position, shading normal, material and pixel footprint, rasterised
-// with this iteration's sub-pixel jitter (baked into clip_from_world).
+// Camera G-buffer: world position, shading normal (normal maps applied), material and pixel
+// footprint, rasterised with this iteration's sub-pixel jitter (baked into clip_from_world);
+// alpha cut-outs are discarded.
 #import bevy_rppm::common::{IterationParams, triangle_position, triangle_normal}
-#import bevy_rppm::scene::triangles
+#import bevy_rppm::scene::{triangles, barycentrics, opaque_at, normal_at}
 
 @group(1) @binding(0) var<uniform> params: IterationParams;
 
@@ -33,13 +34,17 @@ struct GBuffer {
 
 @fragment
 fn fragment(in: VertexOut, @builtin(front_facing) front: bool) -> GBuffer {
-    var n = normalize(in.normal);
-    if !front {
-        n = -n;
+    let b = barycentrics(triangles[in.triangle], in.world);
+    if !opaque_at(in.triangle, b) {
+        discard;
     }
     var footprint = params.pixel_spread;
     if params.orthographic == 0u {
         footprint *= distance(in.world, params.camera_position.xyz);
+    }
+    var n = normal_at(in.triangle, b, normalize(in.normal), footprint);
+    if !front {
+        n = -n;
     }
     let tag = f32(in.triangle + 1u);
     var out: GBuffer;

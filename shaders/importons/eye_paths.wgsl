@@ -4,11 +4,11 @@
 // through the deep cubemap to the first non-specular surface, lights it the same way, and
 // leaves an importon there for indirect splatting.
 #import bevy_rppm::common::{Material, IterationParams, Importon, NO_IMPORTON, cubemap_tile, gather_radius, random, pcg_hash}
-#import bevy_rppm::scene::{triangles, materials}
+#import bevy_rppm::scene::{triangles, gbuffer_material, material_at, normal_at}
 #import bevy_rppm::lighting::{params, surface_light}
 #ifdef IMPORTONS
-#import bevy_rppm::bsdf::{DELTA_ROUGHNESS, fresnel_dielectric, scatter_photon, stores_photons}
-#import bevy_rppm::common::luminance
+#import bevy_rppm::bsdf::{fresnel_dielectric, scatter_photon, stores_photons}
+#import bevy_rppm::common::{DELTA_ROUGHNESS, luminance}
 #import bevy_rppm::cubemap::{cubemap, trace_cubemap, NO_HIT}
 #endif
 
@@ -83,20 +83,20 @@ fn follow_camera_path(pixel: u32, x0: vec3<f32>, n0: vec3<f32>, m0: Material, tr
             return found;
         }
         let t = triangles[hit.triangle];
-        let m = materials[t.material];
+        let m = material_at(hit.triangle, hit.uv, 0.0);
         let x = o + d * hit.t;
         length += hit.t;
         let w = vec3<f32>(1.0 - hit.uv.x - hit.uv.y, hit.uv);
         let geometric = cross(t.position_b - t.position_a, t.position_c - t.position_a);
         let front = dot(geometric, d) < 0.0;
-        var n = normalize(t.normal_a * w.x + t.normal_b * w.y + t.normal_c * w.z);
+        var n = normal_at(hit.triangle, hit.uv, normalize(t.normal_a * w.x + t.normal_b * w.y + t.normal_c * w.z), 0.0);
         if !front {
             n = -n;
         }
         if stores_photons(m) {
             let footprint = params.pixel_spread * select(length, 1.0, params.orthographic != 0u);
             let radius = gather_radius(params, params.splat_radius, footprint);
-            importons[pixel] = Importon(x, t.material, n, 0u, throughput, radius, -d, 0u);
+            importons[pixel] = Importon(x, hit.triangle, n, 0u, throughput, radius, -d, 0u);
             let tile = cubemap_tile(cubemap, x);
             importons[pixel].next = atomicExchange(&importon_heads[tile.index], pixel + 1u);
             atomicMax(&importon_stats[0], bitcast<u32>(radius));
@@ -136,12 +136,13 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     var sample = vec3<f32>(0.0);
     var rng = pcg_hash(pixel ^ pcg_hash(params.iteration * 0x85ebca6bu + 0x27d4eb2fu));
 #ifdef IMPORTONS
-    importons[pixel].material = NO_IMPORTON;
+    importons[pixel].triangle = NO_IMPORTON;
 #endif
     if gp.w != 0.0 {
         let triangle = u32(abs(gp.w)) - 1u;
-        let n = textureLoad(gbuffer_normal, vec2<i32>(id.xy), 0).xyz;
-        let m = materials[triangles[triangle].material];
+        let gn = textureLoad(gbuffer_normal, vec2<i32>(id.xy), 0);
+        let n = gn.xyz;
+        let m = gbuffer_material(gp, gn.w);
         let wo = normalize(params.camera_position.xyz - gp.xyz);
         // Mode Indirect: Bevy renders the first hit's emission and direct light itself.
 #ifdef IMPORTONS

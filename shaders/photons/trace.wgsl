@@ -3,7 +3,7 @@
 // (direct light is the local-illumination stage's), then scattered by the material
 // (bsdf.wgsl's scatter_photon: diffuse, GGX glossy, mirror, Fresnel glass) or absorbed.
 #import bevy_rppm::common::{Light, Photon, IterationParams, PI, LIGHT_POINT, LIGHT_SPOT, LIGHT_DIRECTIONAL, random, pcg_hash, basis_around, cosine_direction}
-#import bevy_rppm::scene::{triangles, materials, lights, emitters, light_cdf, find_source}
+#import bevy_rppm::scene::{triangles, material_at, normal_at, lights, emitters, light_cdf, find_source}
 #import bevy_rppm::cubemap::{trace_cubemap, NO_HIT}
 #import bevy_rppm::bsdf::{stores_photons, scatter_photon}
 
@@ -43,7 +43,8 @@ fn emit(rng: ptr<function, u32>) -> Ray {
         ray.origin = t.position_a * (1.0 - r1) + t.position_b * (r1 * (1.0 - r2)) + t.position_c * (r1 * r2);
         let n = normalize(cross(t.position_b - t.position_a, t.position_c - t.position_a));
         ray.direction = cosine_direction(n, vec2<f32>(random(rng), random(rng)));
-        ray.flux = materials[t.material].emissive.rgb * (PI * e.area * share);
+        let emitted = material_at(e.triangle, vec2<f32>(r1 * (1.0 - r2), r1 * r2), 0.0).emissive.rgb;
+        ray.flux = emitted * (PI * e.area * share);
         ray.ignore = e.triangle;
         return ray;
     }
@@ -97,13 +98,13 @@ fn trace(@builtin(global_invocation_id) id: vec3<u32>) {
             return;
         }
         let t = triangles[hit.triangle];
-        let m = materials[t.material];
+        let m = material_at(hit.triangle, hit.uv, 0.0);
         let x = ray.origin + ray.direction * hit.t;
         let w = vec3<f32>(1.0 - hit.uv.x - hit.uv.y, hit.uv);
         let geometric = normalize(cross(t.position_b - t.position_a, t.position_c - t.position_a));
         let front = dot(geometric, ray.direction) < 0.0;
         // Shading normal, on the side the photon arrives from.
-        var n = normalize(t.normal_a * w.x + t.normal_b * w.y + t.normal_c * w.z);
+        var n = normal_at(hit.triangle, hit.uv, normalize(t.normal_a * w.x + t.normal_b * w.y + t.normal_c * w.z), 0.0);
         if !front {
             n = -n;
         }

@@ -1,7 +1,8 @@
-// The scene tables, bound at group 0 by every stage (`ViewLayouts::scene` in src/view/layouts.rs).
+// The scene tables, bound at group 0 by every stage (`ViewLayouts::scene` in src/view/layouts.rs),
+// and the material lookups that apply textures and vertex colours (src/scene/textures.rs).
 #define_import_path bevy_rppm::scene
 
-#import bevy_rppm::common::{Triangle, Material, Light, Emitter, ShadowView}
+#import bevy_rppm::common::{Triangle, Material, Light, Emitter, ShadowView, TriangleAttributes, Texture, DELTA_ROUGHNESS, MATERIAL_TEXTURED, MATERIAL_ALPHA_MASK, MATERIAL_ALPHA_HASHED, MATERIAL_UNLIT, MATERIAL_FLIP_NORMAL_Y, NO_TEXTURE, pcg_hash}
 
 @group(0) @binding(0) var<storage, read> triangles: array<Triangle>;
 @group(0) @binding(1) var<storage, read> shadow_views: array<ShadowView>;
@@ -11,10 +12,183 @@
 @group(0) @binding(5) var<storage, read> light_cdf: array<f32>;
 // The GGX lobe's directional albedo and its averages (src/bsdf.rs), for bsdf.wgsl.
 @group(0) @binding(6) var<storage, read> ggx_albedo: array<vec4<f32>>;
+// Read only for MATERIAL_TEXTURED materials (one zeroed item otherwise).
+@group(0) @binding(7) var<storage, read> attributes: array<TriangleAttributes>;
+@group(0) @binding(8) var<storage, read> textures: array<Texture>;
+@group(0) @binding(9) var<storage, read> texels: array<u32>;
 
-// The material of a camera G-buffer texel, whose w holds ±(triangle + 1).
-fn gbuffer_material(w: f32) -> Material {
-    return materials[triangles[u32(abs(w)) - 1u].material];
+// Barycentric weights (second, third vertex) of a point p on triangle t.
+fn barycentrics(t: Triangle, p: vec3<f32>) -> vec2<f32> {
+    let e1 = t.position_b - t.position_a;
+    let e2 = t.position_c - t.position_a;
+    let d = p - t.position_a;
+    let d11 = dot(e1, e1);
+    let d12 = dot(e1, e2);
+    let d22 = dot(e2, e2);
+    let den = d11 * d22 - d12 * d12;
+    if den <= 0.0 {
+        return vec2<f32>(0.0);
+    }
+    return vec2<f32>(d22 * dot(d, e1) - d12 * dot(d, e2), d11 * dot(d, e2) - d12 * dot(d, e1)) / den;
+}
+
+// The material of a camera G-buffer texel (w: ±(triangle + 1)) `footprint` metres wide.
+fn gbuffer_material(position: vec4<f32>, footprint: f32) -> Material {
+    let triangle = u32(abs(position.w)) - 1u;
+    return material_at(triangle, barycentrics(triangles[triangle], position.xyz), footprint);
+}
+
+fn uv_transform(m: Material) -> mat2x2<f32> {
+    return mat2x2<f32>(m.uv_transform.xy, m.uv_transform.zw);
+}
+
+// Texture coordinates at barycentrics b (xy) and the uv units one metre spans there (z).
+fn surface_uv(m: Material, triangle: u32, b: vec2<f32>) -> vec3<f32> {
+    let a = attributes[triangle];
+    let t = triangles[triangle];
+    let xf = uv_transform(m);
+    let ua = xf * a.uv_a;
+    let ub = xf * a.uv_b;
+    let uc = xf * a.uv_c;
+    let uv = ua * (1.0 - b.x - b.y) + ub * b.x + uc * b.y + m.uv_offset.xy;
+    let e = mat2x2<f32>(ub - ua, uc - ua);
+    let world_area = length(cross(t.position_b - t.position_a, t.position_c - t.position_a));
+    return vec3<f32>(uv, sqrt(abs(determinant(e)) / max(world_area, 1e-30)));
+}
+
+fn vertex_color(c: vec2<u32>) -> vec4<f32> {
+    return vec4<f32>(unpack2x16unorm(c.x), unpack2x16unorm(c.y));
+}
+
+fn srgb_to_linear(c: vec3<f32>) -> vec3<f32> {
+    return select(pow((c + 0.055) / 1.055, vec3<f32>(2.4)), c / 12.92, c <= vec3<f32>(0.04045));
+}
+
+fn texel(t: Texture, offset: u32, size: vec2<i32>, at: vec2<i32>) -> vec4<f32> {
+    let wrapped = ((at % size) + size) % size;
+    let c = unpack4x8unorm(texels[offset + u32(wrapped.y * size.x + wrapped.x)]);
+    if t.srgb != 0u {
+        return vec4<f32>(srgb_to_linear(c.rgb), c.a);
+    }
+    return c;
+}
+
+// Bilinear lookup of texture `index` at uv (repeating), in linear values, from the mip level
+// whose texels are about `footprint` uv units wide (0: the finest).
+fn sample_texture(index: u32, uv: vec2<f32>, footprint: f32) -> vec4<f32> {
+    let t = textures[index];
+    let texels_across = footprint * f32(max(t.width, t.height));
+    let level = min(u32(max(log2(max(texels_across, 1.0)), 0.0)), t.levels - 1u);
+    var offset = t.offset;
+    var w = t.width;
+    var h = t.height;
+    for (var l = 0u; l < level; l += 1u) {
+        offset += w * h;
+        w = max(w / 2u, 1u);
+        h = max(h / 2u, 1u);
+    }
+    let size = vec2<i32>(i32(w), i32(h));
+    let p = fract(uv) * vec2<f32>(size) - 0.5;
+    let i = vec2<i32>(floor(p));
+    let f = p - floor(p);
+    let top = mix(texel(t, offset, size, i), texel(t, offset, size, i + vec2<i32>(1, 0)), f.x);
+    let bottom = mix(texel(t, offset, size, i + vec2<i32>(0, 1)), texel(t, offset, size, i + vec2<i32>(1, 1)), f.x);
+    return mix(top, bottom, f.y);
+}
+
+// Base colour times vertex colour times base colour texture, alpha included.
+fn base_color_at(m: Material, triangle: u32, b: vec2<f32>, uv: vec3<f32>, footprint: f32) -> vec4<f32> {
+    let a = attributes[triangle];
+    let w = vec3<f32>(1.0 - b.x - b.y, b);
+    var c = m.base_color * (vertex_color(a.color_a) * w.x + vertex_color(a.color_b) * w.y + vertex_color(a.color_c) * w.z);
+    if m.textures.x != NO_TEXTURE {
+        c *= sample_texture(m.textures.x, uv.xy, footprint * uv.z);
+    }
+    return c;
+}
+
+// The material of `triangle` at barycentrics b with its textures and vertex colours applied
+// (as Bevy's StandardMaterial multiplies them), read at the mip level of a footprint
+// `footprint` metres wide (0: the finest).
+fn material_at(triangle: u32, b: vec2<f32>, footprint: f32) -> Material {
+    var m = materials[triangles[triangle].material];
+    if (m.flags & MATERIAL_TEXTURED) != 0u {
+        let uv = surface_uv(m, triangle, b);
+        m.base_color = base_color_at(m, triangle, b, uv, footprint);
+        if m.textures.y != NO_TEXTURE {
+            let mr = sample_texture(m.textures.y, uv.xy, footprint * uv.z);
+            // A rough factor stays a rough lobe: the scene's variants hold no mirror for it.
+            m.perceptual_roughness = max(m.perceptual_roughness * mr.g, min(m.perceptual_roughness, DELTA_ROUGHNESS));
+            m.metallic *= mr.b;
+        }
+        if m.textures.z != NO_TEXTURE {
+            m.emissive = vec4<f32>(m.emissive.rgb * sample_texture(m.textures.z, uv.xy, footprint * uv.z).rgb, m.emissive.w);
+        }
+    }
+    if (m.flags & MATERIAL_UNLIT) != 0u {
+        // Seen in its base colour, which lights nothing and reflects nothing.
+        m.emissive = vec4<f32>(m.base_color.rgb, 0.0);
+        m.base_color = vec4<f32>(0.0, 0.0, 0.0, m.base_color.a);
+        m.metallic = 0.0;
+        m.reflectance = 0.0;
+        m.specular_transmission = 0.0;
+    }
+    return m;
+}
+
+// Whether a ray stops at barycentrics b of `triangle`: not in a cut-out (alpha under the
+// cutoff) and, for blended alpha, with probability alpha, hashed on the hit point (hashed
+// alpha testing: the camera's jitter and every new path average it out).
+fn opaque_at(triangle: u32, b: vec2<f32>) -> bool {
+    let m = materials[triangles[triangle].material];
+    if (m.flags & (MATERIAL_ALPHA_MASK | MATERIAL_ALPHA_HASHED)) == 0u {
+        return true;
+    }
+    var alpha = m.base_color.a;
+    if (m.flags & MATERIAL_TEXTURED) != 0u {
+        alpha = base_color_at(m, triangle, b, surface_uv(m, triangle, b), 0.0).a;
+    }
+    if (m.flags & MATERIAL_ALPHA_MASK) != 0u {
+        return alpha >= m.alpha_cutoff;
+    }
+    let h = pcg_hash(triangle ^ pcg_hash(bitcast<u32>(b.x) ^ pcg_hash(bitcast<u32>(b.y))));
+    return alpha > f32(h >> 8u) / 16777216.0;
+}
+
+// The shading normal at barycentrics b: the interpolated normal `n` bent by the normal map in
+// the tangent frame of the triangle's texture coordinates (glTF's: texture +Y towards −v).
+fn normal_at(triangle: u32, b: vec2<f32>, n: vec3<f32>, footprint: f32) -> vec3<f32> {
+    let m = materials[triangles[triangle].material];
+    if (m.flags & MATERIAL_TEXTURED) == 0u || m.textures.w == NO_TEXTURE {
+        return n;
+    }
+    let uv = surface_uv(m, triangle, b);
+    var c = sample_texture(m.textures.w, uv.xy, footprint * uv.z).xyz * 2.0 - 1.0;
+    if (m.flags & MATERIAL_FLIP_NORMAL_Y) != 0u {
+        c.y = -c.y;
+    }
+    let t = triangles[triangle];
+    let a = attributes[triangle];
+    let e1 = t.position_b - t.position_a;
+    let e2 = t.position_c - t.position_a;
+    let xf = uv_transform(m);
+    let d1 = xf * (a.uv_b - a.uv_a);
+    let d2 = xf * (a.uv_c - a.uv_a);
+    let r = d1.x * d2.y - d1.y * d2.x;
+    if abs(r) < 1e-20 {
+        return n;
+    }
+    let dpdu = (e1 * d2.y - e2 * d1.y) / r;
+    let dpdv = (e2 * d1.x - e1 * d2.x) / r;
+    let tangent = dpdu - n * dot(n, dpdu);
+    let up = -dpdv - n * dot(n, dpdv);
+    if dot(tangent, tangent) < 1e-30 || dot(up, up) < 1e-30 {
+        return n;
+    }
+    let tn = normalize(tangent);
+    let bn = normalize(up - tn * dot(tn, up));
+    let bent = tn * c.x + bn * c.y + n * max(c.z, 1e-3);
+    return normalize(bent);
 }
 
 // Index of the light source in first..=last whose interval of the power CDF holds u.

@@ -8,7 +8,7 @@
 
 #import bevy_rppm::common::{Material, Light, IterationParams, LIGHT_SPOT, LIGHT_DIRECTIONAL, face_of, random}
 #import bevy_rppm::bsdf::bsdf_eval
-#import bevy_rppm::scene::{shadow_views, lights, triangles, materials, emitters, light_cdf, find_source}
+#import bevy_rppm::scene::{shadow_views, lights, triangles, material_at, emitters, light_cdf, find_source}
 #ifdef TRACED_SHADOWS
 #import bevy_rppm::cubemap::{trace_cubemap, NO_HIT}
 #endif
@@ -155,7 +155,7 @@ fn emitter_light(m: Material, x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, origin_
     if cos_x <= 0.0 || cos_y <= 0.0 || e.triangle == origin_triangle {
         return vec3<f32>(0.0);
     }
-    let radiance = materials[t.material].emissive.rgb;
+    let radiance = material_at(e.triangle, vec2<f32>(r1 * (1.0 - r2), r1 * r2), 0.0).emissive.rgb;
     let lit = bsdf_eval(m, n, wo, wi) * radiance * (cos_x * cos_y * e.area / (d2 * p));
     if all(lit <= vec3<f32>(0.0)) {
         return lit;

@@ -64,7 +64,7 @@ fn fragment(in: VertexOut) -> @location(0) vec4<f32> {
 #ifdef SUBSAMPLED
     return vec4<f32>(p.flux * density, 0.0);
 #else
-    let m = gbuffer_material(gp.w);
+    let m = gbuffer_material(gp, gn.w);
     let wo = normalize(params.camera_position.xyz - gp.xyz);
     let f = bsdf_eval(m, gn.xyz, wo, p.incoming);
     return vec4<f32>(f * p.flux * density, 0.0);

@@ -157,6 +157,9 @@ pub(super) fn run_furnace(
             empty.as_entire_binding(),
             empty.as_entire_binding(),
             ggx_albedo.as_entire_binding(),
+            empty.as_entire_binding(),
+            empty.as_entire_binding(),
+            empty.as_entire_binding(),
         )),
     );
     let empty_group = device.create_bind_group(

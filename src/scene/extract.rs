@@ -4,16 +4,31 @@
 use std::sync::Arc;
 
 use bevy::ecs::entity::EntityHashSet;
-use bevy::platform::collections::HashMap;
+use bevy::platform::collections::{HashMap, HashSet};
 use bevy::prelude::*;
 
-use super::{GpuEmitter, GpuMaterial, GpuTriangle, RppmScene, SceneData, lights, luminance, mesh};
+use super::textures::{MAX_TEXTURE_SIZE, NO_TEXTURE, PackedTexture, TEXEL_BUDGET};
+use super::{
+    GpuEmitter, GpuMaterial, GpuTriangle, MaterialFlags, RppmScene, SceneData, lights, luminance,
+    mesh,
+};
 
 /// Warnings already given, so each is logged once.
 #[derive(Resource, Default)]
 pub(super) struct ExtractionWarnings {
-    meshes: bevy::platform::collections::HashSet<AssetId<Mesh>>,
+    meshes: HashSet<AssetId<Mesh>>,
     entities: EntityHashSet,
+    images: HashSet<AssetId<Image>>,
+}
+
+/// Images packed for the tracing stages ([`PackedTexture`]), kept across extractions so a
+/// scene change does not downsample them again.
+#[derive(Resource, Default)]
+pub(super) struct TextureCache {
+    packed: HashMap<AssetId<Image>, Arc<PackedTexture>>,
+    /// The images the last extraction asked for, loaded or not: an event on one of them
+    /// extracts again (an image still loading, an edited texture).
+    referenced: HashSet<AssetId<Image>>,
 }
 
 type MeshChanged = Or<(
@@ -29,6 +44,13 @@ type LightChanged = Or<(
     Changed<DirectionalLight>,
     Changed<GlobalTransform>,
 )>;
+
+/// The assets a scene is made of.
+type SceneAssets<'w> = (
+    Res<'w, Assets<Mesh>>,
+    Res<'w, Assets<StandardMaterial>>,
+    Res<'w, Assets<Image>>,
+);
 
 type AnyLight = Or<(With<PointLight>, With<SpotLight>, With<DirectionalLight>)>;
 
@@ -51,24 +73,43 @@ pub(super) fn extract_scene(
     mut removed_dir: RemovedComponents<DirectionalLight>,
     mut mesh_events: MessageReader<AssetEvent<Mesh>>,
     mut material_events: MessageReader<AssetEvent<StandardMaterial>>,
+    mut image_events: MessageReader<AssetEvent<Image>>,
     lights_q: lights::LightQueries,
-    mesh_assets: Res<Assets<Mesh>>,
-    material_assets: Res<Assets<StandardMaterial>>,
+    assets: SceneAssets,
     mut warnings: ResMut<ExtractionWarnings>,
+    mut cache: ResMut<TextureCache>,
     mut scene: ResMut<RppmScene>,
 ) {
+    let (mesh_assets, material_assets, image_assets) = assets;
+    let mut image_changed = false;
+    for event in image_events.read() {
+        let id = match *event {
+            AssetEvent::Added { id }
+            | AssetEvent::Modified { id }
+            | AssetEvent::Removed { id }
+            | AssetEvent::LoadedWithDependencies { id } => id,
+            AssetEvent::Unused { .. } => continue,
+        };
+        if cache.referenced.contains(&id) {
+            cache.packed.remove(&id);
+            image_changed = true;
+        }
+    }
     let dirty = !changed_meshes.is_empty()
         || !changed_lights.is_empty()
         || removed_meshes.read().count() > 0
         || removed_point.read().count() + removed_spot.read().count() + removed_dir.read().count()
             > 0
         || mesh_events.read().count() > 0
-        || material_events.read().count() > 0;
+        || material_events.read().count() > 0
+        || image_changed;
     if !dirty {
         return;
     }
     let mut data = SceneData::default();
     let mut material_index: HashMap<AssetId<StandardMaterial>, u32> = HashMap::default();
+    let mut textures = TextureTable::default();
+    cache.referenced.clear();
     for (entity, mesh3d, material3d, transform, visibility) in &meshes_q {
         if visibility.is_some_and(|v| !v.get()) {
             continue;
@@ -89,20 +130,44 @@ pub(super) fn extract_scene(
         let next = data.materials.len() as u32;
         let index = *material_index.entry(material3d.0.id()).or_insert(next);
         if index == next {
-            data.materials.push(material_to_gpu(material));
+            let mut slot = |image: &Option<Handle<Image>>| {
+                textures.slot(image.as_ref(), &image_assets, &mut cache, &mut warnings)
+            };
+            let slots = [
+                slot(&material.base_color_texture),
+                slot(&material.metallic_roughness_texture),
+                slot(&material.emissive_texture),
+                slot(&material.normal_map_texture),
+            ];
+            data.materials.push(material_to_gpu(material, slots));
         }
-        if let Err(reason) = mesh::append_triangles(mesh, &affine, index, &mut data.triangles)
-            && warnings.meshes.insert(mesh3d.0.id())
-        {
-            warn!(
-                "bevy_rppm: mesh {:?} of entity {entity} is left out: {reason}",
-                mesh3d.0.id()
-            );
+        match mesh::append_triangles(
+            mesh,
+            &affine,
+            index,
+            &mut data.triangles,
+            &mut data.attributes,
+        ) {
+            Ok(true) => data.materials[index as usize].flags |= MaterialFlags::TEXTURED.bits(),
+            Ok(false) => {}
+            Err(reason) => {
+                if warnings.meshes.insert(mesh3d.0.id()) {
+                    warn!(
+                        "bevy_rppm: mesh {:?} of entity {entity} is left out: {reason}",
+                        mesh3d.0.id()
+                    );
+                }
+            }
         }
+    }
+    let textured = MaterialFlags::TEXTURED.bits();
+    if !data.materials.iter().any(|m| m.flags & textured != 0) {
+        data.attributes = Vec::new();
     }
     data.bounds = bounds(&data.triangles);
     lights::collect_lights(&lights_q, &mut data);
-    collect_emitters(&mut data);
+    collect_emitters(&mut data, &textures.packed);
+    textures.write(&mut data);
     data.light_cdf = cdf(data
         .lights
         .iter()
@@ -112,23 +177,151 @@ pub(super) fn extract_scene(
     scene.epoch += 1;
 }
 
-fn material_to_gpu(m: &StandardMaterial) -> GpuMaterial {
+fn material_to_gpu(m: &StandardMaterial, textures: [u32; 4]) -> GpuMaterial {
     let base = m.base_color.to_linear();
+    let mut flags = MaterialFlags::empty();
+    flags.set(MaterialFlags::DOUBLE_SIDED, m.double_sided);
+    flags.set(MaterialFlags::UNLIT, m.unlit);
+    flags.set(MaterialFlags::FLIP_NORMAL_Y, m.flip_normal_map_y);
+    flags.set(
+        MaterialFlags::TEXTURED,
+        textures.iter().any(|&t| t != NO_TEXTURE),
+    );
+    let mut alpha_cutoff = 0.0;
+    match m.alpha_mode {
+        AlphaMode::Opaque => {}
+        AlphaMode::Mask(cutoff) => {
+            flags |= MaterialFlags::ALPHA_MASK;
+            alpha_cutoff = if cutoff.is_finite() { cutoff } else { 0.5 };
+        }
+        AlphaMode::Blend
+        | AlphaMode::Premultiplied
+        | AlphaMode::AlphaToCoverage
+        | AlphaMode::Add
+        | AlphaMode::Multiply => flags |= MaterialFlags::ALPHA_HASHED,
+    }
+    let finite = |v: f32, fallback: f32| if v.is_finite() { v } else { fallback };
+    let uv = m.uv_transform;
+    let uv_ok = uv.matrix2.is_finite() && uv.translation.is_finite();
+    let (matrix, offset) = if uv_ok {
+        (uv.matrix2.to_cols_array(), uv.translation)
+    } else {
+        ([1.0, 0.0, 0.0, 1.0], Vec2::ZERO)
+    };
     GpuMaterial {
-        base_color: [base.red, base.green, base.blue, base.alpha],
-        emissive: [m.emissive.red, m.emissive.green, m.emissive.blue, 0.0],
-        metallic: m.metallic.clamp(0.0, 1.0),
-        perceptual_roughness: m.perceptual_roughness.clamp(0.0, 1.0),
-        reflectance: m.reflectance.clamp(0.0, 1.0),
-        specular_transmission: m.specular_transmission.clamp(0.0, 1.0),
+        base_color: [base.red, base.green, base.blue, base.alpha].map(|c| finite(c, 0.0)),
+        emissive: [m.emissive.red, m.emissive.green, m.emissive.blue, 0.0]
+            .map(|c| finite(c, 0.0).max(0.0)),
+        metallic: finite(m.metallic, 0.0).clamp(0.0, 1.0),
+        perceptual_roughness: finite(m.perceptual_roughness, 0.5).clamp(0.0, 1.0),
+        reflectance: finite(m.reflectance, 0.5).clamp(0.0, 1.0),
+        specular_transmission: finite(m.specular_transmission, 0.0).clamp(0.0, 1.0),
         ior: if m.ior.is_finite() && m.ior >= 1.0 {
             m.ior
         } else {
             1.5
         },
-        flags: m.double_sided as u32,
-        _pad: [0; 2],
+        flags: flags.bits(),
+        alpha_cutoff,
+        _pad: 0,
+        uv_transform: matrix,
+        uv_offset: [offset.x, offset.y, 0.0, 0.0],
+        textures,
     }
+}
+
+/// The textures of one extraction: each image once, in order of first use.
+#[derive(Default)]
+struct TextureTable {
+    index: HashMap<AssetId<Image>, u32>,
+    packed: Vec<Arc<PackedTexture>>,
+}
+
+impl TextureTable {
+    /// The slot of `image` in this scene's table, or [`NO_TEXTURE`] when there is none or it
+    /// cannot be used (not loaded yet: its load extracts again; unreadable: warned once).
+    fn slot(
+        &mut self,
+        image: Option<&Handle<Image>>,
+        images: &Assets<Image>,
+        cache: &mut TextureCache,
+        warnings: &mut ExtractionWarnings,
+    ) -> u32 {
+        let Some(image) = image else {
+            return NO_TEXTURE;
+        };
+        let id = image.id();
+        cache.referenced.insert(id);
+        if let Some(&slot) = self.index.get(&id) {
+            return slot;
+        }
+        let packed = match cache.packed.get(&id) {
+            Some(packed) => packed.clone(),
+            None => {
+                let Some(source) = images.get(id) else {
+                    return NO_TEXTURE;
+                };
+                match PackedTexture::from_image(source, MAX_TEXTURE_SIZE) {
+                    Ok(packed) => {
+                        let packed = Arc::new(packed);
+                        cache.packed.insert(id, packed.clone());
+                        packed
+                    }
+                    Err(reason) => {
+                        if warnings.images.insert(id) {
+                            warn!("bevy_rppm: texture {id:?} is left out: {reason}");
+                        }
+                        return NO_TEXTURE;
+                    }
+                }
+            }
+        };
+        let slot = self.packed.len() as u32;
+        self.index.insert(id, slot);
+        self.packed.push(packed);
+        slot
+    }
+
+    /// Fills the scene's texture table and texels, leaving out the largest levels of the
+    /// largest textures while the whole exceeds [`TEXEL_BUDGET`].
+    fn write(&self, data: &mut SceneData) {
+        let mut skipped = vec![0u32; self.packed.len()];
+        let bytes = |skipped: &[u32]| -> u64 {
+            self.packed
+                .iter()
+                .zip(skipped)
+                .map(|(t, &s)| 4 * (t.texels.len() - level_start(t, s)) as u64)
+                .sum()
+        };
+        while bytes(&skipped) > TEXEL_BUDGET {
+            let Some((largest, _)) = self
+                .packed
+                .iter()
+                .enumerate()
+                .filter(|(i, t)| skipped[*i] + 1 < t.levels())
+                .max_by_key(|(i, t)| (t.width.max(t.height) >> skipped[*i], *i))
+            else {
+                break;
+            };
+            skipped[largest] += 1;
+        }
+        for (t, &s) in self.packed.iter().zip(&skipped) {
+            let mut entry = t.gpu(data.texels.len() as u32);
+            entry.width = (t.width >> s).max(1);
+            entry.height = (t.height >> s).max(1);
+            entry.levels -= s;
+            data.textures.push(entry);
+            data.texels
+                .extend_from_slice(&t.texels[level_start(t, s)..]);
+        }
+    }
+}
+
+/// Index of the first texel of level `level` in a packed texture.
+fn level_start(t: &PackedTexture, level: u32) -> usize {
+    (0..level)
+        .map(|l| ((t.width >> l).max(1) * (t.height >> l).max(1)) as usize)
+        .sum()
 }
 
 fn bounds(triangles: &[GpuTriangle]) -> (Vec3, Vec3) {
@@ -139,10 +332,36 @@ fn bounds(triangles: &[GpuTriangle]) -> (Vec3, Vec3) {
     points.fold((first, first), |(lo, hi), p| (lo.min(p), hi.max(p)))
 }
 
-fn collect_emitters(data: &mut SceneData) {
+fn collect_emitters(data: &mut SceneData, textures: &[Arc<PackedTexture>]) {
     for (i, t) in data.triangles.iter().enumerate() {
         let m = &data.materials[t.material as usize];
-        let radiance = luminance([m.emissive[0], m.emissive[1], m.emissive[2]]);
+        let mut radiance = luminance([m.emissive[0], m.emissive[1], m.emissive[2]]);
+        let texture = m.textures[2];
+        if radiance > 0.0
+            && let Some(packed) = textures.get(texture as usize)
+            && let Some(attributes) = data.attributes.get(i)
+        {
+            // The texture's mean over the triangle, from a few points: photons leave it in
+            // proportion (the shaders weight each by the texel it leaves from, so a rough mean
+            // costs noise, never bias; a floor keeps every texel reachable).
+            let uv = |b: [f32; 3]| {
+                let [a, bb, c] = attributes.uv.map(Vec2::from);
+                let local = a * b[0] + bb * b[1] + c * b[2];
+                Mat2::from_cols_array(&m.uv_transform) * local + Vec2::from_slice(&m.uv_offset)
+            };
+            let points = [
+                [1.0 / 3.0; 3],
+                [2.0 / 3.0, 1.0 / 6.0, 1.0 / 6.0],
+                [1.0 / 6.0, 2.0 / 3.0, 1.0 / 6.0],
+                [1.0 / 6.0, 1.0 / 6.0, 2.0 / 3.0],
+            ];
+            let mean = points
+                .iter()
+                .map(|&b| luminance(packed.sample(uv(b)).truncate().to_array()))
+                .sum::<f32>()
+                / points.len() as f32;
+            radiance *= mean.max(0.01);
+        }
         let area = t.area();
         let power = std::f32::consts::PI * radiance * area;
         if power > 0.0 && power.is_finite() {

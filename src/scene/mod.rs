@@ -8,6 +8,7 @@ mod extract;
 mod lights;
 mod mesh;
 pub mod prepare;
+pub mod textures;
 
 use std::sync::Arc;
 
@@ -22,6 +23,7 @@ use crate::bsdf::{DELTA_ROUGHNESS, GLOSSY_STORE_ROUGHNESS, specular_energy_avera
 
 pub use lights::{LightKind, spot_cone_fraction};
 pub use prepare::SceneBuffers;
+pub use textures::{GpuTexture, NO_TEXTURE, PackedTexture};
 
 bitflags::bitflags! {
     /// The scattering lobes a scene's materials have: the variants of the tracing stages, so
@@ -86,7 +88,8 @@ impl GpuTriangle {
     }
 }
 
-/// A `StandardMaterial` reduced to what the light transport uses (64 bytes).
+/// A `StandardMaterial` reduced to what the light transport uses (112 bytes). Texture lookups
+/// multiply the factors, as Bevy's own shaders do (`material_at` in shaders/scene/scene.wgsl).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuMaterial {
@@ -100,9 +103,48 @@ pub struct GpuMaterial {
     pub reflectance: f32,
     pub specular_transmission: f32,
     pub ior: f32,
-    /// Bit 0: double-sided.
+    /// [`MaterialFlags`] bits.
     pub flags: u32,
-    pub _pad: [u32; 2],
+    /// Alpha under which a texel is cut out (`AlphaMode::Mask`).
+    pub alpha_cutoff: f32,
+    pub _pad: u32,
+    /// Bevy's `uv_transform`: the 2×2 part by columns (x_axis, y_axis)…
+    pub uv_transform: [f32; 4],
+    /// …and its translation; zw unused.
+    pub uv_offset: [f32; 4],
+    /// Indices into [`SceneData::textures`] of the base colour, metallic-roughness, emissive
+    /// and normal map textures, or [`NO_TEXTURE`].
+    pub textures: [u32; 4],
+}
+
+bitflags::bitflags! {
+    /// The flags of a [`GpuMaterial`], mirrored by the `MATERIAL_*` constants of
+    /// shaders/common/common.wgsl.
+    #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+    pub struct MaterialFlags: u32 {
+        /// Lit and seen from both sides.
+        const DOUBLE_SIDED = 1 << 0;
+        /// Textures or vertex colours vary it over its surfaces: lookups read
+        /// [`SceneData::attributes`].
+        const TEXTURED = 1 << 1;
+        /// `AlphaMode::Mask`: texels under `alpha_cutoff` are holes for every ray.
+        const ALPHA_MASK = 1 << 2;
+        /// Blended alpha: a ray passes a texel with probability 1 − alpha (hashed alpha).
+        const ALPHA_HASHED = 1 << 3;
+        /// `unlit`: shows its base colour, reflects nothing, lights nothing.
+        const UNLIT = 1 << 4;
+        /// `flip_normal_map_y`.
+        const FLIP_NORMAL_Y = 1 << 5;
+    }
+}
+
+/// What textured materials read per triangle (48 bytes): texture coordinates and vertex
+/// colours (linear, 16-bit unorm pairs: rg then ba) at its three corners.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuTriangleAttributes {
+    pub uv: [[f32; 2]; 3],
+    pub color: [[u32; 2]; 3],
 }
 
 /// A punctual light (64 bytes). Radiometric units, photometric numbers taken as radiometric.
@@ -143,6 +185,12 @@ pub struct GpuEmitter {
 pub struct SceneData {
     pub triangles: Vec<GpuTriangle>,
     pub materials: Vec<GpuMaterial>,
+    /// Per-triangle texture coordinates and colours, parallel to `triangles`; empty when no
+    /// material is [`MaterialFlags::TEXTURED`].
+    pub attributes: Vec<GpuTriangleAttributes>,
+    /// The packed textures the materials use, and their texels (RGBA8 in u32).
+    pub textures: Vec<GpuTexture>,
+    pub texels: Vec<u32>,
     pub lights: Vec<GpuLight>,
     pub emitters: Vec<GpuEmitter>,
     /// Photon-emission CDF over `lights` then `emitters`, by power (inclusive, last = 1).
@@ -167,11 +215,23 @@ impl SceneData {
     /// Whether camera paths go on past some surface: a mirror, clear glass, or a smooth
     /// glossy metal (roughness under [`GLOSSY_STORE_ROUGHNESS`], no diffuse lobe), where no
     /// photon is stored (`!stores_photons` in shaders/common/bsdf.wgsl).
+    /// A texture counts at its darkest, smoothest and most metallic texel.
     pub fn has_path_surfaces(&self) -> bool {
         self.materials.iter().any(|m| {
-            let diffuse = (1.0 - m.metallic) * (1.0 - m.specular_transmission);
+            let [base, metal_rough, ..] = m.textures.map(|t| t != NO_TEXTURE);
+            let metallic = if metal_rough && m.metallic > 0.0 {
+                1.0
+            } else {
+                m.metallic
+            };
+            let roughness = if metal_rough {
+                0.0
+            } else {
+                m.perceptual_roughness
+            };
+            let diffuse = (1.0 - metallic) * (1.0 - m.specular_transmission);
             let albedo = luminance([m.base_color[0], m.base_color[1], m.base_color[2]]);
-            m.perceptual_roughness < GLOSSY_STORE_ROUGHNESS && diffuse * albedo <= 0.0
+            roughness < GLOSSY_STORE_ROUGHNESS && (base || diffuse * albedo <= 0.0)
         })
     }
 
@@ -200,6 +260,24 @@ impl SceneData {
     pub fn max_scatter_probability(&self) -> f32 {
         self.materials
             .iter()
+            .flat_map(|m| {
+                // A metallic-roughness texture scales both down, to any texel's value.
+                let textured = m.textures[1] != NO_TEXTURE;
+                let metallic = if textured {
+                    vec![0.0, m.metallic]
+                } else {
+                    vec![m.metallic]
+                };
+                metallic.into_iter().map(move |metallic| GpuMaterial {
+                    metallic,
+                    perceptual_roughness: if textured {
+                        m.perceptual_roughness.min(DELTA_ROUGHNESS)
+                    } else {
+                        m.perceptual_roughness
+                    },
+                    ..*m
+                })
+            })
             .map(|m| {
                 let base = [m.base_color[0], m.base_color[1], m.base_color[2]];
                 let diffuse = (1.0 - m.metallic) * (1.0 - m.specular_transmission);
@@ -238,6 +316,7 @@ impl Plugin for ScenePlugin {
     fn build(&self, app: &mut App) {
         app.init_resource::<RppmScene>()
             .init_resource::<extract::ExtractionWarnings>()
+            .init_resource::<extract::TextureCache>()
             .add_plugins(ExtractResourcePlugin::<RppmScene>::default())
             .add_systems(
                 PostUpdate,

@@ -25,6 +25,11 @@ pub struct SceneBuffers {
     pub light_cdf: Buffer,
     /// The GGX lobe's albedo table, shared ([`GgxAlbedoBuffer`]).
     pub ggx_albedo: Buffer,
+    /// Per-triangle UVs and colours, the texture table and its texels: one zeroed item each
+    /// when no material is textured.
+    pub attributes: Buffer,
+    pub textures: Buffer,
+    pub texels: Buffer,
     /// The scattering paths the materials have (made once per scene change).
     pub paths: ScatterPaths,
     /// The largest probability a photon goes on after a hit (sizes the photon store).
@@ -37,7 +42,7 @@ impl SceneBuffers {
     }
 
     /// (name, bytes) of every buffer held.
-    pub fn memory(&self) -> [(&'static str, u64); 6] {
+    pub fn memory(&self) -> [(&'static str, u64); 9] {
         [
             ("scene_triangles", self.triangles.size()),
             ("scene_materials", self.materials.size()),
@@ -45,6 +50,9 @@ impl SceneBuffers {
             ("scene_emitters", self.emitters.size()),
             ("scene_light_cdf", self.light_cdf.size()),
             ("scene_ggx_albedo", self.ggx_albedo.size()),
+            ("scene_attributes", self.attributes.size()),
+            ("scene_textures", self.textures.size()),
+            ("scene_texels", self.texels.size()),
         ]
     }
 
@@ -67,6 +75,9 @@ impl SceneBuffers {
                 self.emitters.as_entire_binding(),
                 self.light_cdf.as_entire_binding(),
                 self.ggx_albedo.as_entire_binding(),
+                self.attributes.as_entire_binding(),
+                self.textures.as_entire_binding(),
+                self.texels.as_entire_binding(),
             )),
         )
     }
@@ -121,12 +132,21 @@ pub(crate) fn prepare_scene(
     }
     let data = &scene.data;
     let limit = device.limits().max_storage_buffer_binding_size;
-    let bytes = std::mem::size_of_val(data.triangles.as_slice()) as u64;
+    let bytes = [
+        std::mem::size_of_val(data.triangles.as_slice()),
+        std::mem::size_of_val(data.attributes.as_slice()),
+        std::mem::size_of_val(data.texels.as_slice()),
+    ]
+    .into_iter()
+    .max()
+    .unwrap_or(0) as u64;
     if bytes > limit {
         error!(
-            "bevy_rppm: the scene has {} triangles ({bytes} bytes), over this GPU's storage \
-             binding limit of {limit} bytes; photon mapping is paused until the scene is smaller",
-            data.triangles.len()
+            "bevy_rppm: the scene has {} triangles and {} texels (up to {bytes} bytes in one \
+             table), over this GPU's storage binding limit of {limit} bytes; photon mapping is \
+             paused until the scene is smaller",
+            data.triangles.len(),
+            data.texels.len()
         );
         *refused_epoch = Some(scene.epoch);
         commands.remove_resource::<SceneBuffers>();
@@ -143,5 +163,8 @@ pub(crate) fn prepare_scene(
         emitters: storage_buffer(&device, "rppm_emitters", &data.emitters),
         light_cdf: storage_buffer(&device, "rppm_light_cdf", &data.light_cdf),
         ggx_albedo: ggx_albedo.0.clone(),
+        attributes: storage_buffer(&device, "rppm_triangle_attributes", &data.attributes),
+        textures: storage_buffer(&device, "rppm_textures", &data.textures),
+        texels: storage_buffer(&device, "rppm_texels", &data.texels),
     });
 }

@@ -15,7 +15,7 @@ use super::params::IterationParams;
 #[derive(Resource, Clone)]
 pub struct ViewLayouts {
     /// 0 triangles, 1 shadow views, 2 materials, 3 lights, 4 emitters, 5 light CDF, 6 the
-    /// GGX albedo table ([`crate::bsdf`]).
+    /// GGX albedo table ([`crate::bsdf`]), 7 triangle attributes, 8 textures, 9 texels.
     pub scene: BindGroupLayoutDescriptor,
     /// 0 per-iteration params (dynamic offset).
     pub params: BindGroupLayoutDescriptor,
@@ -35,7 +35,18 @@ impl Default for ViewLayouts {
                 "rppm_scene_layout",
                 &BindGroupLayoutEntries::sequential(
                     all,
-                    (read(), read(), read(), read(), read(), read(), read()),
+                    (
+                        read(),
+                        read(),
+                        read(),
+                        read(),
+                        read(),
+                        read(),
+                        read(),
+                        read(),
+                        read(),
+                        read(),
+                    ),
                 ),
             ),
             params: BindGroupLayoutDescriptor::new(

@@ -20,4 +20,5 @@ mod modes;
 mod ppm;
 mod robustness;
 mod suite;
+mod textures;
 mod util;

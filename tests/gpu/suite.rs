@@ -36,7 +36,8 @@ fn reference(name: &str) -> RgbImage {
 /// The estimate is right from the first iterations: after 4 iterations of 65 536 photons each
 /// suite scene's energy is within 3 % of its reference (a closed room seen from inside with a
 /// flat glass cube and dark walls; an area light over matte spheres; the same over metal
-/// spheres of roughness 0.1 and 0.25, which camera paths go on through).
+/// spheres of roughness 0.1 and 0.25, which camera paths go on through; a box with a checker
+/// floor, vertex colours, a striped emissive panel and a cut-out screen).
 #[test]
 fn suite_energy_is_right_after_four_iterations() {
     let settings = PhotonMapping {
@@ -48,6 +49,7 @@ fn suite_energy_is_right_after_four_iterations() {
         ("closed_room", 0.1),
         ("cornell_matte", 0.05),
         ("glossy_metal", 0.08),
+        ("textured_box", 0.08),
     ] {
         let image = render(&format!("suite/{scene}.gltf"), settings.clone(), 4);
         let reference = reference(&format!("suite/{scene}.ref.exr"));

@@ -1,0 +1,143 @@
+#!/usr/bin/env python3
+"""A textured scene the project was not built against (issue 12's textures): a closed box
+whose floor is a checker texture (albedo 0.8 / 0.1), whose back wall has vertex colours,
+lit by a ceiling panel with a striped emissive texture and a point light shining through a
+cut-out screen (an alpha-masked texture with round holes, double-sided) onto the floor.
+
+    python3 tools/textured_box.py assets/suite/textured_box.gltf
+    python3 tools/reference.py assets/suite/textured_box.gltf --out assets/suite/textured_box.ref.exr \\
+        --width 256 --height 256 --spp 2048 --variant scalar_rgb
+"""
+import base64
+import json
+import math
+import os
+import struct
+import sys
+import zlib
+
+
+def write_png(path, width, height, rgba):
+    """8-bit RGBA PNG; `rgba(x, y)` gives 4 ints, row 0 at the top."""
+    rows = b"".join(b"\0" + b"".join(struct.pack("4B", *rgba(x, y)) for x in range(width)) for y in range(height))
+
+    def chunk(kind, data):
+        return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data))
+
+    with open(path, "wb") as f:
+        f.write(b"\x89PNG\r\n\x1a\n")
+        f.write(chunk(b"IHDR", struct.pack(">IIBBBBB", width, height, 8, 6, 0, 0, 0)))
+        f.write(chunk(b"IDAT", zlib.compress(rows, 9)))
+        f.write(chunk(b"IEND", b""))
+
+
+def srgb(linear):
+    c = linear * 12.92 if linear <= 0.0031308 else 1.055 * linear ** (1 / 2.4) - 0.055
+    return round(255 * min(max(c, 0.0), 1.0))
+
+
+out = sys.argv[1] if len(sys.argv) > 1 else "textured_box.gltf"
+folder = os.path.dirname(os.path.abspath(out))
+os.makedirs(os.path.join(folder, "textures"), exist_ok=True)
+# 8 × 8 checks on a 64² texture, sRGB-encoded albedos 0.8 and 0.1.
+write_png(os.path.join(folder, "textures/checker.png"), 64, 64,
+          lambda x, y: [srgb(0.8 if (x // 8 + y // 8) % 2 == 0 else 0.1)] * 3 + [255])
+# Stripes along u (8 across, lit / dark 1 : 0.2): an emitter whose power follows its texture.
+write_png(os.path.join(folder, "textures/stripes.png"), 32, 8,
+          lambda x, y: [srgb(1.0 if (x // 4) % 2 == 0 else 0.2)] * 3 + [255])
+# A green leaf screen with a 4 × 4 grid of round holes (alpha 0) in a 64² texture.
+write_png(os.path.join(folder, "textures/holes.png"), 64, 64,
+          lambda x, y: [srgb(0.2), srgb(0.5), srgb(0.15),
+                        0 if math.hypot((x % 16) - 7.5, (y % 16) - 7.5) < 5.5 else 255])
+
+buf = b""
+views, accessors, meshes, nodes, materials = [], [], [], [], []
+
+
+def push(values, fmt, target, kind, component, minmax=None):
+    global buf
+    raw = b"".join(struct.pack(fmt, *v) for v in values)
+    offset = len(buf)
+    buf += raw
+    while len(buf) % 4:
+        buf += b"\0"
+    views.append({"buffer": 0, "byteOffset": offset, "byteLength": len(raw), "target": target})
+    a = {"bufferView": len(views) - 1, "componentType": component, "count": len(values), "type": kind}
+    if minmax:
+        a["min"], a["max"] = minmax
+    accessors.append(a)
+    return len(accessors) - 1
+
+
+def quad(corners, normal, material, uv_scale=1.0, colors=None):
+    """A quad (corners counter-clockwise seen from its front), UVs (0,0) (1,0) (1,1) (0,1) × scale."""
+    uvs = [(0, 0), (uv_scale, 0), (uv_scale, uv_scale), (0, uv_scale)]
+    mn = [min(p[i] for p in corners) for i in range(3)]
+    mx = [max(p[i] for p in corners) for i in range(3)]
+    attributes = {
+        "POSITION": push(corners, "<3f", 34962, "VEC3", 5126, (mn, mx)),
+        "NORMAL": push([normal] * 4, "<3f", 34962, "VEC3", 5126),
+        "TEXCOORD_0": push(uvs, "<2f", 34962, "VEC2", 5126),
+    }
+    if colors:
+        attributes["COLOR_0"] = push(colors, "<4f", 34962, "VEC4", 5126)
+    indices = push([(0,), (1,), (2,), (0,), (2,), (3,)], "<I", 34963, "SCALAR", 5125)
+    meshes.append({"primitives": [{"attributes": attributes, "indices": indices, "material": material}]})
+    nodes.append({"mesh": len(meshes) - 1})
+
+
+def material(rgb, texture=None, **extra):
+    pbr = {"baseColorFactor": rgb + [1.0], "metallicFactor": 0.0, "roughnessFactor": 1.0}
+    if texture is not None:
+        pbr["baseColorTexture"] = {"index": texture}
+    m = {"pbrMetallicRoughness": pbr}
+    m.update(extra)
+    materials.append(m)
+    return len(materials) - 1
+
+
+images = [{"uri": "textures/checker.png"}, {"uri": "textures/stripes.png"}, {"uri": "textures/holes.png"}]
+textures = [{"source": i} for i in range(3)]
+white = material([0.75, 0.75, 0.75])
+red = material([0.7, 0.12, 0.1])
+green = material([0.12, 0.6, 0.15])
+checker = material([1.0, 1.0, 1.0], texture=0, name="checker")
+painted = material([1.0, 1.0, 1.0], name="vertex colours")
+panel = material([0.0, 0.0, 0.0], name="striped emitter", emissiveTexture={"index": 1}, emissiveFactor=[1.0, 1.0, 1.0],
+                 extensions={"KHR_materials_emissive_strength": {"emissiveStrength": 6.0}})
+screen = material([1.0, 1.0, 1.0], texture=2, name="cut-out screen", alphaMode="MASK", alphaCutoff=0.5, doubleSided=True)
+
+x0, x1, y0, y1, z0, z1 = -1.0, 1.0, 0.0, 2.0, -1.0, 1.0
+quad([[x0, y0, z1], [x1, y0, z1], [x1, y0, z0], [x0, y0, z0]], [0, 1, 0], checker)                    # floor
+quad([[x0, y1, z0], [x1, y1, z0], [x1, y1, z1], [x0, y1, z1]], [0, -1, 0], white)                     # ceiling
+quad([[x0, y0, z0], [x1, y0, z0], [x1, y1, z0], [x0, y1, z0]], [0, 0, 1], painted,
+     colors=[[0.9, 0.2, 0.2, 1], [0.2, 0.3, 0.9, 1], [0.9, 0.9, 0.2, 1], [0.9, 0.9, 0.9, 1]])       # back
+quad([[x0, y0, z1], [x0, y0, z0], [x0, y1, z0], [x0, y1, z1]], [1, 0, 0], red)                        # left
+quad([[x1, y0, z0], [x1, y0, z1], [x1, y1, z1], [x1, y1, z0]], [-1, 0, 0], green)                     # right
+quad([[x0, y0, z1], [x0, y1, z1], [x1, y1, z1], [x1, y0, z1]], [0, 0, -1], white)                     # front (behind camera)
+e = 0.35
+quad([[-e, y1 - 0.001, z0 + 0.3], [e, y1 - 0.001, z0 + 0.3], [e, y1 - 0.001, z0 + 1.0], [-e, y1 - 0.001, z0 + 1.0]],
+     [0, -1, 0], panel)                                                                                # ceiling panel
+s, cx, cy, cz = 0.3, -0.3, 0.7, -0.35
+quad([[cx - s, cy, cz - s], [cx - s, cy, cz + s], [cx + s, cy, cz + s], [cx + s, cy, cz - s]],
+     [0, 1, 0], screen)                                                                                # cut-out screen
+nodes.append({"extensions": {"KHR_lights_punctual": {"light": 0}}, "translation": [-0.3, 1.5, -0.7]})
+nodes.append({"camera": 0, "translation": [0.0, 1.55, 0.95], "rotation": [-0.2231, 0.0, 0.0, 0.9748]})
+gltf = {
+    "asset": {"version": "2.0", "generator": "tools/textured_box.py"},
+    "scene": 0,
+    "scenes": [{"nodes": list(range(len(nodes)))}],
+    "nodes": nodes,
+    "meshes": meshes,
+    "materials": materials,
+    "images": images,
+    "textures": textures,
+    "accessors": accessors,
+    "bufferViews": views,
+    "buffers": [{"byteLength": len(buf), "uri": "data:application/octet-stream;base64," + base64.b64encode(buf).decode()}],
+    "cameras": [{"type": "perspective", "perspective": {"yfov": 1.0, "znear": 0.05, "zfar": 100.0, "aspectRatio": 1.0}}],
+    "extensionsUsed": ["KHR_lights_punctual", "KHR_materials_emissive_strength"],
+    "extensions": {"KHR_lights_punctual": {"lights": [{"type": "point", "color": [1, 1, 1], "intensity": 2.0}]}},
+}
+with open(out, "w") as f:
+    json.dump(gltf, f)

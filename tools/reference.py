@@ -16,8 +16,9 @@ roughness < 0.02 → perfect `conductor`; metallic otherwise → `roughconductor
 roughness²); transmission with roughness < 0.02 → `dielectric`; emissive → area emitter.
 Textures (numpy needed): base colour texture × factor and emissive texture × factor as
 bilinear repeating bitmaps, COLOR_0 as the `vertex_color` mesh attribute, alpha `MASK` as a
-`mask` BSDF, `doubleSided` as `twosided`; metallic-roughness and normal textures and
-KHR_texture_transform are left out (with a warning).
+`mask` BSDF, `doubleSided` as `twosided`, a metallic-roughness texture (on a Lambertian
+base) as a `blendbsdf` of Lambert and `roughconductor` weighted by metallic, a normal texture
+as `normalmap`; KHR_texture_transform and the normal map's scale are left out.
 Lights: KHR_lights_punctual point (W/sr = cd), spot (hard cone at the outer angle: Mitsuba's
 falloff differs from Bevy's a², so only the cone is kept), directional (W/m² = lux).
 """
@@ -166,6 +167,23 @@ class Textures:
         linear = np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
         return self._write(linear * np.array(factor[:3], dtype=np.float32), "colour")
 
+    def metallic_roughness(self, info, metallic, roughness):
+        """Metallic (B × factor) as a blend weight and GGX α = (G × factor)² as bitmaps."""
+        import numpy as np
+
+        p = self._pixels(info)
+        metal = p[..., 2] * metallic
+        alpha = np.maximum((p[..., 1] * roughness) ** 2, 1e-3)
+        return self._write(np.stack([metal] * 3, axis=2), "metallic"), self._write(np.stack([alpha] * 3, axis=2), "alpha")
+
+    def normal_map(self, info):
+        """A glTF normal map for Mitsuba's `normalmap`: its frame's second axis is n × ∂p/∂u,
+        glTF's is −∂p/∂v (texture +Y up, v down the image); for UVs laid out without a mirror
+        the two are opposite, so green is flipped."""
+        p = self._pixels(info)[..., :3].copy()
+        p[..., 1] = 1.0 - p[..., 1]
+        return self._write(p, "normal")
+
     def mask(self, info, alpha_factor, cutoff):
         """Opacity of an alpha cut-out: alpha upsampled 4× bilinearly, then thresholded (as
         rppm thresholds its bilinear alpha)."""
@@ -196,17 +214,15 @@ def bsdf_of(material, textures=None, vertex_colors=False):
     rgb = {"type": "rgb", "value": base}
     if transmission > 0 and roughness < 0.02:
         return {"type": "dielectric", "int_ior": ior, "ext_ior": 1.0}, f"dielectric(ior={ior})"
-    if metallic > 0 and roughness < 0.02:
+    textured_metal = "metallicRoughnessTexture" in pbr and textures
+    if metallic > 0 and roughness < 0.02 and not textured_metal:
         return {"type": "conductor", "material": "none", "specular_reflectance": rgb}, "conductor(none)"
-    if metallic > 0:
+    if metallic > 0 and not textured_metal:
         alpha = max(roughness * roughness, 1e-3)
         return (
             {"type": "roughconductor", "material": "none", "distribution": "ggx", "alpha": alpha, "specular_reflectance": rgb},
             f"roughconductor(alpha={alpha:.3f})",
         )
-    for unsupported in ("metallicRoughnessTexture", "normalTexture"):
-        if unsupported in pbr or unsupported in material:
-            print(f"reference.py: {unsupported} is ignored", file=sys.stderr)
     description = "diffuse(lambert)"
     if "baseColorTexture" in pbr and textures:
         rgb = textures.colour(pbr["baseColorTexture"], base)
@@ -219,6 +235,16 @@ def bsdf_of(material, textures=None, vertex_colors=False):
         rgb = {"type": "mesh_attribute", "name": "vertex_color"}
         description += " x vertex colours"
     bsdf = {"type": "diffuse", "reflectance": rgb}
+    if textured_metal:
+        # Per texel: Lambert where metallic is 0, a GGX conductor of α = roughness² where 1.
+        metal, alpha = textures.metallic_roughness(pbr["metallicRoughnessTexture"], metallic, roughness)
+        conductor = {"type": "roughconductor", "material": "none", "distribution": "ggx", "alpha": alpha,
+                     "specular_reflectance": rgb}
+        bsdf = {"type": "blendbsdf", "weight": metal, "bsdf_0": bsdf, "bsdf_1": conductor}
+        description = f"blend({description}, roughconductor) by metallic texture"
+    if "normalTexture" in material and textures:
+        bsdf = {"type": "normalmap", "normalmap": textures.normal_map(material["normalTexture"]), "bsdf": bsdf}
+        description = f"normalmap({description})"
     if material.get("doubleSided"):
         bsdf = {"type": "twosided", "bsdf": bsdf}
         description = f"twosided({description})"

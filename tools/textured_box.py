@@ -1,10 +1,15 @@
 #!/usr/bin/env python3
-"""A textured scene the project was not built against (issue 12's textures): a closed box
-whose floor is a checker texture (albedo 0.8 / 0.1), whose back wall has vertex colours,
-lit by a ceiling panel with a striped emissive texture and a point light shining through a
-cut-out screen (an alpha-masked texture with round holes, double-sided) onto the floor.
+"""Textured scenes the project was not built against (issue 12's textures), closed boxes:
 
-    python3 tools/textured_box.py assets/suite/textured_box.gltf
+- `box`: the floor a checker texture (albedo 0.8 / 0.1), the back wall in vertex colours, lit
+  by a ceiling panel with a striped emissive texture and a point light shining through a
+  cut-out screen (an alpha-masked texture with round holes, double-sided) onto the floor;
+- `metal`: the floor normal-mapped with round bumps under a grazing point light, the back
+  wall gold in stripes of rough metal and Lambertian paint (a metallic-roughness texture),
+  a plain emissive ceiling panel.
+
+    python3 tools/textured_box.py assets/suite/textured_box.gltf box
+    python3 tools/textured_box.py assets/suite/textured_metal.gltf metal
     python3 tools/reference.py assets/suite/textured_box.gltf --out assets/suite/textured_box.ref.exr \\
         --width 256 --height 256 --spp 2048 --variant scalar_rgb
 """
@@ -37,6 +42,9 @@ def srgb(linear):
 
 
 out = sys.argv[1] if len(sys.argv) > 1 else "textured_box.gltf"
+variant = sys.argv[2] if len(sys.argv) > 2 else "box"
+if variant not in ("box", "metal"):
+    sys.exit("textured_box.py: error: the variant is box or metal")
 folder = os.path.dirname(os.path.abspath(out))
 os.makedirs(os.path.join(folder, "textures"), exist_ok=True)
 # 8 × 8 checks on a 64² texture, sRGB-encoded albedos 0.8 and 0.1.
@@ -49,6 +57,25 @@ write_png(os.path.join(folder, "textures/stripes.png"), 32, 8,
 write_png(os.path.join(folder, "textures/holes.png"), 64, 64,
           lambda x, y: [srgb(0.2), srgb(0.5), srgb(0.15),
                         0 if math.hypot((x % 16) - 7.5, (y % 16) - 7.5) < 5.5 else 255])
+
+
+
+def dome(x, y, cells, size):
+    """Tangent-space normal (texture +X right, +Y up) of a round bump per cell, as RGBA8."""
+    cell = size / cells
+    dx = ((x % cell) + 0.5 - cell / 2) / (0.4 * cell)
+    dy = -((y % cell) + 0.5 - cell / 2) / (0.4 * cell)
+    r2 = dx * dx + dy * dy
+    nx, ny = (0.7 * dx, 0.7 * dy) if r2 < 1 else (0.0, 0.0)
+    nz = math.sqrt(max(1 - nx * nx - ny * ny, 0.0))
+    return [round(255 * (c * 0.5 + 0.5)) for c in (nx, ny, nz)] + [255]
+
+
+# Round bumps, 4 × 4 on a 64² normal map.
+write_png(os.path.join(folder, "textures/bumps.png"), 64, 64, lambda x, y: dome(x, y, 4, 64))
+# Metallic-roughness stripes along u: metal at roughness 0.5 (G 128, B 255) / paint (G 255, B 0).
+write_png(os.path.join(folder, "textures/metal_stripes.png"), 32, 8,
+          lambda x, y: [0, 128, 255, 255] if (x // 4) % 2 == 0 else [0, 255, 0, 255])
 
 buf = b""
 views, accessors, meshes, nodes, materials = [], [], [], [], []
@@ -96,32 +123,44 @@ def material(rgb, texture=None, **extra):
     return len(materials) - 1
 
 
-images = [{"uri": "textures/checker.png"}, {"uri": "textures/stripes.png"}, {"uri": "textures/holes.png"}]
-textures = [{"source": i} for i in range(3)]
+x0, x1, y0, y1, z0, z1 = -1.0, 1.0, 0.0, 2.0, -1.0, 1.0
 white = material([0.75, 0.75, 0.75])
 red = material([0.7, 0.12, 0.1])
 green = material([0.12, 0.6, 0.15])
-checker = material([1.0, 1.0, 1.0], texture=0, name="checker")
-painted = material([1.0, 1.0, 1.0], name="vertex colours")
-panel = material([0.0, 0.0, 0.0], name="striped emitter", emissiveTexture={"index": 1}, emissiveFactor=[1.0, 1.0, 1.0],
-                 extensions={"KHR_materials_emissive_strength": {"emissiveStrength": 6.0}})
-screen = material([1.0, 1.0, 1.0], texture=2, name="cut-out screen", alphaMode="MASK", alphaCutoff=0.5, doubleSided=True)
-
-x0, x1, y0, y1, z0, z1 = -1.0, 1.0, 0.0, 2.0, -1.0, 1.0
-quad([[x0, y0, z1], [x1, y0, z1], [x1, y0, z0], [x0, y0, z0]], [0, 1, 0], checker)                    # floor
+if variant == "box":
+    images = [{"uri": "textures/checker.png"}, {"uri": "textures/stripes.png"}, {"uri": "textures/holes.png"}]
+    floor = material([1.0, 1.0, 1.0], texture=0, name="checker")
+    back = material([1.0, 1.0, 1.0], name="vertex colours")
+    back_colors = [[0.9, 0.2, 0.2, 1], [0.2, 0.3, 0.9, 1], [0.9, 0.9, 0.2, 1], [0.9, 0.9, 0.9, 1]]
+    panel = material([0.0, 0.0, 0.0], name="striped emitter", emissiveTexture={"index": 1},
+                     emissiveFactor=[1.0, 1.0, 1.0], extensions={"KHR_materials_emissive_strength": {"emissiveStrength": 6.0}})
+    light = {"translation": [-0.3, 1.5, -0.7], "intensity": 2.0}
+else:
+    images = [{"uri": "textures/bumps.png"}, {"uri": "textures/metal_stripes.png"}]
+    floor = material([0.7, 0.7, 0.7], name="bumps", normalTexture={"index": 0})
+    back = material([0.9, 0.65, 0.3], name="striped metal")
+    materials[back]["pbrMetallicRoughness"].update(metallicFactor=1.0, metallicRoughnessTexture={"index": 1})
+    back_colors = None
+    panel = material([0.0, 0.0, 0.0], name="emitter", emissiveFactor=[1.0, 1.0, 1.0],
+                     extensions={"KHR_materials_emissive_strength": {"emissiveStrength": 4.0}})
+    light = {"translation": [-0.9, 0.3, 0.2], "intensity": 1.0}
+textures = [{"source": i} for i in range(len(images))]
+quad([[x0, y0, z1], [x1, y0, z1], [x1, y0, z0], [x0, y0, z0]], [0, 1, 0], floor)                      # floor
 quad([[x0, y1, z0], [x1, y1, z0], [x1, y1, z1], [x0, y1, z1]], [0, -1, 0], white)                     # ceiling
-quad([[x0, y0, z0], [x1, y0, z0], [x1, y1, z0], [x0, y1, z0]], [0, 0, 1], painted,
-     colors=[[0.9, 0.2, 0.2, 1], [0.2, 0.3, 0.9, 1], [0.9, 0.9, 0.2, 1], [0.9, 0.9, 0.9, 1]])       # back
+quad([[x0, y0, z0], [x1, y0, z0], [x1, y1, z0], [x0, y1, z0]], [0, 0, 1], back, colors=back_colors)   # back
 quad([[x0, y0, z1], [x0, y0, z0], [x0, y1, z0], [x0, y1, z1]], [1, 0, 0], red)                        # left
 quad([[x1, y0, z0], [x1, y0, z1], [x1, y1, z1], [x1, y1, z0]], [-1, 0, 0], green)                     # right
 quad([[x0, y0, z1], [x0, y1, z1], [x1, y1, z1], [x1, y0, z1]], [0, 0, -1], white)                     # front (behind camera)
 e = 0.35
 quad([[-e, y1 - 0.001, z0 + 0.3], [e, y1 - 0.001, z0 + 0.3], [e, y1 - 0.001, z0 + 1.0], [-e, y1 - 0.001, z0 + 1.0]],
      [0, -1, 0], panel)                                                                                # ceiling panel
-s, cx, cy, cz = 0.3, -0.3, 0.7, -0.35
-quad([[cx - s, cy, cz - s], [cx - s, cy, cz + s], [cx + s, cy, cz + s], [cx + s, cy, cz - s]],
-     [0, 1, 0], screen)                                                                                # cut-out screen
-nodes.append({"extensions": {"KHR_lights_punctual": {"light": 0}}, "translation": [-0.3, 1.5, -0.7]})
+if variant == "box":
+    screen = material([1.0, 1.0, 1.0], texture=2, name="cut-out screen", alphaMode="MASK", alphaCutoff=0.5,
+                      doubleSided=True)
+    s, cx, cy, cz = 0.3, -0.3, 0.7, -0.35
+    quad([[cx - s, cy, cz - s], [cx - s, cy, cz + s], [cx + s, cy, cz + s], [cx + s, cy, cz - s]],
+         [0, 1, 0], screen)                                                                            # cut-out screen
+nodes.append({"extensions": {"KHR_lights_punctual": {"light": 0}}, "translation": light["translation"]})
 nodes.append({"camera": 0, "translation": [0.0, 1.55, 0.95], "rotation": [-0.2231, 0.0, 0.0, 0.9748]})
 gltf = {
     "asset": {"version": "2.0", "generator": "tools/textured_box.py"},
@@ -137,7 +176,7 @@ gltf = {
     "buffers": [{"byteLength": len(buf), "uri": "data:application/octet-stream;base64," + base64.b64encode(buf).decode()}],
     "cameras": [{"type": "perspective", "perspective": {"yfov": 1.0, "znear": 0.05, "zfar": 100.0, "aspectRatio": 1.0}}],
     "extensionsUsed": ["KHR_lights_punctual", "KHR_materials_emissive_strength"],
-    "extensions": {"KHR_lights_punctual": {"lights": [{"type": "point", "color": [1, 1, 1], "intensity": 2.0}]}},
+    "extensions": {"KHR_lights_punctual": {"lights": [{"type": "point", "color": [1, 1, 1], "intensity": light["intensity"]}]}},
 }
 with open(out, "w") as f:
     json.dump(gltf, f)

@@ -89,14 +89,16 @@ fn follow_camera_path(pixel: u32, x0: vec3<f32>, n0: vec3<f32>, m0: Material, tr
         let w = vec3<f32>(1.0 - hit.uv.x - hit.uv.y, hit.uv);
         let geometric = cross(t.position_b - t.position_a, t.position_c - t.position_a);
         let front = dot(geometric, d) < 0.0;
-        var n = normal_at(hit.triangle, hit.uv, normalize(t.normal_a * w.x + t.normal_b * w.y + t.normal_c * w.z), 0.0);
+        var interpolated = normalize(t.normal_a * w.x + t.normal_b * w.y + t.normal_c * w.z);
+        var n = normal_at(hit.triangle, hit.uv, interpolated, 0.0);
         if !front {
             n = -n;
+            interpolated = -interpolated;
         }
         if stores_photons(m) {
             let footprint = params.pixel_spread * select(length, 1.0, params.orthographic != 0u);
             let radius = gather_radius(params, params.splat_radius, footprint);
-            importons[pixel] = Importon(x, hit.triangle, n, 0u, throughput, radius, -d, 0u);
+            importons[pixel] = Importon(x, hit.triangle, interpolated, 0u, throughput, radius, -d, 0u);
             let tile = cubemap_tile(cubemap, x);
             importons[pixel].next = atomicExchange(&importon_heads[tile.index], pixel + 1u);
             atomicMax(&importon_stats[0], bitcast<u32>(radius));

@@ -103,14 +103,17 @@ fn trace(@builtin(global_invocation_id) id: vec3<u32>) {
         let w = vec3<f32>(1.0 - hit.uv.x - hit.uv.y, hit.uv);
         let geometric = normalize(cross(t.position_b - t.position_a, t.position_c - t.position_a));
         let front = dot(geometric, ray.direction) < 0.0;
-        // Shading normal, on the side the photon arrives from.
-        var n = normal_at(hit.triangle, hit.uv, normalize(t.normal_a * w.x + t.normal_b * w.y + t.normal_c * w.z), 0.0);
+        // Shading normal (normal map applied) and the kernel's (stored), on the side the
+        // photon arrives from.
+        var interpolated = normalize(t.normal_a * w.x + t.normal_b * w.y + t.normal_c * w.z);
+        var n = normal_at(hit.triangle, hit.uv, interpolated, 0.0);
         if !front {
             n = -n;
+            interpolated = -interpolated;
         }
         let direct_only = params.direct_photons != 0u;
         if (depth > 0u || direct_only) && stores_photons(m) {
-            store(x, ray, n);
+            store(x, ray, interpolated);
         }
         if direct_only {
             return;

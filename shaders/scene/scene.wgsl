@@ -12,7 +12,8 @@
 @group(0) @binding(5) var<storage, read> light_cdf: array<f32>;
 // The GGX lobe's directional albedo and its averages (src/bsdf.rs), for bsdf.wgsl.
 @group(0) @binding(6) var<storage, read> ggx_albedo: array<vec4<f32>>;
-// Read only for MATERIAL_TEXTURED materials (one zeroed item otherwise).
+// Read only by the TEXTURED variants of the stages (one zeroed item otherwise), and there
+// only for MATERIAL_TEXTURED materials.
 @group(0) @binding(7) var<storage, read> attributes: array<TriangleAttributes>;
 @group(0) @binding(8) var<storage, read> textures: array<Texture>;
 @group(0) @binding(9) var<storage, read> texels: array<u32>;
@@ -112,6 +113,7 @@ fn base_color_at(m: Material, triangle: u32, b: vec2<f32>, uv: vec3<f32>, footpr
 // `footprint` metres wide (0: the finest).
 fn material_at(triangle: u32, b: vec2<f32>, footprint: f32) -> Material {
     var m = materials[triangles[triangle].material];
+#ifdef TEXTURED
     if (m.flags & MATERIAL_TEXTURED) != 0u {
         let uv = surface_uv(m, triangle, b);
         m.base_color = base_color_at(m, triangle, b, uv, footprint);
@@ -133,6 +135,7 @@ fn material_at(triangle: u32, b: vec2<f32>, footprint: f32) -> Material {
         m.reflectance = 0.0;
         m.specular_transmission = 0.0;
     }
+#endif
     return m;
 }
 
@@ -140,6 +143,7 @@ fn material_at(triangle: u32, b: vec2<f32>, footprint: f32) -> Material {
 // cutoff) and, for blended alpha, with probability alpha, hashed on the hit point (hashed
 // alpha testing: the camera's jitter and every new path average it out).
 fn opaque_at(triangle: u32, b: vec2<f32>) -> bool {
+#ifdef TEXTURED
     let m = materials[triangles[triangle].material];
     if (m.flags & (MATERIAL_ALPHA_MASK | MATERIAL_ALPHA_HASHED)) == 0u {
         return true;
@@ -153,11 +157,15 @@ fn opaque_at(triangle: u32, b: vec2<f32>) -> bool {
     }
     let h = pcg_hash(triangle ^ pcg_hash(bitcast<u32>(b.x) ^ pcg_hash(bitcast<u32>(b.y))));
     return alpha > f32(h >> 8u) / 16777216.0;
+#else
+    return true;
+#endif
 }
 
 // The shading normal at barycentrics b: the interpolated normal `n` bent by the normal map in
 // the tangent frame of the triangle's texture coordinates (glTF's: texture +Y towards −v).
 fn normal_at(triangle: u32, b: vec2<f32>, n: vec3<f32>, footprint: f32) -> vec3<f32> {
+#ifdef TEXTURED
     let m = materials[triangles[triangle].material];
     if (m.flags & MATERIAL_TEXTURED) == 0u || m.textures.w == NO_TEXTURE {
         return n;
@@ -189,6 +197,28 @@ fn normal_at(triangle: u32, b: vec2<f32>, n: vec3<f32>, footprint: f32) -> vec3<
     let bn = normalize(up - tn * dot(tn, up));
     let bent = tn * c.x + bn * c.y + n * max(c.z, 1e-3);
     return normalize(bent);
+#else
+    return n;
+#endif
+}
+
+// The normal the gather kernel lies in at a G-buffer texel whose shading normal is `shading`:
+// the interpolated normal, on the shading normal's side, where a normal map bends it (bumps
+// seen by the kernel would turn away the photons of their own flat surface).
+fn kernel_normal(position: vec4<f32>, shading: vec3<f32>) -> vec3<f32> {
+#ifdef TEXTURED
+    let triangle = u32(abs(position.w)) - 1u;
+    let t = triangles[triangle];
+    let m = materials[t.material];
+    if (m.flags & MATERIAL_TEXTURED) == 0u || m.textures.w == NO_TEXTURE {
+        return shading;
+    }
+    let b = barycentrics(t, position.xyz);
+    let n = normalize(t.normal_a * (1.0 - b.x - b.y) + t.normal_b * b.x + t.normal_c * b.y);
+    return select(-n, n, dot(n, shading) >= 0.0);
+#else
+    return shading;
+#endif
 }
 
 // Index of the light source in first..=last whose interval of the power CDF holds u.

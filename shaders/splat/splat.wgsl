@@ -6,7 +6,7 @@
 // pixel of the block, and holds incident light Σ Φ / (π r²) for the joint-bilateral upsampling
 // in shaders/accumulate/accumulate.wgsl, which applies each full-resolution pixel's own BSDF.
 #import bevy_rppm::common::{Photon, IterationParams, PI, gather_radius, splat_survives, splat_weight, subsample_representative}
-#import bevy_rppm::scene::gbuffer_material
+#import bevy_rppm::scene::{gbuffer_material, kernel_normal}
 #import bevy_rppm::bsdf::bsdf_eval
 
 @group(1) @binding(0) var<uniform> params: IterationParams;
@@ -53,8 +53,9 @@ fn fragment(in: VertexOut) -> @location(0) vec4<f32> {
     let p = photons[in.photon];
     let radius = gather_radius(params, params.splat_radius, gn.w);
     let offset = p.position - gp.xyz;
+    let plane = kernel_normal(gp, gn.xyz);
     // Inside the gather disc, on this surface: near its plane and facing the same way.
-    if dot(offset, offset) > radius * radius || abs(dot(offset, gn.xyz)) > params.kernel_flattening * radius || dot(p.normal, gn.xyz) < 0.5 {
+    if dot(offset, offset) > radius * radius || abs(dot(offset, plane)) > params.kernel_flattening * radius || dot(p.normal, plane) < 0.5 {
         discard;
     }
     if !splat_survives(params, in.photon, u32(pixel.y) * params.size.x + u32(pixel.x)) {
@@ -66,7 +67,10 @@ fn fragment(in: VertexOut) -> @location(0) vec4<f32> {
 #else
     let m = gbuffer_material(gp, gn.w);
     let wo = normalize(params.camera_position.xyz - gp.xyz);
-    let f = bsdf_eval(m, gn.xyz, wo, p.incoming);
+    // The photons' density is irradiance on the kernel's plane; a normal map's bent normal
+    // receives it by its own cosine instead.
+    let bend = select(1.0, dot(gn.xyz, p.incoming) / max(dot(plane, p.incoming), 0.05), any(plane != gn.xyz));
+    let f = bsdf_eval(m, gn.xyz, wo, p.incoming) * bend;
     return vec4<f32>(f * p.flux * density, 0.0);
 #endif
 }

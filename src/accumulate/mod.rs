@@ -10,10 +10,11 @@ use bevy::render::render_resource::binding_types::{
 use bevy::render::render_resource::*;
 use bevy::render::renderer::RenderDevice;
 use bevy::render::{RenderApp, RenderStartup};
-use bevy::shader::{Shader, ShaderDefVal};
+use bevy::shader::Shader;
 
 use crate::gbuffer::GBuffer;
 use crate::importons::EyePaths;
+use crate::scene::texture_defs;
 use crate::shaders::RppmShaders;
 use crate::splat::SplatTarget;
 use crate::stats::timing::{Stage, StageTimer};
@@ -49,13 +50,15 @@ pub struct AccumulateKey {
     pub subsampled: bool,
     /// Importons gathered photons too (`IMPORTONS`).
     pub importons: bool,
+    /// The scene's texture lookups (`TEXTURED`).
+    pub textured: bool,
 }
 
 impl SpecializedComputePipeline for AccumulatePipeline {
     type Key = AccumulateKey;
 
     fn specialize(&self, key: AccumulateKey) -> ComputePipelineDescriptor {
-        let mut shader_defs: Vec<ShaderDefVal> = Vec::new();
+        let mut shader_defs = texture_defs(key.textured);
         if key.subsampled {
             shader_defs.push("SUBSAMPLED".into());
         }

@@ -8,6 +8,7 @@ use bevy::render::renderer::RenderDevice;
 use bevy::render::texture::TextureCache;
 use bevy::render::{RenderApp, RenderStartup};
 
+use crate::scene::texture_defs;
 use crate::shaders::RppmShaders;
 use crate::shadows::depth_state;
 use crate::stats::timing::{Stage, StageTimer};
@@ -21,42 +22,61 @@ pub(crate) struct GBufferPlugin;
 impl Plugin for GBufferPlugin {
     fn build(&self, app: &mut App) {
         if let Some(render_app) = app.get_sub_app_mut(RenderApp) {
-            render_app.add_systems(RenderStartup, init_gbuffer_pipeline);
+            render_app
+                .init_resource::<SpecializedRenderPipelines<GBufferPipeline>>()
+                .add_systems(RenderStartup, init_gbuffer_pipeline);
         }
     }
 }
 
+/// The G-buffer stage, specialized by whether the scene is textured (`TEXTURED`: normal
+/// maps and alpha cut-outs).
 #[derive(Resource)]
-pub struct GBufferPipeline(pub CachedRenderPipelineId);
+pub struct GBufferPipeline {
+    layouts: ViewLayouts,
+    shader: Handle<Shader>,
+}
+
+impl SpecializedRenderPipeline for GBufferPipeline {
+    type Key = bool;
+
+    fn specialize(&self, textured: bool) -> RenderPipelineDescriptor {
+        let shader_defs = texture_defs(textured);
+        let target = Some(ColorTargetState {
+            format: GBUFFER_FORMAT,
+            blend: None,
+            write_mask: ColorWrites::ALL,
+        });
+        RenderPipelineDescriptor {
+            label: Some("rppm_gbuffer_pipeline".into()),
+            layout: vec![self.layouts.scene.clone(), self.layouts.params.clone()],
+            vertex: VertexState {
+                shader: self.shader.clone(),
+                shader_defs: shader_defs.clone(),
+                ..default()
+            },
+            fragment: Some(FragmentState {
+                shader: self.shader.clone(),
+                shader_defs,
+                targets: vec![target.clone(), target],
+                ..default()
+            }),
+            // Reverse Z, as Bevy's camera projections.
+            depth_stencil: Some(depth_state(DEPTH_FORMAT, CompareFunction::Greater)),
+            ..default()
+        }
+    }
+}
 
 fn init_gbuffer_pipeline(
     mut commands: Commands,
-    cache: Res<PipelineCache>,
     shaders: Res<RppmShaders>,
     layouts: Res<ViewLayouts>,
 ) {
-    let target = Some(ColorTargetState {
-        format: GBUFFER_FORMAT,
-        blend: None,
-        write_mask: ColorWrites::ALL,
+    commands.insert_resource(GBufferPipeline {
+        layouts: layouts.clone(),
+        shader: shaders.gbuffer.clone(),
     });
-    let id = cache.queue_render_pipeline(RenderPipelineDescriptor {
-        label: Some("rppm_gbuffer_pipeline".into()),
-        layout: vec![layouts.scene.clone(), layouts.params.clone()],
-        vertex: VertexState {
-            shader: shaders.gbuffer.clone(),
-            ..default()
-        },
-        fragment: Some(FragmentState {
-            shader: shaders.gbuffer.clone(),
-            targets: vec![target.clone(), target],
-            ..default()
-        }),
-        // Reverse Z, as Bevy's camera projections.
-        depth_stencil: Some(depth_state(DEPTH_FORMAT, CompareFunction::Greater)),
-        ..default()
-    });
-    commands.insert_resource(GBufferPipeline(id));
 }
 
 /// One camera's G-buffer targets for this frame, from Bevy's `TextureCache` (per view and

@@ -8,7 +8,6 @@ use bevy::render::view::ViewTarget;
 
 use super::state::{RppmViewState, ViewTimer};
 use crate::cubemap::{CubemapPipelines, TracingGroups};
-use crate::gbuffer::GBufferPipeline;
 use crate::scene::SceneBuffers;
 use crate::settings::RppmDebugView;
 use crate::shadows::{ShadowPipeline, render_layers};
@@ -29,15 +28,10 @@ struct NodePipelines<'a> {
 }
 
 /// This frame's PPM iterations of the view, then the view output.
-#[expect(
-    clippy::too_many_arguments,
-    reason = "one resource per stage's pipelines"
-)]
 pub(crate) fn rppm_node(
     view: ViewQuery<(&ViewTarget, &RppmViewState, &mut ViewTimer)>,
     scene: Option<Res<SceneBuffers>>,
     shadow: Res<ShadowPipeline>,
-    gbuffer: Res<GBufferPipeline>,
     cubemap_pipelines: Res<CubemapPipelines>,
     #[cfg(feature = "debug")] debug_pipelines: Res<crate::debug::DebugViewPipelines>,
     cache: Res<PipelineCache>,
@@ -49,7 +43,7 @@ pub(crate) fn rppm_node(
     };
     let (Some(shadow), Some(gbuffer), Some(eye_paths), Some(accumulate)) = (
         cache.get_render_pipeline(shadow.0),
-        cache.get_render_pipeline(gbuffer.0),
+        cache.get_render_pipeline(stages.gbuffer),
         cache.get_compute_pipeline(stages.eye_paths),
         cache.get_compute_pipeline(stages.accumulate),
     ) else {

@@ -16,12 +16,12 @@ use crate::gbuffer::GBufferPipeline;
 use crate::importons::{EyePathKey, EyePathPipeline};
 use crate::indirect_splat::IndirectSplatPipeline;
 use crate::output::{OutputPipeline, output_key};
-use crate::photons::{PHOTON_BYTES, PhotonPipeline};
+use crate::photons::{PHOTON_BYTES, PhotonKey, PhotonPipeline};
 use crate::ppm::{next_radius2, photon_store_capacity, radius2_after};
 use crate::scene::{SceneBuffers, SceneData};
 use crate::settings::{PhotonMapping, RppmDebugView, RppmMode};
 use crate::shadows::{ShadowPipeline, cube_views};
-use crate::splat::SplatPipeline;
+use crate::splat::{SplatKey, SplatPipeline};
 use crate::stats::timing::StageTimer;
 use crate::view::params::camera_params;
 use crate::view::{ExtractedRppm, PARAMS_STRIDE, ViewLayouts};
@@ -33,6 +33,7 @@ pub(crate) struct Pipelines<'w> {
     layouts: Res<'w, ViewLayouts>,
     shadow: Res<'w, ShadowPipeline>,
     gbuffer: Res<'w, GBufferPipeline>,
+    gbuffer_variants: ResMut<'w, SpecializedRenderPipelines<GBufferPipeline>>,
     cubemap: Res<'w, CubemapPipelines>,
     eye_paths: Res<'w, EyePathPipeline>,
     eye_path_variants: ResMut<'w, SpecializedComputePipelines<EyePathPipeline>>,
@@ -62,10 +63,7 @@ impl Pipelines<'_> {
 
     /// Whether the pipelines every view runs are compiled, or the first that failed.
     fn shared_ready(&self) -> Result<bool, String> {
-        readiness([
-            self.cache.get_render_pipeline_state(self.shadow.0),
-            self.cache.get_render_pipeline_state(self.gbuffer.0),
-        ])
+        readiness([self.cache.get_render_pipeline_state(self.shadow.0)])
     }
 }
 
@@ -136,13 +134,16 @@ fn stages_ready(state: &RppmViewState, cache: &PipelineCache) -> Result<bool, St
         stages.trace,
         stages.indirect_splat,
     ];
-    let splat = stages.splat.map(|id| cache.get_render_pipeline_state(id));
+    let render = [Some(stages.gbuffer), stages.splat]
+        .into_iter()
+        .flatten()
+        .map(|id| cache.get_render_pipeline_state(id));
     readiness(
         compute
             .into_iter()
             .flatten()
             .map(|id| cache.get_compute_pipeline_state(id))
-            .chain(splat),
+            .chain(render),
     )
 }
 
@@ -157,32 +158,49 @@ fn select_stages(
     let cache = &pipelines.cache;
     let traced = state.photons > 0 && state.cubemap.cubemap.is_some();
     let subsampled = state.key.subsampling > 1;
+    let textured = scene.textured;
     StageIds {
+        gbuffer: pipelines
+            .gbuffer_variants
+            .specialize(cache, &pipelines.gbuffer, textured),
         eye_paths: pipelines.eye_path_variants.specialize(
             cache,
             &pipelines.eye_paths,
             EyePathKey {
                 importons: state.importons.then_some(scene.paths),
                 traced_shadows: state.traced_shadows,
+                textured,
             },
         ),
         trace: traced.then(|| {
-            pipelines
-                .photon_variants
-                .specialize(cache, &pipelines.photons, scene.paths)
+            pipelines.photon_variants.specialize(
+                cache,
+                &pipelines.photons,
+                PhotonKey {
+                    paths: scene.paths,
+                    textured,
+                },
+            )
         }),
         splat: traced.then(|| {
-            pipelines
-                .splat_variants
-                .specialize(cache, &pipelines.splat, subsampled)
+            pipelines.splat_variants.specialize(
+                cache,
+                &pipelines.splat,
+                SplatKey {
+                    subsampled,
+                    textured,
+                },
+            )
         }),
-        indirect_splat: (traced && state.importons).then(|| pipelines.indirect_splat.id(cache)),
+        indirect_splat: (traced && state.importons)
+            .then(|| pipelines.indirect_splat.id(cache, textured)),
         accumulate: pipelines.accumulate_variants.specialize(
             cache,
             &pipelines.accumulate,
             AccumulateKey {
                 subsampled,
                 importons: state.importons,
+                textured,
             },
         ),
         output: output.map(|key| {

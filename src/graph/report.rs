@@ -59,7 +59,8 @@ pub(crate) fn report_views(
         .map(|s| {
             s.paths
                 .shader_defs()
-                .iter()
+                .into_iter()
+                .chain(s.textured.then_some(crate::scene::TEXTURED_DEF))
                 .map(|p| p.to_string())
                 .collect()
         })

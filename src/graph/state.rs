@@ -38,6 +38,7 @@ pub struct ResourceKey {
 /// The pipelines a view's iteration runs, by its scene and settings.
 #[derive(Clone, Copy, Debug)]
 pub struct StageIds {
+    pub gbuffer: CachedRenderPipelineId,
     pub eye_paths: CachedComputePipelineId,
     pub trace: Option<CachedComputePipelineId>,
     pub splat: Option<CachedRenderPipelineId>,

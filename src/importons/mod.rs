@@ -16,7 +16,7 @@ use bevy::shader::Shader;
 
 use crate::cubemap;
 use crate::gbuffer::GBuffer;
-use crate::scene::ScatterPaths;
+use crate::scene::{ScatterPaths, texture_defs};
 use crate::shaders::RppmShaders;
 use crate::shadows::ShadowMaps;
 use crate::stats::timing::{Stage, StageTimer};
@@ -57,6 +57,8 @@ pub struct EyePathKey {
     /// Shadows by rays through the view's deep cubemap (`TRACED_SHADOWS`) instead of shadow
     /// maps: whenever the view has a cubemap.
     pub traced_shadows: bool,
+    /// The scene's texture lookups (`TEXTURED`).
+    pub textured: bool,
 }
 
 impl SpecializedComputePipeline for EyePathPipeline {
@@ -79,6 +81,7 @@ impl SpecializedComputePipeline for EyePathPipeline {
         if key.traced_shadows {
             shader_defs.push("TRACED_SHADOWS".into());
         }
+        shader_defs.extend(texture_defs(key.textured));
         ComputePipelineDescriptor {
             label: Some("rppm_local_illumination_pipeline".into()),
             layout,

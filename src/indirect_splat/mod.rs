@@ -14,6 +14,7 @@ use bevy::render::{RenderApp, RenderStartup};
 use crate::cubemap::{TracingGroups, tracing_pipeline};
 use crate::importons::{EyePaths, IMPORTON_DISPATCH};
 use crate::photons::PhotonStore;
+use crate::scene::texture_defs;
 use crate::shaders::RppmShaders;
 use crate::stats::timing::{Stage, StageTimer};
 use crate::view::ViewLayouts;
@@ -28,22 +29,28 @@ impl Plugin for IndirectSplatPlugin {
     }
 }
 
-/// The indirect-splat stage. Its pipeline is queued the first time a view makes importons.
+/// The indirect-splat stage, specialized by whether the scene is textured (`TEXTURED`).
+/// Each variant is queued the first time a view makes importons.
 #[derive(Resource)]
 pub struct IndirectSplatPipeline {
     /// 0 photons, 1 photon count, 2 importons, 3 their lists' heads, 4 importon stats,
     /// 5 gathered radiance per importon.
     pub layout: BindGroupLayoutDescriptor,
     descriptor: ComputePipelineDescriptor,
-    id: Option<CachedComputePipelineId>,
+    /// Untextured, textured.
+    ids: [Option<CachedComputePipelineId>; 2],
 }
 
 impl IndirectSplatPipeline {
     /// The pipeline, queued now if it never was.
-    pub fn id(&mut self, cache: &PipelineCache) -> CachedComputePipelineId {
-        *self
-            .id
-            .get_or_insert_with(|| cache.queue_compute_pipeline(self.descriptor.clone()))
+    pub fn id(&mut self, cache: &PipelineCache, textured: bool) -> CachedComputePipelineId {
+        let descriptor = &self.descriptor;
+        *self.ids[textured as usize].get_or_insert_with(|| {
+            cache.queue_compute_pipeline(ComputePipelineDescriptor {
+                shader_defs: texture_defs(textured),
+                ..descriptor.clone()
+            })
+        })
     }
 }
 
@@ -76,7 +83,7 @@ fn init_indirect_splat_pipeline(
     commands.insert_resource(IndirectSplatPipeline {
         layout,
         descriptor,
-        id: None,
+        ids: [None; 2],
     });
 }
 

@@ -10,7 +10,7 @@ use bevy::render::renderer::RenderDevice;
 use bevy::render::{RenderApp, RenderStartup};
 
 use crate::cubemap::{TracingGroups, tracing_pipeline};
-use crate::scene::ScatterPaths;
+use crate::scene::{ScatterPaths, texture_defs};
 use crate::shaders::RppmShaders;
 use crate::stats::timing::{Stage, StageTimer};
 use crate::view::ViewLayouts;
@@ -30,7 +30,7 @@ impl Plugin for PhotonsPlugin {
     }
 }
 
-/// The photon-tracing stage, specialized by the scene's [`ScatterPaths`].
+/// The photon-tracing stage, specialized by [`PhotonKey`].
 #[derive(Resource)]
 pub struct PhotonPipeline {
     /// 0 the photon store, 1 its count (draw-indirect arguments).
@@ -38,12 +38,27 @@ pub struct PhotonPipeline {
     base: ComputePipelineDescriptor,
 }
 
-impl SpecializedComputePipeline for PhotonPipeline {
-    type Key = ScatterPaths;
+/// Which photon-tracing variant a scene runs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct PhotonKey {
+    /// The scattering lobes of the scene's materials.
+    pub paths: ScatterPaths,
+    /// The scene's texture lookups (`TEXTURED`).
+    pub textured: bool,
+}
 
-    fn specialize(&self, paths: ScatterPaths) -> ComputePipelineDescriptor {
+impl SpecializedComputePipeline for PhotonPipeline {
+    type Key = PhotonKey;
+
+    fn specialize(&self, key: PhotonKey) -> ComputePipelineDescriptor {
         let mut descriptor = self.base.clone();
-        descriptor.shader_defs = paths.shader_defs().into_iter().map(Into::into).collect();
+        descriptor.shader_defs = key
+            .paths
+            .shader_defs()
+            .into_iter()
+            .map(Into::into)
+            .collect();
+        descriptor.shader_defs.extend(texture_defs(key.textured));
         descriptor
     }
 }

@@ -185,7 +185,7 @@ fn material_to_gpu(m: &StandardMaterial, textures: [u32; 4]) -> GpuMaterial {
     flags.set(MaterialFlags::FLIP_NORMAL_Y, m.flip_normal_map_y);
     flags.set(
         MaterialFlags::TEXTURED,
-        textures.iter().any(|&t| t != NO_TEXTURE),
+        textures.iter().any(|&t| t != NO_TEXTURE) || m.unlit || m.alpha_mode != AlphaMode::Opaque,
     );
     let mut alpha_cutoff = 0.0;
     match m.alpha_mode {

@@ -124,8 +124,8 @@ bitflags::bitflags! {
     pub struct MaterialFlags: u32 {
         /// Lit and seen from both sides.
         const DOUBLE_SIDED = 1 << 0;
-        /// Textures or vertex colours vary it over its surfaces: lookups read
-        /// [`SceneData::attributes`].
+        /// Textures or vertex colours vary it over its surfaces, or alpha or `unlit` change
+        /// it: lookups read [`SceneData::attributes`].
         const TEXTURED = 1 << 1;
         /// `AlphaMode::Mask`: texels under `alpha_cutoff` are holes for every ray.
         const ALPHA_MASK = 1 << 2;
@@ -199,7 +199,27 @@ pub struct SceneData {
     pub bounds: (Vec3, Vec3),
 }
 
+/// The shader def of the texture lookups (`material_at`, `normal_at`, `opaque_at` in
+/// shaders/scene/scene.wgsl): every stage that reads materials is specialized by it, so an
+/// untextured scene compiles none of them.
+pub const TEXTURED_DEF: &str = "TEXTURED";
+
+/// `TEXTURED_DEF` when `textured`.
+pub fn texture_defs(textured: bool) -> Vec<bevy::shader::ShaderDefVal> {
+    if textured {
+        vec![TEXTURED_DEF.into()]
+    } else {
+        Vec::new()
+    }
+}
+
 impl SceneData {
+    /// Whether some material varies over its surfaces (textures, vertex colours), has alpha
+    /// or is unlit: the stages then compile the texture lookups ([`TEXTURED_DEF`]).
+    pub fn is_textured(&self) -> bool {
+        !self.attributes.is_empty()
+    }
+
     /// Total emitted power (luminance-weighted W) of every light and emitter.
     pub fn total_power(&self) -> f32 {
         self.lights.iter().map(|l| l.radiance[3]).sum::<f32>()

@@ -34,6 +34,8 @@ pub struct SceneBuffers {
     pub paths: ScatterPaths,
     /// The largest probability a photon goes on after a hit (sizes the photon store).
     pub max_scatter: f32,
+    /// Whether the stages compile the texture lookups ([`SceneData::is_textured`]).
+    pub textured: bool,
 }
 
 impl SceneBuffers {
@@ -157,6 +159,7 @@ pub(crate) fn prepare_scene(
         data: data.clone(),
         paths: data.scatter_paths(),
         max_scatter: data.max_scatter_probability(),
+        textured: data.is_textured(),
         triangles: storage_buffer(&device, "rppm_triangles", &data.triangles),
         materials: storage_buffer(&device, "rppm_materials", &data.materials),
         lights: storage_buffer(&device, "rppm_lights", &data.lights),

@@ -10,10 +10,11 @@ use bevy::render::render_resource::*;
 use bevy::render::renderer::RenderDevice;
 use bevy::render::texture::TextureCache;
 use bevy::render::{RenderApp, RenderStartup};
-use bevy::shader::{Shader, ShaderDefVal};
+use bevy::shader::Shader;
 
 use crate::gbuffer::{GBuffer, target};
 use crate::photons::PhotonStore;
+use crate::scene::texture_defs;
 use crate::shaders::RppmShaders;
 use crate::stats::timing::{Stage, StageTimer};
 use crate::view::ViewLayouts;
@@ -55,16 +56,23 @@ pub struct SplatPipeline {
     shader: Handle<Shader>,
 }
 
-impl SpecializedRenderPipeline for SplatPipeline {
-    /// Whether photons splat onto one pixel of every n×n block (`SUBSAMPLED`).
-    type Key = bool;
+/// Which splat variant a view runs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct SplatKey {
+    /// Photons splat onto one pixel of every n×n block (`SUBSAMPLED`).
+    pub subsampled: bool,
+    /// The scene's texture lookups (`TEXTURED`).
+    pub textured: bool,
+}
 
-    fn specialize(&self, subsampled: bool) -> RenderPipelineDescriptor {
-        let shader_defs: Vec<ShaderDefVal> = if subsampled {
-            vec!["SUBSAMPLED".into()]
-        } else {
-            Vec::new()
-        };
+impl SpecializedRenderPipeline for SplatPipeline {
+    type Key = SplatKey;
+
+    fn specialize(&self, key: SplatKey) -> RenderPipelineDescriptor {
+        let mut shader_defs = texture_defs(key.textured);
+        if key.subsampled {
+            shader_defs.push("SUBSAMPLED".into());
+        }
         let additive = BlendComponent {
             src_factor: BlendFactor::One,
             dst_factor: BlendFactor::One,

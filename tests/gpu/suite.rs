@@ -50,6 +50,7 @@ fn suite_energy_is_right_after_four_iterations() {
         ("cornell_matte", 0.05),
         ("glossy_metal", 0.08),
         ("textured_box", 0.08),
+        ("textured_metal", 0.08),
     ] {
         let image = render(&format!("suite/{scene}.gltf"), settings.clone(), 4);
         let reference = reference(&format!("suite/{scene}.ref.exr"));

@@ -139,3 +139,48 @@ fn textured_scenes_match_their_references() {
     }
     assert!(failures.is_empty(), "{}", failures.join("\n"));
 }
+
+/// Alpha passes light as Bevy blends it. A plane cut out everywhere (alpha 0 under
+/// `Mask(0.5)`) between a point light and a lit floor changes nothing. A black plane of alpha
+/// 0.5 (`Blend`: hashed) passes half the light on its way in and half the view on its way
+/// out, so the floor reads a quarter.
+#[test]
+fn alpha_cut_outs_and_blending_pass_their_share_of_light() {
+    let floor = |occluder: Option<(AlphaMode, f32)>| -> f64 {
+        let mut app = gpu_app();
+        let (camera, _) = lit_plane(&mut app, 1000.0, 2.0, 32);
+        if let Some((alpha_mode, alpha)) = occluder {
+            let world = app.world_mut();
+            let mesh = world.resource_mut::<Assets<Mesh>>().add(quad(
+                5.0,
+                Some(Indices::U32(vec![0, 1, 2, 0, 2, 3])),
+                true,
+            ));
+            let material = world
+                .resource_mut::<Assets<StandardMaterial>>()
+                .add(StandardMaterial {
+                    base_color: Color::linear_rgba(0.0, 0.0, 0.0, alpha),
+                    reflectance: 0.0,
+                    perceptual_roughness: 1.0,
+                    alpha_mode,
+                    ..default()
+                });
+            world.spawn((
+                Mesh3d(mesh),
+                MeshMaterial3d(material),
+                Transform::from_xyz(0.0, 1.0, 0.0),
+            ));
+        }
+        until_iterations(&mut app, camera, 16);
+        let image = radiance(&app, camera);
+        assert_finite(&image, "alpha");
+        let rgb = RgbImage::from_rgba(image.width, image.height, &image.pixels);
+        region_mean(&rgb, 8..24, 8..24)
+    };
+    let open = floor(None);
+    let cut_out = floor(Some((AlphaMode::Mask(0.5), 0.0))) / open;
+    let blended = floor(Some((AlphaMode::Blend, 0.5))) / open;
+    println!("floor under a cut-out plane {cut_out:.4}, under a half-transparent one {blended:.4}");
+    assert!((cut_out - 1.0).abs() < 0.02, "cut-out: {cut_out}");
+    assert!((blended - 0.25).abs() < 0.025, "alpha 0.5: {blended}");
+}

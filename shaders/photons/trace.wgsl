@@ -70,9 +70,22 @@ fn emit(rng: ptr<function, u32>) -> Ray {
         let a = clamp((cos_theta - l.cos_outer) / max(l.cos_inner - l.cos_outer, 1e-6), 0.0, 1.0);
         let falloff = select(a * a, 1.0, l.cos_inner <= l.cos_outer);
         ray.flux = l.radiance.rgb * (2.0 * PI * (1.0 - l.cos_outer) * falloff * share);
+        if l.position.w > 0.0 {
+            // A sphere light: from the side of its sphere the photon leaves.
+            let u = uniform_sphere(vec2<f32>(random(rng), random(rng)));
+            ray.origin += l.position.w * select(-u, u, dot(u, ray.direction) >= 0.0);
+        }
         return ray;
     }
-    ray.direction = uniform_sphere(vec2<f32>(random(rng), random(rng)));
+    if l.position.w > 0.0 {
+        // A sphere light: Lambertian from a point of its surface, so that every direction
+        // sees a disc of radiance I/(πR²), intensity I.
+        let u = uniform_sphere(vec2<f32>(random(rng), random(rng)));
+        ray.origin += l.position.w * u;
+        ray.direction = cosine_direction(u, vec2<f32>(random(rng), random(rng)));
+    } else {
+        ray.direction = uniform_sphere(vec2<f32>(random(rng), random(rng)));
+    }
     ray.flux = l.radiance.rgb * (4.0 * PI * share);
     return ray;
 }

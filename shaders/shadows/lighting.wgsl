@@ -6,7 +6,7 @@
 // reached through specular surfaces.
 #define_import_path bevy_rppm::lighting
 
-#import bevy_rppm::common::{Material, Light, IterationParams, LIGHT_SPOT, LIGHT_DIRECTIONAL, face_of, random}
+#import bevy_rppm::common::{Material, Light, IterationParams, PI, LIGHT_SPOT, LIGHT_DIRECTIONAL, face_of, random, basis_around}
 #import bevy_rppm::bsdf::bsdf_eval
 #import bevy_rppm::scene::{shadow_views, lights, triangles, material_at, emitters, light_cdf, find_source}
 #ifdef TRACED_SHADOWS
@@ -65,7 +65,9 @@ fn visibility(x: vec3<f32>, dir: vec3<f32>, distance: f32, origin_triangle: u32)
 }
 #endif
 
-fn direct_light(m: Material, x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, origin_triangle: u32) -> vec3<f32> {
+// Direct light from the punctual lights; `rng` draws a point on the spheres of lights with a
+// radius (traced shadows only: shadow maps see their centre).
+fn direct_light(m: Material, x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, origin_triangle: u32, rng: ptr<function, u32>) -> vec3<f32> {
     var sum = vec3<f32>(0.0);
     for (var i = 0u; i < params.light_count; i += 1u) {
         let l = lights[i];
@@ -87,6 +89,25 @@ fn direct_light(m: Material, x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, origin_t
                 let a = clamp((c - l.cos_outer) / max(l.cos_inner - l.cos_outer, 1e-6), 0.0, 1.0);
                 li *= select(a * a, select(0.0, 1.0, c >= l.cos_outer), l.cos_inner <= l.cos_outer);
             }
+#ifdef TRACED_SHADOWS
+            let radius = l.position.w;
+            if radius > 0.0 && d2 > radius * radius * 1.0001 {
+                // A direction in the cone the sphere subtends, uniform in solid angle Ω: the
+                // sphere's radiance I/(πR²) times Ω averages to I/d² (and the spot's falloff
+                // stays that of the centre).
+                let sin2 = radius * radius / d2;
+                let cos_max = sqrt(1.0 - sin2);
+                let one_minus = sin2 / (1.0 + cos_max);
+                let cos_t = 1.0 - random(rng) * one_minus;
+                let sin_t = sqrt(max(1.0 - cos_t * cos_t, 0.0));
+                let phi = 2.0 * PI * random(rng);
+                let dir = basis_around(wi) * vec3<f32>(sin_t * cos(phi), sin_t * sin(phi), cos_t);
+                li *= 2.0 * one_minus / sin2;
+                let b = dot(dir, l.position.xyz - x);
+                distance = b - sqrt(max(b * b - (d2 - radius * radius), 0.0));
+                wi = dir;
+            }
+#endif
         }
         let lit = bsdf_eval(m, n, wo, wi) * li * max(dot(n, wi), 0.0);
         // No shadow test where nothing would arrive (behind the surface, outside a cone, a
@@ -172,7 +193,7 @@ fn surface_light(m: Material, x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, front: 
     if params.direct_photons != 0u {
         return emitted;
     }
-    let punctual = emitted + direct_light(m, x, n, wo, origin_triangle);
+    let punctual = emitted + direct_light(m, x, n, wo, origin_triangle, rng);
     if !emitters {
         return punctual;
     }

@@ -70,6 +70,16 @@ pub fn spot_cone_fraction(cos_inner: f32, cos_outer: f32) -> f32 {
     2.0 * PI * ((1.0 - cos_inner) + (cos_inner - cos_outer).max(0.0) / 3.0)
 }
 
+/// A point or spot light's `radius` (m): a sphere of that size emits its power, for soft
+/// shadows; negative or non-finite radii are a point.
+fn sphere_radius(radius: f32) -> f32 {
+    if radius.is_finite() {
+        radius.max(0.0)
+    } else {
+        0.0
+    }
+}
+
 fn visible(v: Option<&InheritedVisibility>) -> bool {
     v.is_none_or(|v| v.get())
 }
@@ -109,7 +119,7 @@ pub(crate) fn collect_lights(q: &LightQueries, data: &mut SceneData) {
         let intensity = p.intensity / (4.0 * PI);
         let light = GpuLight {
             kind: LightKind::Point as u32,
-            position: t.translation().extend(1.0).into(),
+            position: t.translation().extend(sphere_radius(p.radius)).into(),
             radiance: scaled(c, intensity),
             ..default()
         };
@@ -123,7 +133,7 @@ pub(crate) fn collect_lights(q: &LightQueries, data: &mut SceneData) {
             kind: LightKind::Spot as u32,
             cos_inner,
             cos_outer,
-            position: t.translation().extend(1.0).into(),
+            position: t.translation().extend(sphere_radius(s.radius)).into(),
             direction: t.forward().as_vec3().extend(0.0).into(),
             radiance: scaled(c, intensity),
             ..default()

@@ -158,7 +158,7 @@ pub struct GpuLight {
     /// cos of the spot's inner and outer half-angles.
     pub cos_inner: f32,
     pub cos_outer: f32,
-    /// Position (point, spot), w unused.
+    /// Position (point, spot); w: the radius of the sphere that emits (m, 0: a point).
     pub position: [f32; 4],
     /// Direction light travels (spot, directional), unit length.
     pub direction: [f32; 4],

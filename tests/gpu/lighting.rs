@@ -135,3 +135,102 @@ fn point_light_photons_carry_its_power() {
         "point",
     );
 }
+
+/// A point light with a `radius` is a sphere of the same power: on a plane entirely below it,
+/// it gives the point light's irradiance (a uniform sphere's theorem), its photons carry the
+/// same light, and a small occluder's hard shadow becomes a penumbra with no umbra left on
+/// the floor.
+#[test]
+fn sphere_light_keeps_the_irradiance_and_softens_shadows() {
+    let (lumens, height, size) = (2000.0f32, 1.5f32, 64u32);
+    let render = |radius: f32, occluder: bool, settings: PhotonMapping| -> RgbImage {
+        let mut app = gpu_app();
+        let light = (
+            PointLight {
+                intensity: lumens,
+                radius,
+                range: 100.0,
+                ..default()
+            },
+            Transform::from_xyz(0.0, height, 0.0),
+        );
+        let (camera, _) = plane_scene(&mut app, light, size, settings);
+        if occluder {
+            let world = app.world_mut();
+            let mesh = world.resource_mut::<Assets<Mesh>>().add(quad(
+                0.15,
+                Some(Indices::U32(vec![0, 1, 2, 0, 2, 3])),
+                true,
+            ));
+            let black = matte(&mut world.resource_mut::<Assets<StandardMaterial>>(), 0.0);
+            world.spawn((
+                Mesh3d(mesh),
+                MeshMaterial3d(black),
+                Transform::from_xyz(0.0, 1.1, 0.0),
+            ));
+        }
+        until_iterations(&mut app, camera, 16);
+        let image = radiance(&app, camera);
+        assert_finite(&image, "sphere light");
+        RgbImage::from_rgba(image.width, image.height, &image.pixels)
+    };
+    let intensity = lumens / (4.0 * std::f32::consts::PI);
+    let expected = |i: usize, j: usize| {
+        let x = -2.0 + (i as f32 + 0.5) * 4.0 / size as f32;
+        let z = -2.0 + (j as f32 + 0.5) * 4.0 / size as f32;
+        let d2 = x * x + z * z + height * height;
+        0.8 / std::f32::consts::PI * intensity * (height / d2.sqrt()) / d2
+    };
+    let lit = render(0.4, false, PhotonMapping::default());
+    // Per 8×8 block (each pixel's sphere sample is noise: 10 % at 16 iterations).
+    let (mut got, mut want, mut worst) = (0.0f64, 0.0f64, 0.0f64);
+    for block in 0..(size as usize / 8).pow(2) {
+        let (bi, bj) = (block % (size as usize / 8), block / (size as usize / 8));
+        let (mut g, mut w) = (0.0f64, 0.0f64);
+        for j in bj * 8..bj * 8 + 8 {
+            for i in bi * 8..bi * 8 + 8 {
+                g += lit.at(i, j)[1] as f64;
+                w += expected(i, j) as f64;
+            }
+        }
+        worst = worst.max((g / w - 1.0).abs());
+        got += g;
+        want += w;
+    }
+    let ratio = got / want;
+    println!(
+        "sphere light (R 0.4 m at 1.5 m): irradiance ratio {ratio:.4}, worst 8×8 block {worst:.4}"
+    );
+    assert!((ratio - 1.0).abs() < 0.01, "irradiance ratio {ratio}");
+    assert!(worst < 0.05, "worst block {worst}");
+    // Photons leave the sphere's surface with the same power (direct light by photons alone).
+    let photons = render(
+        0.4,
+        false,
+        PhotonMapping {
+            photons_per_iteration: 65_536,
+            debug_view: bevy_rppm::RppmDebugView::DirectPhotons,
+            ..default()
+        },
+    );
+    let energy = bevy_rppm_cli::image_io::energy_ratio(&photons, &lit).unwrap();
+    println!("sphere light: photon/local energy {energy:.4}");
+    assert!(
+        (0.97..1.03).contains(&energy),
+        "photon energy ratio {energy}"
+    );
+    // The umbra: pixels under a tenth of the unshadowed light (the occluder's own 5×5 pixels
+    // included).
+    let umbra = |image: &RgbImage| {
+        (0..size as usize)
+            .flat_map(|j| (0..size as usize).map(move |i| (i, j)))
+            .filter(|&(i, j)| image.at(i, j)[1] < 0.1 * expected(i, j))
+            .count()
+    };
+    let (hard, soft) = (
+        umbra(&render(0.0, true, PhotonMapping::default())),
+        umbra(&render(0.2, true, PhotonMapping::default())),
+    );
+    println!("umbra pixels: point light {hard}, sphere of radius 0.2 m {soft}");
+    assert!(hard > 200 && soft * 3 < hard, "umbra {hard} → {soft}");
+}

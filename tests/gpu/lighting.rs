@@ -156,23 +156,19 @@ fn sphere_light_keeps_the_irradiance_and_softens_shadows() {
         );
         let (camera, _) = plane_scene(&mut app, light, size, settings);
         if occluder {
-            let world = app.world_mut();
-            let mesh = world.resource_mut::<Assets<Mesh>>().add(quad(
+            spawn_occluder(
+                &mut app,
                 0.15,
-                Some(Indices::U32(vec![0, 1, 2, 0, 2, 3])),
-                true,
-            ));
-            let black = matte(&mut world.resource_mut::<Assets<StandardMaterial>>(), 0.0);
-            world.spawn((
-                Mesh3d(mesh),
-                MeshMaterial3d(black),
-                Transform::from_xyz(0.0, 1.1, 0.0),
-            ));
+                1.1,
+                StandardMaterial {
+                    base_color: Color::BLACK,
+                    perceptual_roughness: 1.0,
+                    reflectance: 0.0,
+                    ..default()
+                },
+            );
         }
-        until_iterations(&mut app, camera, 16);
-        let image = radiance(&app, camera);
-        assert_finite(&image, "sphere light");
-        RgbImage::from_rgba(image.width, image.height, &image.pixels)
+        estimate_after(&mut app, camera, 16, "sphere light")
     };
     let intensity = lumens / (4.0 * std::f32::consts::PI);
     let expected = |i: usize, j: usize| {

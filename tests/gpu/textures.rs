@@ -150,32 +150,20 @@ fn alpha_cut_outs_and_blending_pass_their_share_of_light() {
         let mut app = gpu_app();
         let (camera, _) = lit_plane(&mut app, 1000.0, 2.0, 32);
         if let Some((alpha_mode, alpha)) = occluder {
-            let world = app.world_mut();
-            let mesh = world.resource_mut::<Assets<Mesh>>().add(quad(
+            spawn_occluder(
+                &mut app,
                 5.0,
-                Some(Indices::U32(vec![0, 1, 2, 0, 2, 3])),
-                true,
-            ));
-            let material = world
-                .resource_mut::<Assets<StandardMaterial>>()
-                .add(StandardMaterial {
+                1.0,
+                StandardMaterial {
                     base_color: Color::linear_rgba(0.0, 0.0, 0.0, alpha),
                     reflectance: 0.0,
                     perceptual_roughness: 1.0,
                     alpha_mode,
                     ..default()
-                });
-            world.spawn((
-                Mesh3d(mesh),
-                MeshMaterial3d(material),
-                Transform::from_xyz(0.0, 1.0, 0.0),
-            ));
+                },
+            );
         }
-        until_iterations(&mut app, camera, 16);
-        let image = radiance(&app, camera);
-        assert_finite(&image, "alpha");
-        let rgb = RgbImage::from_rgba(image.width, image.height, &image.pixels);
-        region_mean(&rgb, 8..24, 8..24)
+        region_mean(&estimate_after(&mut app, camera, 16, "alpha"), 8..24, 8..24)
     };
     let open = floor(None);
     let cut_out = floor(Some((AlphaMode::Mask(0.5), 0.0))) / open;

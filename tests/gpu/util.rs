@@ -446,3 +446,30 @@ pub fn scaled(image: &RgbImage, k: f32) -> RgbImage {
         ..image.clone()
     }
 }
+
+/// A horizontal square of half-size `half` at height `y`, facing up (an occluder between
+/// `plane_scene`'s light and plane).
+pub fn spawn_occluder(app: &mut App, half: f32, y: f32, material: StandardMaterial) {
+    let world = app.world_mut();
+    let mesh = world.resource_mut::<Assets<Mesh>>().add(quad(
+        half,
+        Some(Indices::U32(vec![0, 1, 2, 0, 2, 3])),
+        true,
+    ));
+    let material = world
+        .resource_mut::<Assets<StandardMaterial>>()
+        .add(material);
+    world.spawn((
+        Mesh3d(mesh),
+        MeshMaterial3d(material),
+        Transform::from_xyz(0.0, y, 0.0),
+    ));
+}
+
+/// The camera's estimate after `n` iterations, checked finite.
+pub fn estimate_after(app: &mut App, camera: Entity, n: u32, what: &str) -> RgbImage {
+    until_iterations(app, camera, n);
+    let image = radiance(app, camera);
+    assert_finite(&image, what);
+    RgbImage::from_rgba(image.width, image.height, &image.pixels)
+}

@@ -4,7 +4,7 @@
 // through the deep cubemap to the first non-specular surface, lights it the same way, and
 // leaves an importon there for indirect splatting.
 #import bevy_rppm::common::{Material, IterationParams, Importon, NO_IMPORTON, cubemap_tile, gather_radius, random, pcg_hash}
-#import bevy_rppm::scene::{triangles, gbuffer_material, material_at, normal_at}
+#import bevy_rppm::scene::{triangles, gbuffer_material, material_at, normal_at, interpolated_normal}
 #import bevy_rppm::lighting::{params, surface_light}
 #ifdef IMPORTONS
 #import bevy_rppm::bsdf::{fresnel_dielectric, scatter_photon, stores_photons}
@@ -86,10 +86,9 @@ fn follow_camera_path(pixel: u32, x0: vec3<f32>, n0: vec3<f32>, m0: Material, tr
         let m = material_at(hit.triangle, hit.uv, 0.0);
         let x = o + d * hit.t;
         length += hit.t;
-        let w = vec3<f32>(1.0 - hit.uv.x - hit.uv.y, hit.uv);
         let geometric = cross(t.position_b - t.position_a, t.position_c - t.position_a);
         let front = dot(geometric, d) < 0.0;
-        var interpolated = normalize(t.normal_a * w.x + t.normal_b * w.y + t.normal_c * w.z);
+        var interpolated = interpolated_normal(t, hit.uv);
         var n = normal_at(hit.triangle, hit.uv, interpolated, 0.0);
         if !front {
             n = -n;

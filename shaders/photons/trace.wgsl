@@ -3,7 +3,7 @@
 // (direct light is the local-illumination stage's), then scattered by the material
 // (bsdf.wgsl's scatter_photon: diffuse, GGX glossy, mirror, Fresnel glass) or absorbed.
 #import bevy_rppm::common::{Light, Photon, IterationParams, PI, LIGHT_POINT, LIGHT_SPOT, LIGHT_DIRECTIONAL, random, pcg_hash, basis_around, cosine_direction}
-#import bevy_rppm::scene::{triangles, material_at, normal_at, lights, emitters, light_cdf, find_source}
+#import bevy_rppm::scene::{triangles, material_at, normal_at, interpolated_normal, triangle_point, uniform_barycentrics, lights, emitters, light_cdf, find_source}
 #import bevy_rppm::cubemap::{trace_cubemap, NO_HIT}
 #import bevy_rppm::bsdf::{stores_photons, scatter_photon}
 
@@ -38,12 +38,12 @@ fn emit(rng: ptr<function, u32>) -> Ray {
     if index >= params.light_count {
         let e = emitters[index - params.light_count];
         let t = triangles[e.triangle];
-        let r1 = sqrt(random(rng));
-        let r2 = random(rng);
-        ray.origin = t.position_a * (1.0 - r1) + t.position_b * (r1 * (1.0 - r2)) + t.position_c * (r1 * r2);
+        let u = random(rng);
+        let b = uniform_barycentrics(u, random(rng));
+        ray.origin = triangle_point(t, b);
         let n = normalize(cross(t.position_b - t.position_a, t.position_c - t.position_a));
         ray.direction = cosine_direction(n, vec2<f32>(random(rng), random(rng)));
-        let emitted = material_at(e.triangle, vec2<f32>(r1 * (1.0 - r2), r1 * r2), 0.0).emissive.rgb;
+        let emitted = material_at(e.triangle, b, 0.0).emissive.rgb;
         ray.flux = emitted * (PI * e.area * share);
         ray.ignore = e.triangle;
         return ray;
@@ -113,12 +113,11 @@ fn trace(@builtin(global_invocation_id) id: vec3<u32>) {
         let t = triangles[hit.triangle];
         let m = material_at(hit.triangle, hit.uv, 0.0);
         let x = ray.origin + ray.direction * hit.t;
-        let w = vec3<f32>(1.0 - hit.uv.x - hit.uv.y, hit.uv);
         let geometric = normalize(cross(t.position_b - t.position_a, t.position_c - t.position_a));
         let front = dot(geometric, ray.direction) < 0.0;
         // Shading normal (normal map applied) and the kernel's (stored), on the side the
         // photon arrives from.
-        var interpolated = normalize(t.normal_a * w.x + t.normal_b * w.y + t.normal_c * w.z);
+        var interpolated = interpolated_normal(t, hit.uv);
         var n = normal_at(hit.triangle, hit.uv, interpolated, 0.0);
         if !front {
             n = -n;

@@ -33,6 +33,22 @@ fn barycentrics(t: Triangle, p: vec3<f32>) -> vec2<f32> {
     return vec2<f32>(d22 * dot(d, e1) - d12 * dot(d, e2), d11 * dot(d, e2) - d12 * dot(d, e1)) / den;
 }
 
+// The point of triangle t at barycentrics b.
+fn triangle_point(t: Triangle, b: vec2<f32>) -> vec3<f32> {
+    return t.position_a * (1.0 - b.x - b.y) + t.position_b * b.x + t.position_c * b.y;
+}
+
+// The vertex normals of triangle t interpolated at barycentrics b.
+fn interpolated_normal(t: Triangle, b: vec2<f32>) -> vec3<f32> {
+    return normalize(t.normal_a * (1.0 - b.x - b.y) + t.normal_b * b.x + t.normal_c * b.y);
+}
+
+// Barycentrics of a point uniform in area on a triangle, from two uniform numbers.
+fn uniform_barycentrics(u: f32, v: f32) -> vec2<f32> {
+    let r = sqrt(u);
+    return vec2<f32>(r * (1.0 - v), r * v);
+}
+
 // The material of a camera G-buffer texel (w: ±(triangle + 1)) `footprint` metres wide.
 fn gbuffer_material(position: vec4<f32>, footprint: f32) -> Material {
     let triangle = u32(abs(position.w)) - 1u;
@@ -213,8 +229,7 @@ fn kernel_normal(position: vec4<f32>, shading: vec3<f32>) -> vec3<f32> {
     if (m.flags & MATERIAL_TEXTURED) == 0u || m.textures.w == NO_TEXTURE {
         return shading;
     }
-    let b = barycentrics(t, position.xyz);
-    let n = normalize(t.normal_a * (1.0 - b.x - b.y) + t.normal_b * b.x + t.normal_c * b.y);
+    let n = interpolated_normal(t, barycentrics(t, position.xyz));
     return select(-n, n, dot(n, shading) >= 0.0);
 #else
     return shading;

@@ -8,7 +8,7 @@
 
 #import bevy_rppm::common::{Material, Light, IterationParams, PI, LIGHT_SPOT, LIGHT_DIRECTIONAL, face_of, random, basis_around}
 #import bevy_rppm::bsdf::bsdf_eval
-#import bevy_rppm::scene::{shadow_views, lights, triangles, material_at, emitters, light_cdf, find_source}
+#import bevy_rppm::scene::{shadow_views, lights, triangles, material_at, emitters, light_cdf, find_source, triangle_point, uniform_barycentrics}
 #ifdef TRACED_SHADOWS
 #import bevy_rppm::cubemap::{trace_cubemap, NO_HIT}
 #endif
@@ -165,9 +165,9 @@ fn emitter_light(m: Material, x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, origin_
     let p = max(light_cdf[index] - previous, 1e-12) / share;
     let e = emitters[index - params.light_count];
     let t = triangles[e.triangle];
-    let r1 = sqrt(random(rng));
-    let r2 = random(rng);
-    let y = t.position_a * (1.0 - r1) + t.position_b * (r1 * (1.0 - r2)) + t.position_c * (r1 * r2);
+    let u = random(rng);
+    let b = uniform_barycentrics(u, random(rng));
+    let y = triangle_point(t, b);
     let to_light = y - x;
     let d2 = max(dot(to_light, to_light), 1e-12);
     let wi = to_light * inverseSqrt(d2);
@@ -176,7 +176,7 @@ fn emitter_light(m: Material, x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, origin_
     if cos_x <= 0.0 || cos_y <= 0.0 || e.triangle == origin_triangle {
         return vec3<f32>(0.0);
     }
-    let radiance = material_at(e.triangle, vec2<f32>(r1 * (1.0 - r2), r1 * r2), 0.0).emissive.rgb;
+    let radiance = material_at(e.triangle, b, 0.0).emissive.rgb;
     let lit = bsdf_eval(m, n, wo, wi) * radiance * (cos_x * cos_y * e.area / (d2 * p));
     if all(lit <= vec3<f32>(0.0)) {
         return lit;

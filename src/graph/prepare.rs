@@ -158,7 +158,7 @@ fn select_stages(
     let cache = &pipelines.cache;
     let traced = state.photons > 0 && state.cubemap.cubemap.is_some();
     let subsampled = state.key.subsampling > 1;
-    let textured = scene.textured;
+    let textured = scene.data.is_textured();
     StageIds {
         gbuffer: pipelines
             .gbuffer_variants

@@ -60,7 +60,7 @@ pub(crate) fn report_views(
             s.paths
                 .shader_defs()
                 .into_iter()
-                .chain(s.textured.then_some(crate::scene::TEXTURED_DEF))
+                .chain(s.data.is_textured().then_some(crate::scene::TEXTURED_DEF))
                 .map(|p| p.to_string())
                 .collect()
         })

@@ -7,7 +7,7 @@ use bevy::ecs::entity::EntityHashSet;
 use bevy::platform::collections::{HashMap, HashSet};
 use bevy::prelude::*;
 
-use super::textures::{MAX_TEXTURE_SIZE, NO_TEXTURE, PackedTexture, TEXEL_BUDGET};
+use super::textures::{GpuTexture, MAX_TEXTURE_SIZE, NO_TEXTURE, PackedTexture, TEXEL_BUDGET};
 use super::{
     GpuEmitter, GpuMaterial, GpuTriangle, MaterialFlags, RppmScene, SceneData, lights, luminance,
     mesh,
@@ -21,6 +21,9 @@ pub(super) struct ExtractionWarnings {
     images: HashSet<AssetId<Image>>,
 }
 
+/// A scene's texture table and texels, by the images in it (in slot order).
+type PackedTable = (Vec<AssetId<Image>>, Vec<GpuTexture>, Arc<Vec<u32>>);
+
 /// Images packed for the tracing stages ([`PackedTexture`]), kept across extractions so a
 /// scene change does not downsample them again.
 #[derive(Resource, Default)]
@@ -29,6 +32,9 @@ pub(super) struct TextureCache {
     /// The images the last extraction asked for, loaded or not: an event on one of them
     /// extracts again (an image still loading, an edited texture).
     referenced: HashSet<AssetId<Image>>,
+    /// The last scene's texture table and texels, by the images in it: a scene change that
+    /// keeps them (a moved object) shares them instead of copying and uploading them again.
+    table: Option<PackedTable>,
 }
 
 type MeshChanged = Or<(
@@ -92,6 +98,7 @@ pub(super) fn extract_scene(
         };
         if cache.referenced.contains(&id) {
             cache.packed.remove(&id);
+            cache.table = None;
             image_changed = true;
         }
     }
@@ -167,7 +174,7 @@ pub(super) fn extract_scene(
     data.bounds = bounds(&data.triangles);
     lights::collect_lights(&lights_q, &mut data);
     collect_emitters(&mut data, &textures.packed);
-    textures.write(&mut data);
+    textures.write(&mut data, &mut cache);
     data.light_cdf = cdf(data
         .lights
         .iter()
@@ -234,6 +241,7 @@ fn material_to_gpu(m: &StandardMaterial, textures: [u32; 4]) -> GpuMaterial {
 #[derive(Default)]
 struct TextureTable {
     index: HashMap<AssetId<Image>, u32>,
+    ids: Vec<AssetId<Image>>,
     packed: Vec<Arc<PackedTexture>>,
 }
 
@@ -278,19 +286,28 @@ impl TextureTable {
         };
         let slot = self.packed.len() as u32;
         self.index.insert(id, slot);
+        self.ids.push(id);
         self.packed.push(packed);
         slot
     }
 
     /// Fills the scene's texture table and texels, leaving out the largest levels of the
-    /// largest textures while the whole exceeds [`TEXEL_BUDGET`].
-    fn write(&self, data: &mut SceneData) {
+    /// largest textures while the whole exceeds [`TEXEL_BUDGET`]; the last scene's when it
+    /// used the same images.
+    fn write(&self, data: &mut SceneData, cache: &mut TextureCache) {
+        if let Some((ids, table, texels)) = &cache.table
+            && *ids == self.ids
+        {
+            data.textures = table.clone();
+            data.texels = texels.clone();
+            return;
+        }
         let mut skipped = vec![0u32; self.packed.len()];
         let bytes = |skipped: &[u32]| -> u64 {
             self.packed
                 .iter()
                 .zip(skipped)
-                .map(|(t, &s)| 4 * (t.texels.len() - level_start(t, s)) as u64)
+                .map(|(t, &s)| 4 * (t.texels.len() - t.level_start(s)) as u64)
                 .sum()
         };
         while bytes(&skipped) > TEXEL_BUDGET {
@@ -305,23 +322,14 @@ impl TextureTable {
             };
             skipped[largest] += 1;
         }
+        let mut texels = Vec::new();
         for (t, &s) in self.packed.iter().zip(&skipped) {
-            let mut entry = t.gpu(data.texels.len() as u32);
-            entry.width = (t.width >> s).max(1);
-            entry.height = (t.height >> s).max(1);
-            entry.levels -= s;
-            data.textures.push(entry);
-            data.texels
-                .extend_from_slice(&t.texels[level_start(t, s)..]);
+            data.textures.push(t.gpu(texels.len() as u32, s));
+            texels.extend_from_slice(&t.texels[t.level_start(s)..]);
         }
+        data.texels = Arc::new(texels);
+        cache.table = Some((self.ids.clone(), data.textures.clone(), data.texels.clone()));
     }
-}
-
-/// Index of the first texel of level `level` in a packed texture.
-fn level_start(t: &PackedTexture, level: u32) -> usize {
-    (0..level)
-        .map(|l| ((t.width >> l).max(1) * (t.height >> l).max(1)) as usize)
-        .sum()
 }
 
 fn bounds(triangles: &[GpuTriangle]) -> (Vec3, Vec3) {

@@ -188,9 +188,10 @@ pub struct SceneData {
     /// Per-triangle texture coordinates and colours, parallel to `triangles`; empty when no
     /// material is [`MaterialFlags::TEXTURED`].
     pub attributes: Vec<GpuTriangleAttributes>,
-    /// The packed textures the materials use, and their texels (RGBA8 in u32).
+    /// The packed textures the materials use, and their texels (RGBA8 in u32), shared with
+    /// the previous extraction while its textures are the same (kept on the GPU then too).
     pub textures: Vec<GpuTexture>,
-    pub texels: Vec<u32>,
+    pub texels: Arc<Vec<u32>>,
     pub lights: Vec<GpuLight>,
     pub emitters: Vec<GpuEmitter>,
     /// Photon-emission CDF over `lights` then `emitters`, by power (inclusive, last = 1).

@@ -34,8 +34,6 @@ pub struct SceneBuffers {
     pub paths: ScatterPaths,
     /// The largest probability a photon goes on after a hit (sizes the photon store).
     pub max_scatter: f32,
-    /// Whether the stages compile the texture lookups ([`SceneData::is_textured`]).
-    pub textured: bool,
 }
 
 impl SceneBuffers {
@@ -129,7 +127,9 @@ pub(crate) fn prepare_scene(
     mut refused_epoch: Local<Option<u64>>,
 ) {
     let Some(scene) = scene else { return };
-    if buffers.is_some_and(|b| b.epoch == scene.epoch) || *refused_epoch == Some(scene.epoch) {
+    if buffers.as_ref().is_some_and(|b| b.epoch == scene.epoch)
+        || *refused_epoch == Some(scene.epoch)
+    {
         return;
     }
     let data = &scene.data;
@@ -159,7 +159,6 @@ pub(crate) fn prepare_scene(
         data: data.clone(),
         paths: data.scatter_paths(),
         max_scatter: data.max_scatter_probability(),
-        textured: data.is_textured(),
         triangles: storage_buffer(&device, "rppm_triangles", &data.triangles),
         materials: storage_buffer(&device, "rppm_materials", &data.materials),
         lights: storage_buffer(&device, "rppm_lights", &data.lights),
@@ -168,6 +167,10 @@ pub(crate) fn prepare_scene(
         ggx_albedo: ggx_albedo.0.clone(),
         attributes: storage_buffer(&device, "rppm_triangle_attributes", &data.attributes),
         textures: storage_buffer(&device, "rppm_textures", &data.textures),
-        texels: storage_buffer(&device, "rppm_texels", &data.texels),
+        // A change that kept the textures (a moved object) keeps their upload.
+        texels: match &buffers {
+            Some(b) if Arc::ptr_eq(&b.data.texels, &data.texels) => b.texels.clone(),
+            _ => storage_buffer(&device, "rppm_texels", &data.texels),
+        },
     });
 }

@@ -144,13 +144,20 @@ impl PackedTexture {
         Vec4::new(c(b[0]), c(b[1]), c(b[2]), b[3] as f32 / 255.0)
     }
 
-    /// Its entry in a texel buffer starting at `offset`.
-    pub fn gpu(&self, offset: u32) -> GpuTexture {
+    /// Index of the first texel of level `level`.
+    pub fn level_start(&self, level: u32) -> usize {
+        (0..level)
+            .map(|l| ((self.width >> l).max(1) * (self.height >> l).max(1)) as usize)
+            .sum()
+    }
+
+    /// Its entry in a texel buffer starting at `offset` that holds it from level `first`.
+    pub fn gpu(&self, offset: u32, first: u32) -> GpuTexture {
         GpuTexture {
             offset,
-            width: self.width,
-            height: self.height,
-            levels: self.levels(),
+            width: (self.width >> first).max(1),
+            height: (self.height >> first).max(1),
+            levels: self.levels() - first,
             srgb: self.srgb as u32,
             _pad: [0; 3],
         }

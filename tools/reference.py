@@ -6,9 +6,9 @@ used as radiometric ones, light range ignored).
     python3 tools/reference.py SCENE.gltf --out REF.exr [--width 256] [--height 256]
                                [--spp 1024] [--variant llvm_ad_rgb|scalar_rgb] [--json REF.json]
 
-Needs `pip install mitsuba` (3.9). The llvm variants need an LLVM that drjit accepts: on
-Debian 12 install `libllvm19` and the script points DRJIT_LIBLLVM_PATH at it; otherwise it
-falls back to `scalar_rgb`, which is slower.
+Needs `pip install mitsuba numpy` (Mitsuba 3.9; numpy only for textured scenes). The llvm
+variants need an LLVM that drjit accepts: on Debian 12 install `libllvm19` and the script
+points DRJIT_LIBLLVM_PATH at it; otherwise it falls back to `scalar_rgb`, which is slower.
 
 Material mapping (as the references in shared/scenes): metallic 0 and no transmission →
 Lambertian `diffuse` (Bevy's 4% specular layer is left out, see CONVENTIONS.md); metallic with

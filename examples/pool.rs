@@ -1,6 +1,7 @@
 //! A pool with an animated water surface over a tiled floor: sunlight refracted by the waves
 //! makes caustics that move with the water (the RPPM paper's pool scene). The water mesh is
-//! rewritten every frame through `Assets<Mesh>`, so photon mapping restarts every frame.
+//! rewritten every frame through `Assets<Mesh>`; photon mapping keeps 8 iterations of its
+//! caustics through the motion (`RppmHistory::Reuse`).
 //! Keys: G GI on/off, P pause the water (PPM then converges), O overlay.
 //! `--headless --frames N --out FILE.png` renders offscreen instead; `--time T` holds the
 //! water at T seconds.
@@ -10,7 +11,7 @@ use bevy::asset::RenderAssetUsages;
 use bevy::core_pipeline::tonemapping::Tonemapping;
 use bevy::mesh::{Indices, PrimitiveTopology, VertexAttributeValues};
 use bevy::prelude::*;
-use bevy_rppm::PhotonMapping;
+use bevy_rppm::{PhotonMapping, RppmHistory};
 use common::{ExampleArgs, ExampleCamera, example_app};
 
 /// Water grid cells along each side, and the pool's half width and depth in metres.
@@ -87,6 +88,8 @@ fn setup(
         Transform::from_xyz(0.0, 3.2, 4.2).looking_at(Vec3::new(0.0, -DEPTH, 0.0), Vec3::Y),
         PhotonMapping {
             photons_per_iteration: 131_072,
+            // The moving water changes the caustics every frame: keep 8 iterations of them.
+            history: RppmHistory::Reuse { iterations: 8 },
             ..default()
         },
         // A tonemapper that needs no lookup table (the crate leaves out Bevy's LUTs).

@@ -34,11 +34,45 @@ pub enum RppmDebugView {
     DirectPhotons,
 }
 
+/// What a change in the scene or a camera move does to the progressive estimate. A change of
+/// the settings or of the target's size always starts again.
+#[derive(Reflect, Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+#[reflect(Default, Clone, PartialEq, Hash)]
+pub enum RppmHistory {
+    /// Any change starts the estimate again: RPPM's behaviour (default; the `rppm` CLI and
+    /// the accuracy tests use it).
+    #[default]
+    Reset,
+    /// Keep the estimate through motion (experimental: see the README's measurements; it
+    /// helps where motion changes indirect light, such as the pool's caustics, and can lag
+    /// behind fast-moving objects and cameras). After a change, each pixel keeps at most
+    /// `iterations` iterations of history while the change settles (an exponential window,
+    /// for `iterations` more iterations); after a change in the scene, none of its direct
+    /// light, which is traced anew each iteration, so moving shadows follow at once, and the
+    /// gather radius starts again. After a camera move the history is reprojected to where
+    /// each pixel's surface was. A pixel starts
+    /// again where its surface changed (disocclusion, a moved object) and where its indirect
+    /// light departs from its history by more than its own noise explains. A still scene
+    /// converges as with `Reset`. Range of `iterations` 1..=1024.
+    Reuse { iterations: u32 },
+}
+
+impl RppmHistory {
+    /// The history window of `Reuse`.
+    pub fn window(self) -> Option<u32> {
+        match self {
+            Self::Reset => None,
+            Self::Reuse { iterations } => Some(iterations),
+        }
+    }
+}
+
 /// Rasterisation-based progressive photon mapping on a 3D camera.
 ///
 /// Add it to a `Camera3d`. Every value is checked each time it changes: an out-of-range value
 /// is **clamped** to its range with one warning (the image keeps rendering), never a panic.
-/// Changing any value restarts the progressive estimate.
+/// Changing any value restarts the progressive estimate; what motion does is
+/// [`history`](Self::history).
 #[derive(Component, Reflect, Clone, Debug, PartialEq)]
 #[reflect(Component, Default, Clone, PartialEq)]
 #[require(ViewEpoch)]
@@ -89,6 +123,10 @@ pub struct PhotonMapping {
     pub indirect_subsampling: u32,
     /// A debug image instead of the estimate. Default [`RppmDebugView::None`].
     pub debug_view: RppmDebugView,
+    /// What a moved object, light or camera does to the estimate: start again, or keep it
+    /// (temporal reuse, `RppmHistory::Reuse { iterations: 8 }` is a good start). Default
+    /// [`RppmHistory::Reset`].
+    pub history: RppmHistory,
 }
 
 /// Settings chosen from the speed/accuracy measurements of `rppm bench trade` (see the
@@ -123,6 +161,7 @@ impl Default for PhotonMapping {
             kernel_flattening: 0.1,
             indirect_subsampling: 1,
             debug_view: RppmDebugView::None,
+            history: RppmHistory::default(),
         }
     }
 }
@@ -220,6 +259,9 @@ impl PhotonMapping {
             "shadow_map_resolution",
             &mut notes,
         );
+        if let RppmHistory::Reuse { iterations } = &mut out.history {
+            clamp_u32(iterations, 1, 1024, "history iterations", &mut notes);
+        }
         if !cfg!(feature = "debug") && out.debug_view != RppmDebugView::None {
             notes.push(format!(
                 "PhotonMapping::debug_view = {:?} needs bevy_rppm's `debug` feature; using None",
@@ -274,20 +316,23 @@ fn clamp_f32(v: &mut f32, lo: f32, hi: f32, name: &str, notes: &mut Vec<String>)
 #[reflect(Component, Default)]
 pub struct RppmReadback;
 
-/// Per-camera change counter: the camera's transform, projection, target size or settings.
-/// A new epoch restarts the camera's progressive estimate.
+/// Per-camera change counters. A new epoch (its settings or target size changed) restarts
+/// the camera's progressive estimate; a new move (its transform or projection changed) does
+/// too under [`RppmHistory::Reset`], and is reprojected under `Reuse`.
 #[derive(Component, Clone, Copy, Debug, Default, PartialEq)]
 pub struct ViewEpoch {
     pub epoch: u64,
+    pub moves: u64,
     pub(crate) key: Option<ViewKey>,
+    /// The target size the epoch was counted for (`None` before the first frame).
+    pub(crate) target: Option<Option<UVec2>>,
 }
 
-/// What a camera's epoch follows.
+/// What a camera's moves follow.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(crate) struct ViewKey {
     pub world_from_view: Mat4,
     pub clip_from_view: Mat4,
-    pub target: Option<UVec2>,
 }
 
 /// Jumps a camera's progressive estimate to this iteration, with the Knaus–Zwicker radius

@@ -4,8 +4,8 @@ white floor under it, and writes the result next to the input (so its files stil
 
     python3 tools/stage.py FlightHelmet/FlightHelmet.gltf FlightHelmet/staged.gltf [--yaw 30]
 
-Only .gltf (JSON) input; the asset's own cameras and lights are kept but the new camera comes
-first.
+A .glb input is split into JSON and a .bin beside the output. The asset's own cameras and
+lights are kept but the new camera comes first.
 """
 import argparse
 import base64
@@ -34,6 +34,31 @@ def bounds(gltf):
     return lo, hi
 
 
+def read_scene(path, out):
+    """The scene's JSON; a GLB's binary chunk is written beside `out` and referenced."""
+    with open(path, "rb") as f:
+        data = f.read()
+    if data[:4] != b"glTF":
+        return json.loads(data)
+    gltf, binary, offset = None, None, 12
+    while offset + 8 <= len(data):
+        length, kind = struct.unpack_from("<II", data, offset)
+        chunk = data[offset + 8 : offset + 8 + length]
+        if kind == 0x4E4F534A:
+            gltf = json.loads(chunk)
+        elif kind == 0x004E4942:
+            binary = chunk
+        offset += 8 + length
+    if gltf is None:
+        sys.exit(f"stage.py: error: {path} has no JSON chunk")
+    if binary is not None:
+        name = os.path.splitext(os.path.basename(out))[0] + ".bin"
+        with open(os.path.join(os.path.dirname(os.path.abspath(out)), name), "wb") as f:
+            f.write(binary)
+        gltf["buffers"][0]["uri"] = name
+    return gltf
+
+
 def quaternion_look(direction):
     """Rotation taking −Z to `direction` (unit), with +Y kept up."""
     yaw = math.atan2(-direction[0], -direction[2])
@@ -50,8 +75,7 @@ def main():
     parser.add_argument("--pitch", type=float, default=15.0, help="camera elevation, degrees")
     parser.add_argument("--sun", type=float, default=3.0, help="sun irradiance, W/m² (lux)")
     args = parser.parse_args()
-    with open(args.scene) as f:
-        gltf = json.load(f)
+    gltf = read_scene(args.scene, args.out)
     lo, hi = bounds(gltf)
     centre = [(lo[k] + hi[k]) / 2 for k in range(3)]
     radius = 0.5 * math.dist(lo, hi)

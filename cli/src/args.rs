@@ -42,6 +42,55 @@ pub enum BenchCommand {
         /// The folder holding samples.csv; the plots are written beside it.
         dir: PathBuf,
     },
+    /// A scripted animation under `Reset` and `Reuse`: each sampled frame's relMSE against
+    /// the same frozen state rendered to convergence; a table, motion.csv and motion.png.
+    Motion(MotionArgs),
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+pub enum MotionScript {
+    /// The camera circles the scene's centre, one degree per frame.
+    Orbit,
+    /// The first point or spot light swings along x.
+    Light,
+    /// The glTF animation `--animation` plays at 30 frames per second.
+    Animation,
+}
+
+#[derive(Args)]
+pub struct MotionArgs {
+    pub scene: PathBuf,
+    /// What moves.
+    #[arg(long, value_enum, default_value = "animation")]
+    pub script: MotionScript,
+    /// The glTF animation of `--script animation`.
+    #[arg(long, default_value_t = 0)]
+    pub animation: usize,
+    /// Frames rendered (one `PhotonMapping` frame each).
+    #[arg(long, default_value_t = 48, value_parser = clap::value_parser!(u32).range(1..=10_000))]
+    pub frames: u32,
+    /// Error measured every this many frames.
+    #[arg(long, default_value_t = 8, value_parser = clap::value_parser!(u32).range(1..=10_000))]
+    pub every: u32,
+    #[arg(long, default_value_t = 160)]
+    pub width: u32,
+    #[arg(long, default_value_t = 120)]
+    pub height: u32,
+    /// Photons per iteration.
+    #[arg(long, default_value_t = 65_536)]
+    pub photons: u32,
+    /// Iterations per frame.
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=1024))]
+    pub iterations_per_frame: u32,
+    /// `Reuse`'s history window (iterations).
+    #[arg(long, default_value_t = 8, value_parser = clap::value_parser!(u32).range(1..=1024))]
+    pub window: u32,
+    /// Iterations of each converged frozen frame.
+    #[arg(long, default_value_t = 256, value_parser = clap::value_parser!(u32).range(1..))]
+    pub reference_iterations: u32,
+    /// Where motion.csv and motion.png go.
+    #[arg(long, default_value = "out/motion")]
+    pub out: PathBuf,
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -119,6 +168,12 @@ pub struct RenderArgs {
     /// A debug image instead of the estimate.
     #[arg(long, value_enum)]
     pub debug_view: Option<DebugView>,
+    /// Pose the scene by its glTF animation of this index (skins, morph weights, nodes).
+    #[arg(long)]
+    pub animation: Option<usize>,
+    /// The instant of `--animation` to pose and hold, in seconds (wraps around the clip).
+    #[arg(long, default_value_t = 0.0, requires = "animation", value_parser = non_negative_seconds)]
+    pub animation_time: f32,
 }
 
 #[derive(Args)]
@@ -168,6 +223,13 @@ pub fn positive_seconds(text: &str) -> Result<f64, String> {
     match text.parse::<f64>() {
         Ok(s) if s.is_finite() && s > 0.0 => Ok(s),
         _ => Err(format!("'{text}' is not a positive number of seconds")),
+    }
+}
+
+fn non_negative_seconds(text: &str) -> Result<f32, String> {
+    match text.parse::<f32>() {
+        Ok(s) if s.is_finite() && s >= 0.0 => Ok(s),
+        _ => Err(format!("'{text}' is not a number of seconds ≥ 0")),
     }
 }
 

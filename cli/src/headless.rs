@@ -22,8 +22,8 @@ use bevy_rppm::debug::bench::{
     CubemapBenchRequest, CubemapBenchResults, CubemapBenchRow, bench_rays,
 };
 use bevy_rppm::{
-    PhotonMapping, RadianceImage, RppmPlugin, RppmRadiance, RppmReadback, RppmScene, RppmStats,
-    ViewStats,
+    PhotonMapping, RadianceImage, RppmHistory, RppmPlugin, RppmRadiance, RppmReadback, RppmScene,
+    RppmStats, ViewStats,
 };
 
 use crate::image_io::RgbImage;
@@ -59,31 +59,35 @@ pub fn headless_app(asset_root: &Path) -> App {
 /// The same app, not yet finished: for `App::run()` (it loops with no delay between frames).
 pub fn headless_app_unfinished(asset_root: &Path) -> App {
     let mut app = App::new();
-    app.add_plugins(
-        DefaultPlugins
-            .set(AssetPlugin {
-                file_path: asset_root.display().to_string(),
-                ..default()
-            })
-            .set(WindowPlugin {
-                primary_window: None,
-                exit_condition: ExitCondition::DontExit,
-                ..default()
-            })
-            .set(RenderPlugin {
-                render_creation: RenderCreation::Automatic(Box::default()),
-                // Pipelines ready on the first frame: iteration counts are then exact.
-                synchronous_pipeline_compilation: true,
-                ..default()
-            })
-            .set(bevy::log::LogPlugin {
-                filter: "warn,wgpu=error,naga=warn,bevy_light=error,bevy_rppm=info".into(),
-                ..default()
-            })
-            // No display server here; rendering goes to images.
-            .disable::<bevy::winit::WinitPlugin>(),
-    )
-    .add_plugins((
+    let plugins = DefaultPlugins
+        .set(AssetPlugin {
+            file_path: asset_root.display().to_string(),
+            ..default()
+        })
+        .set(WindowPlugin {
+            primary_window: None,
+            exit_condition: ExitCondition::DontExit,
+            ..default()
+        })
+        .set(RenderPlugin {
+            render_creation: RenderCreation::Automatic(Box::default()),
+            // Pipelines ready on the first frame: iteration counts are then exact.
+            synchronous_pipeline_compilation: true,
+            ..default()
+        })
+        // No display server here; rendering goes to images.
+        .disable::<bevy::winit::WinitPlugin>();
+    // The process has one logger: the first app sets it, later ones (benches, tests) use it.
+    static LOGGER_SET: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+    let plugins = if LOGGER_SET.swap(true, std::sync::atomic::Ordering::SeqCst) {
+        plugins.disable::<bevy::log::LogPlugin>()
+    } else {
+        plugins.set(bevy::log::LogPlugin {
+            filter: "warn,wgpu=error,naga=warn,bevy_light=error,bevy_rppm=info".into(),
+            ..default()
+        })
+    };
+    app.add_plugins(plugins).add_plugins((
         RppmPlugin,
         bevy::app::ScheduleRunnerPlugin::run_loop(Duration::ZERO),
     ));
@@ -217,6 +221,11 @@ pub fn render_loaded(
     mut progress: impl FnMut(&Progress),
 ) -> Result<RenderResult, String> {
     check_size(request)?;
+    // A still: a late change (an image still loading) starts the estimate again rather than
+    // lingering in its history.
+    let mut request = request.clone();
+    request.settings.history = RppmHistory::Reset;
+    let request = &request;
     app.update(); // extraction sees the caller's changes
     let camera_from_scene = attach_camera(app, request)?;
     let mut query = app
@@ -298,9 +307,9 @@ const DEFAULT_FOV: f32 = std::f32::consts::FRAC_PI_4;
 struct SceneReady;
 
 /// Renders from the scene's first camera, or from a default one: 45° vertical field of view,
-/// on the +Z side of the scene's bounds, looking down −Z at their centre. Returns whether the
-/// scene had a camera.
-fn attach_camera(app: &mut App, request: &RenderRequest) -> Result<bool, String> {
+/// on the +Z side of the scene's bounds, looking down −Z at their centre, with the request's
+/// settings and read-back. Returns whether the scene had a camera.
+pub fn attach_camera(app: &mut App, request: &RenderRequest) -> Result<bool, String> {
     let world = app.world_mut();
     let target = offscreen_target(
         &mut world.resource_mut::<Assets<Image>>(),

@@ -1,8 +1,11 @@
-//! What the `rppm` tool and the tests share: a headless Bevy app that renders glTF scenes,
+//! What the `rppm` tool and the tests share: a headless Bevy app that renders glTF scenes
+//! (posed by their animations),
 //! image files and the metrics of `shared/docs/CONVENTIONS.md`, the speed/accuracy trade and
 //! the deep-cubemap bench.
 
+pub mod animation;
 pub mod bench;
 pub mod headless;
 pub mod image_io;
+pub mod motion;
 pub mod trade;

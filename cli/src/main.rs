@@ -9,8 +9,11 @@ use std::process::ExitCode;
 use anyhow::{Context, Result, bail};
 use bevy_rppm::cubemap::CubemapConfig;
 use bevy_rppm::{PhotonMapping, ViewStats};
+use bevy_rppm_cli::animation;
 use bevy_rppm_cli::bench::{print_table, sweep_configs};
-use bevy_rppm_cli::headless::{Budget, RenderResult, bench_dirt, render_gltf};
+use bevy_rppm_cli::headless::{
+    Budget, Progress, RenderResult, bench_dirt, load_gltf, render_gltf, render_loaded,
+};
 use bevy_rppm_cli::image_io::{
     RgbImage, bad_pixels, energy_ratio, read_exr, relmse, write_exr, write_png,
 };
@@ -22,7 +25,8 @@ use indicatif::{ProgressBar, ProgressStyle};
 use serde::Serialize;
 
 use args::{
-    BenchCommand, Cli, Command, DirtArgs, RenderArgs, TradeArgs, default_render, extension,
+    BenchCommand, Cli, Command, DirtArgs, MotionArgs, MotionScript, RenderArgs, TradeArgs,
+    default_render, extension,
 };
 
 fn main() -> ExitCode {
@@ -52,6 +56,7 @@ fn main() -> ExitCode {
         Some(Command::Bench(BenchCommand::Dirt(args))) => dirt(&args),
         Some(Command::Bench(BenchCommand::Trade(args))) => trade(&args),
         Some(Command::Bench(BenchCommand::Plot { dir })) => plot(&dir),
+        Some(Command::Bench(BenchCommand::Motion(args))) => motion(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -106,14 +111,23 @@ fn render(args: &RenderArgs) -> Result<()> {
     let started = std::time::Instant::now();
     let request = args.request();
     let bar = progress_bar(request.budget);
-    let result = render_gltf(&request, |p| match p.budget {
+    let progress = |p: &Progress| match p.budget {
         Budget::Iterations(_) => bar.set_position(p.iteration as u64),
         Budget::Seconds(_) => {
             bar.set_position((p.seconds * 1000.0) as u64);
             let rate = p.iteration as f64 / p.seconds.max(1e-9);
             bar.set_message(format!("{} iterations, {rate:.2} it/s", p.iteration));
         }
-    })
+    };
+    let result = match args.animation {
+        None => render_gltf(&request, progress),
+        Some(index) => load_gltf(&request.scene).and_then(|mut app| {
+            let clip = animation::pose(&mut app, &request.scene, index, args.animation_time)?;
+            let (name, at) = (clip.name, args.animation_time);
+            bar.suspend(|| eprintln!("posed by animation {name} at {at} s"));
+            render_loaded(&mut app, &request, progress)
+        }),
+    }
     .map_err(anyhow::Error::msg)?;
     bar.finish_and_clear();
     for path in &args.out {
@@ -306,5 +320,71 @@ fn trade(args: &TradeArgs) -> Result<()> {
             );
         }
     }
+    Ok(())
+}
+
+fn motion(args: &MotionArgs) -> Result<()> {
+    use bevy_rppm_cli::motion::{
+        MotionRequest, Script, bench_motion, write_csv, write_images, write_plot,
+    };
+    std::fs::create_dir_all(&args.out)
+        .with_context(|| format!("cannot create {}", args.out.display()))?;
+    let script = match args.script {
+        MotionScript::Orbit => Script::Orbit,
+        MotionScript::Light => Script::Light,
+        MotionScript::Animation => Script::Animation(args.animation),
+    };
+    let request = MotionRequest {
+        scene: args.scene.clone(),
+        script: script.clone(),
+        frames: args.frames,
+        every: args.every,
+        width: args.width,
+        height: args.height,
+        settings: PhotonMapping {
+            photons_per_iteration: args.photons,
+            iterations_per_frame: args.iterations_per_frame,
+            ..PhotonMapping::default()
+        },
+        window: args.window,
+        reference_iterations: args.reference_iterations,
+    };
+    let result =
+        bench_motion(&request, |step| eprintln!("rppm: {step}")).map_err(anyhow::Error::msg)?;
+    println!("| frame | Reset relMSE | Reuse relMSE |");
+    println!("|---:|---:|---:|");
+    for r in &result.rows {
+        println!("| {} | {:.5} | {:.5} |", r.frame, r.reset, r.reuse);
+    }
+    let n = result.rows.len().max(1) as f64;
+    let mean = |f: fn(&bevy_rppm_cli::motion::MotionRow) -> f64| {
+        result.rows.iter().map(f).sum::<f64>() / n
+    };
+    let (reset, reuse) = (mean(|r| r.reset), mean(|r| r.reuse));
+    let fps = |s: f64| args.frames as f64 / s.max(1e-9);
+    println!(
+        "mean relMSE: Reset {reset:.5}, Reuse {reuse:.5} ({:.1}× lower); frames/s: Reset {:.2}, \
+         Reuse {:.2} ({} frames, {:?} script)",
+        reset / reuse.max(1e-12),
+        fps(result.seconds[0]),
+        fps(result.seconds[1]),
+        args.frames,
+        script,
+    );
+    write_csv(&result, &args.out)?;
+    let title = format!(
+        "{}: {:?}, {}x{}, {} photons",
+        args.scene.display(),
+        script,
+        args.width,
+        args.height,
+        args.photons
+    );
+    write_plot(&result, &args.out, &title).map_err(anyhow::Error::msg)?;
+    write_images(&result, &args.out).map_err(anyhow::Error::msg)?;
+    eprintln!(
+        "wrote {}/motion.csv, motion.png and each sampled frame (frame<N>_reset|reuse|reference)",
+        args.out.display()
+    );
     Ok(())
 }

@@ -153,7 +153,11 @@ struct IterationParams {
     kernel_flattening: f32,
     // Photons are splatted on every n-th pixel, then upsampled (1: every pixel).
     indirect_subsampling: u32,
-    pad: vec2<u32>,
+    // Iterations of history a pixel keeps (0xffffffff: all), and HistoryFlags (params.rs).
+    history_cap: u32,
+    history_flags: u32,
+    // Last frame's unjittered clip_from_world, for reprojecting history.
+    previous_clip_from_world: mat4x4<f32>,
 }
 
 // A stored photon (64 bytes, the RPPM budget).

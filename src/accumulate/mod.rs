@@ -1,7 +1,14 @@
 //! Accumulation: this iteration's sample (local light, direct and indirect splats) folded into
 //! the running mean of every iteration since the last reset (`shaders/accumulate/`). With
 //! subsampled splats, the incident light is upsampled by a joint-bilateral filter before each
-//! pixel's own BSDF.
+//! pixel's own BSDF. Under `RppmHistory::Reuse` it also keeps each pixel's history through
+//! motion (`history.rs`).
+
+mod clock;
+mod history;
+
+pub use clock::{Changes, HistoryClock, HistoryFlags};
+pub use history::History;
 
 use bevy::prelude::*;
 use bevy::render::render_resource::binding_types::{
@@ -36,9 +43,12 @@ impl Plugin for AccumulatePlugin {
 /// The accumulation stage, specialized by [`AccumulateKey`].
 #[derive(Resource)]
 pub struct AccumulatePipeline {
-    /// 0 params (dynamic offset), 1 samples, 2 splats, 3 the running estimate, 4 importon
-    /// radiance, 5 G-buffer position, 6 G-buffer normal.
+    /// 0 params (dynamic offset), 1 samples, 2 splats, 3 the running estimate (rgb, w the
+    /// pixel's iteration count), 4 importon radiance, 5 G-buffer position, 6 G-buffer normal.
     pub layout: BindGroupLayoutDescriptor,
+    /// `layout` and the history (`HISTORY`): 7 the pixels' history, 8 and 9 last frame's
+    /// estimate and history.
+    pub history_layout: BindGroupLayoutDescriptor,
     scene: BindGroupLayoutDescriptor,
     shader: Handle<Shader>,
 }
@@ -52,6 +62,8 @@ pub struct AccumulateKey {
     pub importons: bool,
     /// The scene's texture lookups (`TEXTURED`).
     pub textured: bool,
+    /// History kept through motion (`HISTORY`): `RppmHistory::Reuse`.
+    pub history: bool,
 }
 
 impl SpecializedComputePipeline for AccumulatePipeline {
@@ -65,9 +77,15 @@ impl SpecializedComputePipeline for AccumulatePipeline {
         if key.importons {
             shader_defs.push("IMPORTONS".into());
         }
+        let layout = if key.history {
+            shader_defs.push("HISTORY".into());
+            &self.history_layout
+        } else {
+            &self.layout
+        };
         ComputePipelineDescriptor {
             label: Some("rppm_accumulate".into()),
-            layout: vec![self.scene.clone(), self.layout.clone()],
+            layout: vec![self.scene.clone(), layout.clone()],
             shader: self.shader.clone(),
             shader_defs,
             ..default()
@@ -81,32 +99,44 @@ fn init_accumulate_pipeline(
     layouts: Res<ViewLayouts>,
 ) {
     let unfilterable = TextureSampleType::Float { filterable: false };
-    let layout = BindGroupLayoutDescriptor::new(
-        "rppm_accumulate_layout",
-        &BindGroupLayoutEntries::sequential(
-            ShaderStages::COMPUTE,
-            (
-                params_entry(),
-                storage_buffer_read_only_sized(false, None),
-                texture_2d(unfilterable),
-                storage_buffer_sized(false, None),
-                storage_buffer_read_only_sized(false, None),
-                texture_2d(unfilterable),
-                texture_2d(unfilterable),
-            ),
+    let entries = BindGroupLayoutEntries::sequential(
+        ShaderStages::COMPUTE,
+        (
+            params_entry(),
+            storage_buffer_read_only_sized(false, None),
+            texture_2d(unfilterable),
+            storage_buffer_sized(false, None),
+            storage_buffer_read_only_sized(false, None),
+            texture_2d(unfilterable),
+            texture_2d(unfilterable),
         ),
     );
+    let history = BindGroupLayoutEntries::with_indices(
+        ShaderStages::COMPUTE,
+        (
+            (7, storage_buffer_sized(false, None)),
+            (8, storage_buffer_read_only_sized(false, None)),
+            (9, storage_buffer_read_only_sized(false, None)),
+        ),
+    );
+    let with_history: Vec<_> = entries.iter().chain(history.iter()).cloned().collect();
+    let layout = BindGroupLayoutDescriptor::new("rppm_accumulate_layout", &entries);
+    let history_layout =
+        BindGroupLayoutDescriptor::new("rppm_accumulate_history_layout", &with_history);
     commands.insert_resource(AccumulatePipeline {
         layout,
+        history_layout,
         scene: layouts.scene.clone(),
         shader: shaders.accumulate.clone(),
     });
 }
 
-/// One camera's running estimate (linear radiance, RGBA f32 per pixel) and the group that
-/// folds an iteration into it (made again each frame: its targets come from the texture cache).
+/// One camera's running estimate (linear radiance and iteration count, RGBA f32 per pixel),
+/// its history through motion (`Reuse` only), and the group that folds an iteration into it
+/// (made again each frame: its targets come from the texture cache).
 pub struct Estimate {
     pub radiance: Buffer,
+    pub history: Option<History>,
     group: Option<BindGroup>,
 }
 
@@ -119,7 +149,7 @@ pub struct EstimateInputs<'a> {
 }
 
 impl Estimate {
-    pub fn new(device: &RenderDevice, size: UVec2) -> Self {
+    pub fn new(device: &RenderDevice, size: UVec2, history: bool) -> Self {
         let radiance = device.create_buffer(&BufferDescriptor {
             label: Some("rppm_radiance"),
             size: size.x as u64 * size.y as u64 * 16,
@@ -128,6 +158,7 @@ impl Estimate {
         });
         Self {
             radiance,
+            history: history.then(|| History::new(device, size)),
             group: None,
         }
     }
@@ -140,19 +171,43 @@ impl Estimate {
         pipeline: &AccumulatePipeline,
         inputs: EstimateInputs,
     ) {
-        self.group = Some(device.create_bind_group(
-            "rppm_accumulate_group",
-            &cache.get_bind_group_layout(&pipeline.layout),
-            &BindGroupEntries::sequential((
-                inputs.params,
-                inputs.eye_paths.samples.as_entire_binding(),
-                &inputs.splats.view,
-                self.radiance.as_entire_binding(),
-                inputs.eye_paths.radiance.as_entire_binding(),
-                &inputs.gbuffer.position,
-                &inputs.gbuffer.normal,
-            )),
+        let (samples, importons) = (&inputs.eye_paths.samples, &inputs.eye_paths.radiance);
+        let entries = BindGroupEntries::sequential((
+            inputs.params,
+            samples.as_entire_binding(),
+            &inputs.splats.view,
+            self.radiance.as_entire_binding(),
+            importons.as_entire_binding(),
+            &inputs.gbuffer.position,
+            &inputs.gbuffer.normal,
         ));
+        self.group = Some(match &self.history {
+            None => device.create_bind_group(
+                "rppm_accumulate_group",
+                &cache.get_bind_group_layout(&pipeline.layout),
+                &entries,
+            ),
+            Some(h) => {
+                let history = BindGroupEntries::with_indices((
+                    (7, h.history.as_entire_binding()),
+                    (8, h.previous_radiance.as_entire_binding()),
+                    (9, h.previous_history.as_entire_binding()),
+                ));
+                let all: Vec<_> = entries.iter().chain(history.iter()).cloned().collect();
+                device.create_bind_group(
+                    "rppm_accumulate_group",
+                    &cache.get_bind_group_layout(&pipeline.history_layout),
+                    &all,
+                )
+            }
+        });
+    }
+
+    /// Keeps this frame's estimate and history as last frame's, for reprojection.
+    pub fn encode_keep_previous(&self, encoder: &mut CommandEncoder) {
+        if let Some(h) = &self.history {
+            h.encode_keep(encoder, &self.radiance);
+        }
     }
 
     /// Adds the splats to the local sample and folds it into the running estimate.

@@ -66,6 +66,9 @@ pub(crate) fn rppm_node(
     let encoder = ctx.command_encoder();
     timer.begin_frame(state.frame.1);
     let (_, count) = state.frame;
+    if state.reprojects {
+        state.estimate.encode_keep_previous(encoder);
+    }
     for slot in 0..count {
         let offset = (slot as u64 * PARAMS_STRIDE) as u32;
         if matches!(

@@ -10,7 +10,7 @@ use bevy::render::texture::TextureCache;
 use bevy::render::view::{ExtractedView, ViewTarget};
 
 use super::state::{ResourceKey, RppmViewState, StageIds, StagePipelines, ViewTimer};
-use crate::accumulate::{AccumulateKey, AccumulatePipeline};
+use crate::accumulate::{AccumulateKey, AccumulatePipeline, Changes, HistoryFlags};
 use crate::cubemap::{BuildContext, CubemapConfig, CubemapPipelines};
 use crate::gbuffer::GBufferPipeline;
 use crate::importons::{EyePathKey, EyePathPipeline};
@@ -23,7 +23,7 @@ use crate::settings::{PhotonMapping, RppmDebugView, RppmMode};
 use crate::shadows::{ShadowPipeline, cube_views};
 use crate::splat::{SplatKey, SplatPipeline};
 use crate::stats::timing::StageTimer;
-use crate::view::params::camera_params;
+use crate::view::params::{camera_params, unjittered_clip_from_world};
 use crate::view::{ExtractedRppm, PARAMS_STRIDE, ViewLayouts};
 
 /// Every stage's pipeline resource, and the caches of their variants.
@@ -201,6 +201,7 @@ fn select_stages(
                 subsampled,
                 importons: state.importons,
                 textured,
+                history: state.key.history,
             },
         ),
         output: output.map(|key| {
@@ -271,6 +272,7 @@ pub(crate) fn prepare_views(
             photon_capacity: photon_capacity(settings, scene, &device),
             importon_tiles: importon_tiles(settings, &scene.data),
             subsampling: settings.indirect_subsampling,
+            history: settings.history.window().is_some(),
         };
         let fresh = |pipelines: &Pipelines, textures: &mut TextureCache| {
             RppmViewState::new(
@@ -348,12 +350,18 @@ fn prepare_view(
 ) {
     let settings = &frame.rppm.settings;
     let key = state.key;
-    if state.view_epoch != frame.rppm.view_epoch {
-        state.view_epoch = frame.rppm.view_epoch;
-        state.iteration = 0;
-    }
-    if state.iteration == 0 {
-        state.radius2 = (settings.initial_radius_pixels as f64).powi(2);
+    let window = settings.history.window();
+    let changes = Changes {
+        cut: state.view_epoch != frame.rppm.view_epoch || std::mem::take(&mut state.scene_reshaped),
+        moved: state.view_moves != frame.rppm.view_moves,
+        scene: std::mem::take(&mut state.scene_changed),
+    };
+    state.view_epoch = frame.rppm.view_epoch;
+    state.view_moves = frame.rppm.view_moves;
+    let initial = (settings.initial_radius_pixels as f64).powi(2);
+    // A new start, or a change under `Reuse` (its index is back at 0).
+    if state.clock.begin_frame(changes, window) || changes.moved || changes.scene {
+        state.radius2 = initial;
     }
     if let Some(target) = frame
         .rppm
@@ -361,9 +369,8 @@ fn prepare_view(
         .filter(|&f| state.fast_forward != Some(f))
     {
         state.fast_forward = Some(target);
-        let initial = (settings.initial_radius_pixels as f64).powi(2);
         state.radius2 = radius2_after(initial, target, settings.alpha);
-        state.iteration = target;
+        state.clock.fast_forward(target);
     }
     let estimate = matches!(
         settings.debug_view,
@@ -409,18 +416,35 @@ fn prepare_view(
             false
         }
     };
-    let base = state.iteration;
+    let base = state.clock.iteration;
+    // Iterations held, not run: under `Reuse` a change makes room for new ones.
     let budget = settings
         .max_iterations
-        .map_or(u32::MAX, |m| m.saturating_sub(base));
+        .map_or(u32::MAX, |m| m.saturating_sub(state.clock.held));
     let count = if ready {
         settings.iterations_per_frame.min(budget)
     } else {
         0
     };
+    let (_, first_flags) = state.clock.next(window);
+    state.reprojects = count > 0 && first_flags.contains(HistoryFlags::REPROJECT);
     for slot in 0..count.max(1) {
         let iteration = base + slot;
-        let mut params = camera_params(frame.view, frame.camera, key.size, &scene.data, iteration);
+        // The jitter follows the radius's index: a moving view's frames start their pixels
+        // from the centre, as `Reset`'s do.
+        let jitter = state.clock.held;
+        let mut params = camera_params(
+            frame.view,
+            frame.camera,
+            key.size,
+            &scene.data,
+            iteration,
+            jitter,
+        );
+        let (cap, flags) = state.clock.next(window);
+        params.history_cap = cap;
+        params.history_flags = flags.bits();
+        params.previous_clip_from_world = state.previous_clip_from_world.to_cols_array_2d();
         params.area_view = state.shadows.area_view_base(slot);
         params.area_layer = state.shadows.light_layers;
         params.shadow_resolution = state.shadows.resolution;
@@ -436,7 +460,8 @@ fn prepare_view(
         params.kernel_flattening = settings.kernel_flattening;
         params.indirect_subsampling = settings.indirect_subsampling;
         if slot < count {
-            state.radius2 = next_radius2(state.radius2, iteration, settings.alpha);
+            state.radius2 = next_radius2(state.radius2, state.clock.held, settings.alpha);
+            state.clock.advance();
         }
         queue.write_buffer(
             &state.params,
@@ -457,6 +482,8 @@ fn prepare_view(
         .shadows
         .schedule_light_maps(scene.epoch, if mapped { count } else { 0 });
     state.frame = (base, count);
-    state.iteration += count;
+    if count > 0 {
+        state.previous_clip_from_world = unjittered_clip_from_world(frame.view);
+    }
     state.readback_pending = frame.rppm.readback;
 }

@@ -87,8 +87,8 @@ pub(crate) fn report_views(
                 camera,
                 width: state.key.size.x,
                 height: state.key.size.y,
-                iteration: state.iteration,
-                epoch: scene_epoch.wrapping_add(state.view_epoch),
+                iteration: state.clock.iteration,
+                epoch: changes_seen(scene_epoch, &state),
                 pixels,
             }));
         }
@@ -113,8 +113,8 @@ pub(crate) fn report_views(
         let _ = sender.send(RenderMessage::Stats(
             camera,
             ViewStats {
-                epoch: scene_epoch.wrapping_add(state.view_epoch),
-                iteration: state.iteration,
+                epoch: changes_seen(scene_epoch, &state),
+                iteration: state.clock.iteration,
                 iterations_this_frame: state.frame.1,
                 gpu_timing: timer.supported(),
                 stage_ms: Stage::ALL
@@ -142,4 +142,11 @@ pub(crate) fn report_views(
             },
         ));
     }
+}
+
+/// The epoch reported: changes seen so far, of the scene and of the camera (settings, moves).
+fn changes_seen(scene_epoch: u64, state: &RppmViewState) -> u64 {
+    scene_epoch
+        .wrapping_add(state.view_epoch)
+        .wrapping_add(state.view_moves)
 }

@@ -6,7 +6,7 @@ use bevy::render::render_resource::*;
 use bevy::render::renderer::{RenderDevice, RenderQueue};
 use bevy::render::texture::TextureCache;
 
-use crate::accumulate::{AccumulatePipeline, Estimate, EstimateInputs};
+use crate::accumulate::{AccumulatePipeline, Estimate, EstimateInputs, HistoryClock};
 use crate::cubemap::ViewCubemap;
 use crate::gbuffer::GBuffer;
 use crate::importons::{EyePathPipeline, EyePaths};
@@ -33,6 +33,8 @@ pub struct ResourceKey {
     pub importon_tiles: u32,
     /// Photons splat on every n-th pixel (the splat target's size follows).
     pub subsampling: u32,
+    /// History is kept through motion (`RppmHistory::Reuse`): its buffers are held.
+    pub history: bool,
 }
 
 /// The pipelines a view's iteration runs, by its scene and settings.
@@ -52,8 +54,19 @@ pub struct StageIds {
 pub struct RppmViewState {
     pub key: ResourceKey,
     pub view_epoch: u64,
-    /// Iterations accumulated since the last reset.
-    pub iteration: u32,
+    pub view_moves: u64,
+    /// Iterations since the last reset, and what the next does with history.
+    pub clock: HistoryClock,
+    /// The scene changed since the last frame (its resources are bound anew).
+    pub scene_changed: bool,
+    /// ... and changed its shape (counts of triangles, materials, lights or emitters): an
+    /// object or light came or went, so history is not kept.
+    pub scene_reshaped: bool,
+    scene_shape: [usize; 4],
+    /// Where last frame's iterations looked from (unjittered clip_from_world).
+    pub previous_clip_from_world: Mat4,
+    /// This frame's first iteration reprojects last frame's history.
+    pub reprojects: bool,
     /// First iteration and count run this frame.
     pub frame: (u32, u32),
     /// Squared gather radius in pixels for the next iteration (Knaus–Zwicker sequence).
@@ -129,7 +142,7 @@ impl RppmViewState {
         });
         let eye_paths = EyePaths::new(device, size, key.importon_tiles);
         let splats = SplatTarget::new(textures, device, pipelines.splat, size, key.subsampling);
-        let estimate = Estimate::new(device, size);
+        let estimate = Estimate::new(device, size, key.history);
         let store = (key.photon_capacity > 0)
             .then(|| PhotonStore::new(device, cache, pipelines.photons, key.photon_capacity));
         let indirect_group = store
@@ -162,7 +175,13 @@ impl RppmViewState {
         let mut state = Self {
             key,
             view_epoch: u64::MAX,
-            iteration: 0,
+            view_moves: u64::MAX,
+            clock: HistoryClock::default(),
+            scene_changed: false,
+            scene_reshaped: false,
+            scene_shape: scene.data.shape(),
+            previous_clip_from_world: Mat4::IDENTITY,
+            reprojects: false,
             frame: (0, 0),
             radius2: 0.0,
             fast_forward: None,
@@ -262,7 +281,7 @@ impl RppmViewState {
     }
 
     /// A changed scene keeps the view's targets: only what depends on the scene's lights and
-    /// buffers is made again, and accumulation restarts.
+    /// buffers is made again; the frame then restarts or keeps the estimate.
     pub fn rebind_scene(
         &mut self,
         device: &RenderDevice,
@@ -285,7 +304,10 @@ impl RppmViewState {
             cubemap.set_scene(queue, scene);
         }
         self.scene_epoch = scene.epoch;
-        self.iteration = 0;
+        self.scene_changed = true;
+        let shape = scene.data.shape();
+        self.scene_reshaped |= shape != self.scene_shape;
+        self.scene_shape = shape;
     }
 
     /// Bytes held per buffer or texture of the view.
@@ -303,6 +325,9 @@ impl RppmViewState {
             ("shadow_maps", self.shadows.bytes()),
             ("timestamps", 4096 * 8 * 2),
         ]);
+        if let Some(history) = &self.estimate.history {
+            memory.push(("history", history.bytes()));
+        }
         if let Some(cubemap) = &self.cubemap.cubemap {
             memory.extend(cubemap.memory());
         }

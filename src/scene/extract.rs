@@ -9,8 +9,8 @@ use bevy::prelude::*;
 
 use super::textures::{GpuTexture, MAX_TEXTURE_SIZE, NO_TEXTURE, PackedTexture, TEXEL_BUDGET};
 use super::{
-    GpuEmitter, GpuMaterial, GpuTriangle, MaterialFlags, RppmScene, SceneData, lights, luminance,
-    mesh,
+    GpuEmitter, GpuMaterial, GpuTriangle, MaterialFlags, RppmScene, SceneData, deform, lights,
+    luminance, mesh,
 };
 
 /// Warnings already given, so each is logged once.
@@ -81,6 +81,7 @@ pub(super) fn extract_scene(
     mut material_events: MessageReader<AssetEvent<StandardMaterial>>,
     mut image_events: MessageReader<AssetEvent<Image>>,
     lights_q: lights::LightQueries,
+    mut deformers: deform::Deformers,
     assets: SceneAssets,
     mut warnings: ResMut<ExtractionWarnings>,
     mut cache: ResMut<TextureCache>,
@@ -109,7 +110,8 @@ pub(super) fn extract_scene(
             > 0
         || mesh_events.read().count() > 0
         || material_events.read().count() > 0
-        || image_changed;
+        || image_changed
+        || deformers.changed();
     if !dirty {
         return;
     }
@@ -128,12 +130,27 @@ pub(super) fn extract_scene(
             continue;
         };
         let affine = transform.affine();
-        if !affine.is_finite() {
-            if warnings.entities.insert(entity) {
-                warn!("bevy_rppm: entity {entity} has a non-finite transform; it is left out");
+        let joints = match deformers.skin(entity) {
+            deform::Skin::Posed(joints) => Some(joints),
+            deform::Skin::None if affine.is_finite() => None,
+            deform::Skin::Loading => continue,
+            deform::Skin::Broken(reason) => {
+                if warnings.entities.insert(entity) {
+                    warn!("bevy_rppm: skinned entity {entity} is left out: {reason}");
+                }
+                continue;
             }
-            continue;
-        }
+            deform::Skin::None => {
+                if warnings.entities.insert(entity) {
+                    warn!("bevy_rppm: entity {entity} has a non-finite transform; it is left out");
+                }
+                continue;
+            }
+        };
+        let pose = match &joints {
+            Some(joints) => mesh::Pose::Skinned(joints),
+            None => mesh::Pose::Rigid(affine),
+        };
         let next = data.materials.len() as u32;
         let index = *material_index.entry(material3d.0.id()).or_insert(next);
         if index == next {
@@ -150,7 +167,8 @@ pub(super) fn extract_scene(
         }
         match mesh::append_triangles(
             mesh,
-            &affine,
+            &pose,
+            deformers.morph_weights(entity),
             index,
             &mut data.triangles,
             &mut data.attributes,
@@ -180,8 +198,10 @@ pub(super) fn extract_scene(
         .iter()
         .map(|l| l.radiance[3])
         .chain(data.emitters.iter().map(|e| e.power)));
-    scene.data = Arc::new(data);
-    scene.epoch += 1;
+    if !scene.data.same_as(&data) {
+        scene.data = Arc::new(data);
+        scene.epoch += 1;
+    }
 }
 
 fn material_to_gpu(m: &StandardMaterial, textures: [u32; 4]) -> GpuMaterial {

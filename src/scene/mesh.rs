@@ -1,19 +1,33 @@
 //! A Bevy `Mesh` to world-space triangles.
 
+use std::borrow::Cow;
+
 use bevy::math::Affine3A;
 use bevy::mesh::{Indices, PrimitiveTopology, VertexAttributeValues};
 use bevy::prelude::*;
 
 use super::{GpuTriangle, GpuTriangleAttributes};
 
-/// Appends the mesh's triangles, transformed to world space, with the given material, and
-/// their texture coordinates (`UV_0`) and vertex colours (`COLOR`) to `attributes`.
-/// Accepts u16, u32 or no indices, with or without normals (flat normals then), UVs (zero
-/// then) and colours (white then); degenerate triangles are dropped. Returns whether the mesh
-/// has vertex colours, or why it cannot be used at all.
+/// Where a mesh's vertices go in world space.
+pub(super) enum Pose<'a> {
+    /// One transform: the entity's.
+    Rigid(Affine3A),
+    /// Skinning: each vertex blends the world-from-bind-space matrices (a joint's world
+    /// transform times its inverse bind pose) of its joints, by weight; the entity's own
+    /// transform is ignored, as Bevy's renderer does.
+    Skinned(&'a [Affine3A]),
+}
+
+/// Appends the mesh's triangles, posed ([`Pose`], after the morph targets at `morph_weights`)
+/// in world space, with the given material, and their texture coordinates (`UV_0`) and
+/// vertex colours (`COLOR`) to `attributes`. Accepts u16, u32 or no indices, with or without
+/// normals (flat normals then), UVs (zero then) and colours (white then); degenerate
+/// triangles are dropped. Returns whether the mesh has vertex colours, or why it cannot be
+/// used at all.
 pub(super) fn append_triangles(
     mesh: &Mesh,
-    world_from_local: &Affine3A,
+    pose: &Pose,
+    morph_weights: &[f32],
     material: u32,
     out: &mut Vec<GpuTriangle>,
     attributes: &mut Vec<GpuTriangleAttributes>,
@@ -34,7 +48,9 @@ pub(super) fn append_triangles(
         }
     };
     let normals = match mesh.try_attribute_option(Mesh::ATTRIBUTE_NORMAL) {
-        Ok(Some(VertexAttributeValues::Float32x3(n))) if n.len() == positions.len() => Some(n),
+        Ok(Some(VertexAttributeValues::Float32x3(n))) if n.len() == positions.len() => {
+            Some(n.as_slice())
+        }
         _ => None,
     };
     let uvs = match mesh.try_attribute_option(Mesh::ATTRIBUTE_UV_0) {
@@ -59,15 +75,16 @@ pub(super) fn append_triangles(
             positions.len()
         ));
     }
-    let normal_matrix = Mat3::from(world_from_local.matrix3).inverse().transpose();
-    // A mirroring transform flips the winding; swap two vertices so the front stays in front.
-    let mirrored = world_from_local.matrix3.determinant() < 0.0;
+    let (positions, normals) = morphed(mesh, positions, normals, morph_weights)?;
+    let placed = place(mesh, pose, &positions, normals.as_deref())?;
     for tri in indices.chunks_exact(3) {
         let mut ids = [tri[0], tri[1], tri[2]];
-        if mirrored {
+        // A mirroring transform flips the winding; swap two vertices so the front stays in
+        // front.
+        if placed.mirrored(ids[0]) {
             ids.swap(1, 2);
         }
-        let p = ids.map(|i| world_from_local.transform_point3(Vec3::from(positions[i])));
+        let p = ids.map(|i| placed.positions[i]);
         let face = (p[1] - p[0]).cross(p[2] - p[0]);
         let Some(flat) = face.try_normalize() else {
             continue; // degenerate: no area, nothing can hit it
@@ -75,11 +92,7 @@ pub(super) fn append_triangles(
         if !p.iter().all(|v| v.is_finite()) {
             continue;
         }
-        let n = ids.map(|i| {
-            normals
-                .and_then(|n| (normal_matrix * Vec3::from(n[i])).try_normalize())
-                .unwrap_or(flat)
-        });
+        let n = ids.map(|i| placed.normals.get(i).copied().flatten().unwrap_or(flat));
         out.push(GpuTriangle {
             position_a: p[0].into(),
             material,
@@ -123,4 +136,148 @@ fn vertex_colors(values: &VertexAttributeValues) -> Option<Vec<[u32; 2]>> {
         }
         _ => None,
     }
+}
+
+/// Vertex positions or normals, borrowed from the mesh or morphed.
+type Vectors<'a> = Cow<'a, [[f32; 3]]>;
+
+/// Positions and normals after the morph targets at `weights` (none: the mesh's own).
+fn morphed<'a>(
+    mesh: &Mesh,
+    positions: &'a [[f32; 3]],
+    normals: Option<&'a [[f32; 3]]>,
+    weights: &[f32],
+) -> Result<(Vectors<'a>, Option<Vectors<'a>>), String> {
+    let targets = match mesh.try_morph_targets() {
+        Ok(t) if weights.iter().any(|&w| w != 0.0) && !positions.is_empty() => t,
+        _ => return Ok((Cow::Borrowed(positions), normals.map(Cow::Borrowed))),
+    };
+    let count = targets.len() / positions.len();
+    if count * positions.len() != targets.len() {
+        return Err(format!(
+            "{} morph displacements do not divide into {} vertices",
+            targets.len(),
+            positions.len()
+        ));
+    }
+    let mut p: Vec<Vec3> = positions.iter().map(|&v| Vec3::from(v)).collect();
+    let mut n: Option<Vec<Vec3>> = normals.map(|n| n.iter().map(|&v| Vec3::from(v)).collect());
+    for (target, &w) in targets.chunks_exact(positions.len()).zip(weights) {
+        if w == 0.0 || !w.is_finite() {
+            continue;
+        }
+        for (i, d) in target.iter().enumerate() {
+            p[i] += w * d.position;
+            if let Some(n) = &mut n {
+                n[i] += w * d.normal;
+            }
+        }
+    }
+    let back = |v: Vec<Vec3>| Cow::Owned(v.iter().map(Vec3::to_array).collect());
+    Ok((back(p), n.map(back)))
+}
+
+/// A mesh's vertices in world space.
+struct Placed {
+    positions: Vec<Vec3>,
+    /// Unit normals (none where the mesh has none or they collapse).
+    normals: Vec<Option<Vec3>>,
+    /// Vertices whose transform mirrors (empty: none does).
+    mirrored: Vec<bool>,
+}
+
+impl Placed {
+    fn mirrored(&self, vertex: usize) -> bool {
+        self.mirrored.get(vertex).copied().unwrap_or(false)
+    }
+}
+
+/// Each vertex through its transform: the entity's, or its joints' blend.
+fn place(
+    mesh: &Mesh,
+    pose: &Pose,
+    positions: &[[f32; 3]],
+    normals: Option<&[[f32; 3]]>,
+) -> Result<Placed, String> {
+    let through = |m: &Affine3A, normal_matrix: &Mat3, i: usize| {
+        let p = m.transform_point3(Vec3::from(positions[i]));
+        let n = normals.and_then(|n| (*normal_matrix * Vec3::from(n[i])).try_normalize());
+        (p, n)
+    };
+    match pose {
+        Pose::Rigid(m) => {
+            let normal_matrix = Mat3::from(m.matrix3).inverse().transpose();
+            let (positions, normals): (Vec<_>, Vec<_>) = (0..positions.len())
+                .map(|i| through(m, &normal_matrix, i))
+                .unzip();
+            let mirrored = if m.matrix3.determinant() < 0.0 {
+                vec![true; positions.len()]
+            } else {
+                Vec::new()
+            };
+            Ok(Placed {
+                positions,
+                normals,
+                mirrored,
+            })
+        }
+        Pose::Skinned(joints) => {
+            let influences = skin_influences(mesh, positions.len())?;
+            let mut placed = Placed {
+                positions: Vec::with_capacity(positions.len()),
+                normals: Vec::with_capacity(positions.len()),
+                mirrored: Vec::with_capacity(positions.len()),
+            };
+            for (i, (index, weight)) in influences.enumerate() {
+                let m = blend(joints, index, weight)?;
+                let normal_matrix = Mat3::from(m.matrix3).inverse().transpose();
+                let (p, n) = through(&m, &normal_matrix, i);
+                placed.positions.push(p);
+                placed.normals.push(n);
+                placed.mirrored.push(m.matrix3.determinant() < 0.0);
+            }
+            Ok(placed)
+        }
+    }
+}
+
+/// Each vertex's four joint indices and weights.
+fn skin_influences(
+    mesh: &Mesh,
+    vertices: usize,
+) -> Result<impl Iterator<Item = ([u16; 4], [f32; 4])> + '_, String> {
+    let index = match mesh.try_attribute_option(Mesh::ATTRIBUTE_JOINT_INDEX) {
+        Ok(Some(VertexAttributeValues::Uint16x4(j))) if j.len() == vertices => j,
+        _ => return Err("a skinned mesh without Uint16x4 joint indices per vertex".into()),
+    };
+    let weight = match mesh.try_attribute_option(Mesh::ATTRIBUTE_JOINT_WEIGHT) {
+        Ok(Some(VertexAttributeValues::Float32x4(w))) if w.len() == vertices => w,
+        _ => return Err("a skinned mesh without Float32x4 joint weights per vertex".into()),
+    };
+    Ok(index.iter().copied().zip(weight.iter().copied()))
+}
+
+/// The weighted sum of a vertex's joint matrices, weights normalised (all zero: bind space).
+fn blend(joints: &[Affine3A], index: [u16; 4], weight: [f32; 4]) -> Result<Affine3A, String> {
+    let weight = weight.map(|w| if w.is_finite() { w.max(0.0) } else { 0.0 });
+    let total: f32 = weight.iter().sum();
+    if total <= 0.0 {
+        return Ok(Affine3A::IDENTITY);
+    }
+    let mut matrix3 = Mat3::ZERO;
+    let mut translation = Vec3::ZERO;
+    for (&j, &w) in index.iter().zip(&weight) {
+        if w == 0.0 {
+            continue;
+        }
+        let Some(joint) = joints.get(j as usize) else {
+            return Err(format!(
+                "joint index {j} is out of range ({} joints)",
+                joints.len()
+            ));
+        };
+        matrix3 += Mat3::from(joint.matrix3) * (w / total);
+        translation += Vec3::from(joint.translation) * (w / total);
+    }
+    Ok(Affine3A::from_mat3_translation(matrix3, translation))
 }

@@ -4,6 +4,7 @@
 //! This runs in the main world (so games and tests can read [`RppmScene`]); the render world
 //! receives the tables as one `Arc` and uploads them (see [`gpu`]).
 
+mod deform;
 mod extract;
 mod lights;
 mod mesh;
@@ -215,6 +216,32 @@ pub fn texture_defs(textured: bool) -> Vec<bevy::shader::ShaderDefVal> {
 }
 
 impl SceneData {
+    /// Whether `other` holds the same tables (a transform set to its own value, a paused
+    /// animation writing its pose again): then nothing changed.
+    pub fn same_as(&self, other: &SceneData) -> bool {
+        fn same<T: bytemuck::Pod>(a: &[T], b: &[T]) -> bool {
+            bytemuck::cast_slice::<T, u8>(a) == bytemuck::cast_slice::<T, u8>(b)
+        }
+        same(&self.triangles, &other.triangles)
+            && same(&self.materials, &other.materials)
+            && same(&self.attributes, &other.attributes)
+            && same(&self.textures, &other.textures)
+            && same(&self.lights, &other.lights)
+            && same(&self.emitters, &other.emitters)
+            && same(&self.light_cdf, &other.light_cdf)
+            && (Arc::ptr_eq(&self.texels, &other.texels) || self.texels == other.texels)
+    }
+
+    /// Counts of triangles, materials, lights and emitters: what a moving scene keeps.
+    pub fn shape(&self) -> [usize; 4] {
+        [
+            self.triangles.len(),
+            self.materials.len(),
+            self.lights.len(),
+            self.emitters.len(),
+        ]
+    }
+
     /// Whether some material varies over its surfaces (textures, vertex colours), has alpha
     /// or is unlit: the stages then compile the texture lookups ([`TEXTURED_DEF`]).
     pub fn is_textured(&self) -> bool {
@@ -323,7 +350,8 @@ pub(crate) fn luminance(rgb: [f32; 3]) -> f32 {
 }
 
 /// The extracted scene and the epoch that counts its changes. Any change to meshes, materials,
-/// lights or transforms increments `epoch`, which restarts progressive accumulation.
+/// lights or transforms increments `epoch`, which restarts progressive accumulation or, under
+/// `RppmHistory::Reuse`, lets it settle.
 #[derive(Resource, Clone, Default, ExtractResource)]
 pub struct RppmScene {
     pub data: Arc<SceneData>,

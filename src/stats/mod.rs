@@ -40,6 +40,7 @@ pub struct RadianceImage {
     pub height: u32,
     /// Iterations averaged into `pixels`.
     pub iteration: u32,
+    /// [`ViewStats::epoch`] when it was rendered: which state of the scene it shows.
     pub epoch: u64,
     pub pixels: Vec<[f32; 4]>,
 }
@@ -47,7 +48,9 @@ pub struct RadianceImage {
 /// One camera's progress and cost, as last reported by the render world.
 #[derive(Clone, Debug, Default, Serialize)]
 pub struct ViewStats {
-    /// Changes seen so far (scene and view); a new epoch restarts accumulation.
+    /// Changes seen so far (the scene, the camera's settings and moves): the main world's
+    /// `RppmScene::epoch` + `ViewEpoch::epoch` + `ViewEpoch::moves` when the render world saw
+    /// them. Under `RppmHistory::Reset` a new epoch restarts accumulation.
     pub epoch: u64,
     /// Iterations accumulated since the last reset.
     pub iteration: u32,

@@ -13,6 +13,7 @@ use crate::settings::{PhotonMapping, RppmFastForward, RppmReadback, ViewEpoch, V
 pub struct ExtractedRppm {
     pub settings: PhotonMapping,
     pub view_epoch: u64,
+    pub view_moves: u64,
     pub readback: bool,
     pub fast_forward: Option<u32>,
 }
@@ -37,14 +38,15 @@ impl ExtractComponent for PhotonMapping {
         settings.enabled.then(|| ExtractedRppm {
             settings: settings.clone(),
             view_epoch: epoch.epoch,
+            view_moves: epoch.moves,
             readback,
             fast_forward: fast_forward.map(|f| f.0),
         })
     }
 }
 
-/// Moves a camera's [`ViewEpoch`] when its transform, projection, target size or settings
-/// changed.
+/// Advances a camera's [`ViewEpoch`] when its settings or target size changed, and its moves
+/// when its transform or projection did.
 pub(super) fn track_view_changes(
     mut cameras: Query<(
         &mut ViewEpoch,
@@ -57,11 +59,15 @@ pub(super) fn track_view_changes(
         let key = ViewKey {
             world_from_view: transform.to_matrix(),
             clip_from_view: camera.clip_from_view(),
-            target: camera.physical_target_size(),
         };
-        if view.key != Some(key) || settings.is_changed() {
-            view.key = Some(key);
+        let target = Some(camera.physical_target_size());
+        if view.target != target || settings.is_changed() {
+            view.target = target;
             view.epoch += 1;
+        }
+        if view.key != Some(key) {
+            view.key = Some(key);
+            view.moves += 1;
         }
     }
 }

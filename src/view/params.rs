@@ -13,7 +13,7 @@ use crate::scene::{GpuTriangle, SceneData};
 /// Byte stride between per-iteration slots of the params buffer (dynamic-offset alignment).
 pub const PARAMS_STRIDE: u64 = 512;
 
-/// Per-iteration constants (`IterationParams` in common.wgsl, 304 bytes).
+/// Per-iteration constants (`IterationParams` in common.wgsl, 368 bytes).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
 pub struct IterationParams {
@@ -45,7 +45,12 @@ pub struct IterationParams {
     pub scene_sphere: [f32; 4],
     pub kernel_flattening: f32,
     pub indirect_subsampling: u32,
-    pub pad: [u32; 2],
+    /// Iterations of history a pixel keeps (`u32::MAX`: all, no change to settle).
+    pub history_cap: u32,
+    /// `HistoryFlags` (`accumulate::clock`) of this iteration.
+    pub history_flags: u32,
+    /// Last frame's (unjittered) clip_from_world, for reprojecting history.
+    pub previous_clip_from_world: [[f32; 4]; 4],
 }
 
 /// The first slot of a params buffer, as group 1 binds it.
@@ -82,8 +87,8 @@ pub fn area_sample(data: &SceneData, iteration: u32) -> Option<(Vec3, Vec3, Vec3
     Some((point, normal, weight))
 }
 
-/// The camera part of an iteration's constants: the view with this iteration's Halton jitter,
-/// the area-light sample and the scene's bounds. The stages' fields (photons, shadow views,
+/// The camera part of an iteration's constants: the view with the Halton jitter of
+/// `jitter_index`, the area-light sample and the scene's bounds. The stages' fields (photons, shadow views,
 /// settings) are the caller's to fill.
 pub fn camera_params(
     view: &ExtractedView,
@@ -91,8 +96,9 @@ pub fn camera_params(
     size: UVec2,
     data: &SceneData,
     iteration: u32,
+    jitter_index: u32,
 ) -> IterationParams {
-    let jitter = Vec2::new(halton(iteration + 1, 2), halton(iteration + 1, 3)) - 0.5;
+    let jitter = Vec2::new(halton(jitter_index + 1, 2), halton(jitter_index + 1, 3)) - 0.5;
     let offset = Vec3::new(
         2.0 * jitter.x / size.x as f32,
         -2.0 * jitter.y / size.y as f32,
@@ -128,6 +134,12 @@ pub fn camera_params(
         },
         kernel_flattening: 0.1,
         indirect_subsampling: 1,
+        history_cap: u32::MAX,
         ..default()
     }
+}
+
+/// The unjittered clip_from_world of a view: where last frame's history is looked up.
+pub fn unjittered_clip_from_world(view: &ExtractedView) -> Mat4 {
+    view.clip_from_view * view.world_from_view.to_matrix().inverse()
 }

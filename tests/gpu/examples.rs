@@ -8,6 +8,7 @@ fn examples_run_headless_and_save_their_view() {
         ("cornell", "12"),
         ("bunny", "12"),
         ("pool", "3"),
+        ("fox", "3"),
     ] {
         let out = temp(&format!("example_{name}.png"));
         let run = Command::new(example_binary(name))

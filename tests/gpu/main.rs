@@ -13,10 +13,12 @@ compile_error!(
 mod bsdf;
 mod cli;
 mod cubemap;
+mod deform;
 mod examples;
 mod extraction;
 mod lighting;
 mod modes;
+mod motion;
 mod ppm;
 mod robustness;
 mod suite;

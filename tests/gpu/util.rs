@@ -62,7 +62,8 @@ pub fn quad(half: f32, indices: Option<Indices>, normals: bool) -> Mesh {
     mesh
 }
 
-/// A white plane, a point light above it and a camera looking straight down.
+/// A white plane, a point light above it and a camera looking straight down; any change
+/// starts the estimate again (`RppmHistory::Reset`).
 pub fn lit_plane(
     app: &mut App,
     light_lumens: f32,
@@ -77,7 +78,11 @@ pub fn lit_plane(
         },
         Transform::from_xyz(0.0, light_height, 0.0),
     );
-    plane_scene(app, light, size, PhotonMapping::default())
+    let settings = PhotonMapping {
+        history: bevy_rppm::RppmHistory::Reset,
+        ..default()
+    };
+    plane_scene(app, light, size, settings)
 }
 
 /// A 10 m white plane (albedo 0.8, no specular layer), `light`, and an orthographic camera
@@ -321,6 +326,7 @@ pub fn check_light(light: impl Bundle + Clone, radiance: impl Fn(f32, f32) -> f3
     let local = render(PhotonMapping {
         photons_per_iteration: 0,
         max_iterations: Some(iterations),
+        history: bevy_rppm::RppmHistory::Reset,
         ..default()
     });
     let expected = jittered_expectation(size, iterations, radiance);
@@ -337,6 +343,7 @@ pub fn check_light(light: impl Bundle + Clone, radiance: impl Fn(f32, f32) -> f3
         photons_per_iteration: 65_536,
         max_iterations: Some(iterations),
         debug_view: bevy_rppm::RppmDebugView::DirectPhotons,
+        history: bevy_rppm::RppmHistory::Reset,
         ..default()
     });
     let energy = bevy_rppm_cli::image_io::energy_ratio(&photons, &local).unwrap();

@@ -21,7 +21,7 @@ fn err(e: impl std::fmt::Debug) -> String {
 }
 
 /// Plotters draws text with a font registered once; Bevy's default font is compiled in.
-fn register_fonts() {
+pub(crate) fn register_fonts() {
     static ONCE: std::sync::Once = std::sync::Once::new();
     ONCE.call_once(|| {
         let _ = register_font(

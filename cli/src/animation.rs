@@ -1,0 +1,111 @@
+//! Posing a loaded glTF scene by one of its animations, held at one instant.
+
+use std::path::Path;
+
+use bevy::animation::graph::{AnimationGraph, AnimationGraphHandle, AnimationNodeIndex};
+use bevy::animation::{AnimationClip, AnimationPlayer};
+use bevy::gltf::Gltf;
+use bevy::prelude::*;
+
+/// A glTF animation set on a scene's animation players.
+pub struct Posed {
+    /// The clip's name (or `#index`).
+    pub name: String,
+    node: AnimationNodeIndex,
+    /// The clip's length in seconds (0: unknown).
+    duration: f32,
+}
+
+impl Posed {
+    /// Holds every player at `seconds`, wrapped into the clip (a player would hold its end).
+    pub fn seek(&self, app: &mut App, seconds: f32) {
+        let seconds = if self.duration > 0.0 {
+            seconds % self.duration
+        } else {
+            0.0
+        };
+        let world = app.world_mut();
+        let mut players = world.query::<&mut AnimationPlayer>();
+        for mut player in players.iter_mut(world) {
+            player.play(self.node).seek_to(seconds).pause();
+        }
+    }
+}
+
+/// Plays animation `index` of the glTF `scene` (already loaded into `app` by
+/// [`load_gltf`](crate::headless::load_gltf)) on every animation player it spawned, paused at
+/// `seconds` (wrapped into the clip), so the estimate converges on that pose. Returns the
+/// clip, or why it cannot be played.
+pub fn pose(app: &mut App, scene: &Path, index: usize, seconds: f32) -> Result<Posed, String> {
+    if !seconds.is_finite() || seconds < 0.0 {
+        return Err(format!("animation time {seconds} is not a time ≥ 0"));
+    }
+    let file = scene
+        .file_name()
+        .map(|f| f.to_string_lossy().to_string())
+        .unwrap_or_default();
+    let gltf: Handle<Gltf> = app.world().resource::<AssetServer>().load(file);
+    // Loaded with its scene already; the handle resolves within a few updates.
+    for _ in 0..100 {
+        if app.world().resource::<Assets<Gltf>>().contains(&gltf) {
+            break;
+        }
+        app.update();
+    }
+    let clip = {
+        let gltfs = app.world().resource::<Assets<Gltf>>();
+        let gltf = gltfs
+            .get(&gltf)
+            .ok_or_else(|| format!("{} is not loaded", scene.display()))?;
+        let clip = gltf.animations.get(index).ok_or_else(|| {
+            format!(
+                "{} has {} animations; there is no animation {index}",
+                scene.display(),
+                gltf.animations.len()
+            )
+        })?;
+        let name = gltf
+            .named_animations
+            .iter()
+            .find(|(_, h)| *h == clip)
+            .map_or_else(|| format!("#{index}"), |(n, _)| n.to_string());
+        (clip.clone(), name)
+    };
+    let duration = app
+        .world()
+        .resource::<Assets<AnimationClip>>()
+        .get(&clip.0)
+        .map_or(0.0, AnimationClip::duration);
+    let (graph, node) = AnimationGraph::from_clip(clip.0);
+    let graph = app
+        .world_mut()
+        .resource_mut::<Assets<AnimationGraph>>()
+        .add(graph);
+    let world = app.world_mut();
+    let mut players = world.query::<(Entity, &mut AnimationPlayer)>();
+    let entities: Vec<Entity> = players.iter(world).map(|(e, _)| e).collect();
+    if entities.is_empty() {
+        return Err(format!("{} has no animated nodes", scene.display()));
+    }
+    let at = if duration > 0.0 {
+        seconds % duration
+    } else {
+        0.0
+    };
+    for entity in entities {
+        let mut player = world.get_mut::<AnimationPlayer>(entity).unwrap();
+        player.stop_all();
+        player.play(node).seek_to(at).pause();
+        world
+            .entity_mut(entity)
+            .insert(AnimationGraphHandle(graph.clone()));
+    }
+    // The pose reaches the transforms, and extraction sees it, on the next updates.
+    app.update();
+    app.update();
+    Ok(Posed {
+        name: clip.1,
+        node,
+        duration,
+    })
+}

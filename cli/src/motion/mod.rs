@@ -1,0 +1,294 @@
+//! `rppm bench motion`: a scripted animation of a glTF scene rendered frame by frame under
+//! `RppmHistory::Reset` and `Reuse`, and the error of every n-th frame against the same
+//! frozen state rendered to convergence (issue 13's measure of motion quality).
+
+mod plot;
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use bevy::prelude::*;
+use bevy_rppm::{PhotonMapping, RppmHistory, RppmRadiance, RppmScene, ViewEpoch};
+
+use crate::animation::{self, Posed};
+use crate::headless::{Budget, RenderRequest, attach_camera, load_gltf, render_loaded};
+use crate::image_io::{RgbImage, relmse};
+
+pub use plot::write_plot;
+
+/// What moves.
+#[derive(Clone, Debug)]
+pub enum Script {
+    /// The camera circles the scene's centre about the vertical, one degree per frame.
+    Orbit,
+    /// The first point or spot light swings along x by a quarter of the scene's radius.
+    Light,
+    /// The glTF animation of this index plays at 30 frames per second.
+    Animation(usize),
+}
+
+pub struct MotionRequest {
+    pub scene: PathBuf,
+    pub script: Script,
+    pub frames: u32,
+    /// Every this many frames, the error against the converged frozen state.
+    pub every: u32,
+    pub width: u32,
+    pub height: u32,
+    /// The settings of both runs (`history` is set per run).
+    pub settings: PhotonMapping,
+    /// `Reuse`'s window.
+    pub window: u32,
+    pub reference_iterations: u32,
+}
+
+/// One sampled frame: relMSE of each run against the converged frozen state.
+#[derive(Clone, Copy, Debug)]
+pub struct MotionRow {
+    pub frame: u32,
+    pub reset: f64,
+    pub reuse: f64,
+}
+
+/// One sampled frame's images: `Reset`, `Reuse` and the converged frozen state.
+pub struct MotionImages {
+    pub frame: u32,
+    pub images: [RgbImage; 3],
+}
+
+pub struct MotionResult {
+    pub rows: Vec<MotionRow>,
+    pub images: Vec<MotionImages>,
+    /// Wall seconds of each run's frames.
+    pub seconds: [f64; 2],
+}
+
+/// Updates run past the last frame, for its estimate to come back (the render world runs a
+/// frame behind, and the read-back arrives a frame later).
+const LAG: u32 = 4;
+
+/// A scene loaded and scripted: what frame `f` sets.
+struct Scripted {
+    app: App,
+    camera: Entity,
+    moved: Option<(Entity, Transform)>,
+    centre: Vec3,
+    radius: f32,
+    posed: Option<Posed>,
+}
+
+impl Scripted {
+    fn load(request: &MotionRequest, settings: PhotonMapping) -> Result<Self, String> {
+        let mut app = load_gltf(&request.scene)?;
+        let posed = match request.script {
+            Script::Animation(index) => {
+                Some(animation::pose(&mut app, &request.scene, index, 0.0)?)
+            }
+            _ => None,
+        };
+        let render = RenderRequest {
+            scene: request.scene.clone(),
+            width: request.width,
+            height: request.height,
+            budget: Budget::Iterations(u32::MAX),
+            settings,
+        };
+        attach_camera(&mut app, &render)?;
+        let world = app.world_mut();
+        let camera = world
+            .query_filtered::<Entity, With<PhotonMapping>>()
+            .single(world)
+            .map_err(|e| format!("no camera: {e}"))?;
+        let (centre, radius) = world.resource::<RppmScene>().data.bounding_sphere();
+        let moved = match request.script {
+            Script::Orbit => Some(camera),
+            Script::Light => world
+                .query_filtered::<Entity, Or<(With<PointLight>, With<SpotLight>)>>()
+                .iter(world)
+                .next()
+                .map(Some)
+                .ok_or("the scene has no point or spot light to move")?,
+            Script::Animation(_) => None,
+        }
+        .map(|e| (e, *world.get::<Transform>(e).unwrap()));
+        Ok(Self {
+            app,
+            camera,
+            moved,
+            centre,
+            radius,
+            posed,
+        })
+    }
+
+    /// Sets the state of frame `f` of `frames`.
+    fn set(&mut self, script: &Script, f: u32, frames: u32) {
+        let turn = (f as f32).to_radians();
+        let swing = (std::f32::consts::TAU * f as f32 / frames as f32).sin();
+        let (centre, radius) = (self.centre, self.radius);
+        if let Some(posed) = &self.posed {
+            posed.seek(&mut self.app, f as f32 / 30.0);
+        }
+        let Some((entity, start)) = self.moved else {
+            return;
+        };
+        let mut transform = self.app.world_mut().get_mut::<Transform>(entity).unwrap();
+        *transform = match script {
+            Script::Orbit => {
+                let mut t = start;
+                t.rotate_around(centre, Quat::from_rotation_y(turn));
+                t
+            }
+            _ => start.with_translation(start.translation + Vec3::X * 0.25 * radius * swing),
+        };
+    }
+
+    fn image(&self) -> Option<&bevy_rppm::RadianceImage> {
+        self.app
+            .world()
+            .resource::<RppmRadiance>()
+            .images
+            .get(&self.camera)
+    }
+
+    /// The changes the main world has made so far, as an estimate's `epoch` counts them.
+    fn changes(&self) -> u64 {
+        let world = self.app.world();
+        let view = world
+            .get::<ViewEpoch>(self.camera)
+            .copied()
+            .unwrap_or_default();
+        world
+            .resource::<RppmScene>()
+            .epoch
+            .wrapping_add(view.epoch)
+            .wrapping_add(view.moves)
+    }
+}
+
+/// Runs the script under `history`: the image of each sampled frame, and the wall seconds.
+fn run(
+    request: &MotionRequest,
+    history: RppmHistory,
+) -> Result<(Vec<(u32, RgbImage)>, f64), String> {
+    let settings = PhotonMapping {
+        history,
+        ..request.settings.clone()
+    };
+    let mut scripted = Scripted::load(request, settings)?;
+    scripted.set(&request.script, 0, request.frames);
+    // Until the pipelines are compiled and the first estimate comes back.
+    let start = Instant::now();
+    while scripted.image().is_none_or(|image| image.iteration == 0) {
+        scripted.app.update();
+        if start.elapsed().as_secs() > 120 {
+            return Err("no iteration within 120 s".into());
+        }
+    }
+    // Each estimate is matched to the frame whose state it shows by its epoch (the changes
+    // the render world had seen), since it comes back a frame or two later.
+    let mut frame_of: Vec<(u64, u32)> = Vec::new();
+    let mut images: Vec<(u32, RgbImage)> = Vec::new();
+    let sampled = |f: u32| f % request.every == request.every - 1;
+    let started = Instant::now();
+    let mut seconds = 0.0;
+    for update in 0..request.frames + LAG {
+        let frame = update.min(request.frames - 1);
+        scripted.set(&request.script, frame, request.frames);
+        scripted.app.update();
+        frame_of.push((scripted.changes(), frame));
+        let image = scripted.image().ok_or("no image came back")?;
+        let shown = frame_of.iter().rev().find(|(e, _)| *e == image.epoch);
+        // The first estimate of the frame: the last frame, held while it comes back, adds
+        // iterations after it.
+        if let Some(&(_, f)) = shown
+            && sampled(f)
+            && images.last().is_none_or(|(last, _)| *last != f)
+        {
+            images.push((
+                f,
+                RgbImage::from_rgba(image.width, image.height, &image.pixels),
+            ));
+        }
+        if update + 1 == request.frames {
+            seconds = started.elapsed().as_secs_f64();
+        }
+    }
+    Ok((images, seconds))
+}
+
+/// The frozen state of frame `f`, converged (`reference_iterations`, `Reset`).
+fn reference(request: &MotionRequest, f: u32) -> Result<RgbImage, String> {
+    let mut scripted = Scripted::load(request, request.settings.clone())?;
+    scripted.set(&request.script, f, request.frames);
+    let render = RenderRequest {
+        scene: request.scene.clone(),
+        width: request.width,
+        height: request.height,
+        budget: Budget::Iterations(request.reference_iterations),
+        settings: request.settings.clone(),
+    };
+    render_loaded(&mut scripted.app, &render, |_| {}).map(|r| r.image)
+}
+
+/// Both runs and their errors; `log` hears of each step.
+pub fn bench_motion(
+    request: &MotionRequest,
+    mut log: impl FnMut(&str),
+) -> Result<MotionResult, String> {
+    if request.frames == 0 || request.every == 0 {
+        return Err("--frames and --every must be at least 1".into());
+    }
+    log("Reset run");
+    let (reset, reset_s) = run(request, RppmHistory::Reset)?;
+    log("Reuse run");
+    let window = request.window.clamp(1, 1024);
+    let (reuse, reuse_s) = run(request, RppmHistory::Reuse { iterations: window })?;
+    let mut rows = Vec::new();
+    let mut images = Vec::new();
+    for ((frame, a), (_, b)) in reset.into_iter().zip(reuse) {
+        log(&format!("reference of frame {frame}"));
+        let truth = reference(request, frame)?;
+        rows.push(MotionRow {
+            frame,
+            reset: relmse(&a, &truth)?,
+            reuse: relmse(&b, &truth)?,
+        });
+        images.push(MotionImages {
+            frame,
+            images: [a, b, truth],
+        });
+    }
+    Ok(MotionResult {
+        rows,
+        images,
+        seconds: [reset_s, reuse_s],
+    })
+}
+
+/// `frame<N>_{reset,reuse,reference}.{exr,png}` in `dir`, for each sampled frame.
+pub fn write_images(result: &MotionResult, dir: &Path) -> Result<(), String> {
+    for sampled in &result.images {
+        for (image, name) in sampled.images.iter().zip(["reset", "reuse", "reference"]) {
+            let stem = dir.join(format!("frame{}_{name}", sampled.frame));
+            crate::image_io::write_exr(&stem.with_extension("exr"), image)?;
+            crate::image_io::write_png(&stem.with_extension("png"), image)?;
+        }
+    }
+    Ok(())
+}
+
+/// `motion.csv` in `dir`: frame, reset, reuse.
+pub fn write_csv(result: &MotionResult, dir: &Path) -> anyhow::Result<()> {
+    let mut csv = csv::Writer::from_path(dir.join("motion.csv"))?;
+    csv.write_record(["frame", "reset_relmse", "reuse_relmse"])?;
+    for r in &result.rows {
+        csv.write_record([
+            r.frame.to_string(),
+            r.reset.to_string(),
+            r.reuse.to_string(),
+        ])?;
+    }
+    csv.flush()?;
+    Ok(())
+}

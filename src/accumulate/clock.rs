@@ -1,0 +1,176 @@
+//! When a view's estimate starts again, and what each iteration does with the history of its
+//! pixels (`RppmHistory`): the bookkeeping alone, without GPU resources, unit-tested.
+
+bitflags::bitflags! {
+    /// What accumulation does with a pixel's history this iteration (`history_flags` of the
+    /// iteration's params).
+    #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+    pub struct HistoryFlags: u32 {
+        /// The camera moved: fetch the history where the pixel's surface was last frame.
+        const REPROJECT = 1;
+        /// The first iteration after a change: drop history whose surface is not this one.
+        const CHECK_SURFACE = 2;
+        /// A change is settling: drop history the new light departs from beyond its noise.
+        const CHECK_LIGHT = 4;
+    }
+}
+
+/// What changed since a view's last frame.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Changes {
+    /// Its settings or target size: always a new start.
+    pub cut: bool,
+    /// Its transform or projection.
+    pub moved: bool,
+    /// Anything in the scene.
+    pub scene: bool,
+}
+
+/// A view's iteration counters through resets and motion.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct HistoryClock {
+    /// Iterations since the estimate last started again (seeds and jitter never repeat
+    /// within it; the stats' count).
+    pub iteration: u32,
+    /// The index of the Knaus–Zwicker radius and of the sub-pixel jitter: `iteration` until a
+    /// change under `Reuse`, then 0 again (a moving scene's pixels hold a window of iterations
+    /// at most, and each frame's new sample is taken as `Reset` takes it).
+    pub held: u32,
+    /// Iterations left in which a change settles, each pixel's light checked against the
+    /// noise of its history.
+    settling: u32,
+    /// Iterations left in which history is capped to the window.
+    capped: u32,
+    /// The next iteration checks each pixel's surface, reprojecting when the camera moved.
+    check_surface: bool,
+    reproject: bool,
+}
+
+impl HistoryClock {
+    /// Takes in this frame's changes under `window` (`None`: `RppmHistory::Reset`); returns
+    /// whether the estimate starts again (every change without a window, a cut with one).
+    pub fn begin_frame(&mut self, changes: Changes, window: Option<u32>) -> bool {
+        let changed = changes.moved || changes.scene;
+        match window {
+            _ if changes.cut => self.restart(),
+            None if changed => self.restart(),
+            Some(window) if changed && self.iteration > 0 => {
+                self.held = 0;
+                // Old light fades (a scene change), and a reprojected history does not blur
+                // without end (a camera move).
+                self.capped = window;
+                self.settling = window;
+                self.check_surface = true;
+                self.reproject |= changes.moved;
+                false
+            }
+            _ => self.iteration == 0,
+        }
+    }
+
+    fn restart(&mut self) -> bool {
+        *self = Self::default();
+        true
+    }
+
+    /// Jumps to iteration `n` as if that many had been held.
+    pub fn fast_forward(&mut self, n: u32) {
+        self.iteration = n;
+        self.held = n;
+    }
+
+    /// The history cap and flags of the next iteration.
+    pub fn next(&self, window: Option<u32>) -> (u32, HistoryFlags) {
+        let mut flags = HistoryFlags::empty();
+        flags.set(HistoryFlags::CHECK_SURFACE, self.check_surface);
+        flags.set(
+            HistoryFlags::REPROJECT,
+            self.check_surface && self.reproject,
+        );
+        flags.set(HistoryFlags::CHECK_LIGHT, self.settling > 0);
+        let cap = match window {
+            Some(window) if self.capped > 0 => window,
+            _ => u32::MAX,
+        };
+        (cap, flags)
+    }
+
+    /// Counts one iteration run.
+    pub fn advance(&mut self) {
+        self.iteration += 1;
+        self.held += 1;
+        self.settling = self.settling.saturating_sub(1);
+        self.capped = self.capped.saturating_sub(1);
+        self.check_surface = false;
+        self.reproject = false;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const MOVED: Changes = Changes {
+        cut: false,
+        moved: true,
+        scene: false,
+    };
+
+    fn run(clock: &mut HistoryClock, n: u32) {
+        for _ in 0..n {
+            clock.advance();
+        }
+    }
+
+    #[test]
+    fn reset_starts_again_on_every_change() {
+        let mut clock = HistoryClock::default();
+        assert!(clock.begin_frame(Changes::default(), None));
+        run(&mut clock, 10);
+        assert!(!clock.begin_frame(Changes::default(), None));
+        assert!(clock.begin_frame(MOVED, None));
+        assert_eq!(clock, HistoryClock::default());
+        assert_eq!(clock.next(None), (u32::MAX, HistoryFlags::empty()));
+    }
+
+    #[test]
+    fn reuse_caps_the_history_while_a_change_settles() {
+        let mut clock = HistoryClock::default();
+        run(&mut clock, 20);
+        let scene = Changes {
+            scene: true,
+            ..Changes::default()
+        };
+        assert!(!clock.begin_frame(scene, Some(8)));
+        assert_eq!((clock.iteration, clock.held), (20, 0));
+        assert_eq!(
+            clock.next(Some(8)),
+            (8, HistoryFlags::CHECK_SURFACE | HistoryFlags::CHECK_LIGHT)
+        );
+        clock.advance();
+        assert_eq!(clock.next(Some(8)), (8, HistoryFlags::CHECK_LIGHT));
+        run(&mut clock, 7);
+        // Settled: the estimate grows again as a still scene's does.
+        assert_eq!(clock.next(Some(8)), (u32::MAX, HistoryFlags::empty()));
+        assert_eq!((clock.iteration, clock.held), (28, 8));
+    }
+
+    #[test]
+    fn a_camera_move_reprojects_once_and_a_cut_restarts() {
+        let mut clock = HistoryClock::default();
+        run(&mut clock, 5);
+        assert!(!clock.begin_frame(MOVED, Some(16)));
+        let (cap, flags) = clock.next(Some(16));
+        assert!(flags.contains(HistoryFlags::REPROJECT | HistoryFlags::CHECK_SURFACE));
+        assert_eq!((cap, clock.held), (16, 0));
+        clock.advance();
+        assert!(!clock.next(Some(16)).1.contains(HistoryFlags::REPROJECT));
+        let cut = Changes {
+            cut: true,
+            moved: true,
+            ..Changes::default()
+        };
+        assert!(clock.begin_frame(cut, Some(16)));
+        assert_eq!(clock.iteration, 0);
+    }
+}

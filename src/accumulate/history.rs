@@ -1,0 +1,55 @@
+//! A view's history kept through motion (`RppmHistory::Reuse`): each pixel's surface, the
+//! running mean of its direct light and the second moment of its indirect light, and last
+//! frame's copies of those and of the estimate, which a camera move reprojects from.
+
+use bevy::prelude::*;
+use bevy::render::render_resource::*;
+use bevy::render::renderer::RenderDevice;
+
+pub struct History {
+    /// Three blocks of one vec4 a pixel: surface (position, packed normal), direct light
+    /// (mean, count), indirect light's second moment (`shaders/accumulate/`).
+    pub history: Buffer,
+    pub previous_radiance: Buffer,
+    pub previous_history: Buffer,
+}
+
+impl History {
+    pub fn new(device: &RenderDevice, size: UVec2) -> Self {
+        let pixels = size.x as u64 * size.y as u64;
+        let buffer = |label: &'static str, bytes: u64, usage: BufferUsages| {
+            device.create_buffer(&BufferDescriptor {
+                label: Some(label),
+                size: pixels * bytes,
+                usage: BufferUsages::STORAGE | usage,
+                mapped_at_creation: false,
+            })
+        };
+        Self {
+            history: buffer("rppm_history", 48, BufferUsages::COPY_SRC),
+            previous_radiance: buffer("rppm_previous_radiance", 16, BufferUsages::COPY_DST),
+            previous_history: buffer("rppm_previous_history", 48, BufferUsages::COPY_DST),
+        }
+    }
+
+    /// Copies the estimate (`radiance`) and the history to last frame's.
+    pub fn encode_keep(&self, encoder: &mut CommandEncoder, radiance: &Buffer) {
+        for (from, to) in [
+            (radiance, &self.previous_radiance),
+            (&self.history, &self.previous_history),
+        ] {
+            encoder.copy_buffer_to_buffer(from, 0, to, 0, to.size());
+        }
+    }
+
+    pub fn bytes(&self) -> u64 {
+        [
+            &self.history,
+            &self.previous_radiance,
+            &self.previous_history,
+        ]
+        .iter()
+        .map(|b| b.size())
+        .sum()
+    }
+}

@@ -87,25 +87,20 @@ pub fn pose(app: &mut App, scene: &Path, index: usize, seconds: f32) -> Result<P
     if entities.is_empty() {
         return Err(format!("{} has no animated nodes", scene.display()));
     }
-    let at = if duration > 0.0 {
-        seconds % duration
-    } else {
-        0.0
-    };
     for entity in entities {
-        let mut player = world.get_mut::<AnimationPlayer>(entity).unwrap();
-        player.stop_all();
-        player.play(node).seek_to(at).pause();
+        world.get_mut::<AnimationPlayer>(entity).unwrap().stop_all();
         world
             .entity_mut(entity)
             .insert(AnimationGraphHandle(graph.clone()));
     }
-    // The pose reaches the transforms, and extraction sees it, on the next updates.
-    app.update();
-    app.update();
-    Ok(Posed {
+    let posed = Posed {
         name: clip.1,
         node,
         duration,
-    })
+    };
+    posed.seek(app, seconds);
+    // The pose reaches the transforms, and extraction sees it, on the next updates.
+    app.update();
+    app.update();
+    Ok(posed)
 }

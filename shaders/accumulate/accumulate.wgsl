@@ -146,8 +146,9 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     if (params.history_flags & CHECK_SURFACE) != 0u && params.iteration != 0u {
         var kept_surface = history[index];
         if (params.history_flags & REPROJECT) != 0u {
-            let source = u32(max(reprojected(position), 0));
-            let found = reprojected(position) >= 0;
+            let reprojection = reprojected(position);
+            let source = u32(max(reprojection, 0));
+            let found = reprojection >= 0;
             kept = select(vec4<f32>(0.0), previous_radiance[source], found);
             kept_surface = select(vec4<f32>(0.0), previous_history[source], found);
             kept_direct = select(vec4<f32>(0.0), previous_history[pixels + source], found);

@@ -36,11 +36,9 @@ pub struct HistoryClock {
     /// change under `Reuse`, then 0 again (a moving scene's pixels hold a window of iterations
     /// at most, and each frame's new sample is taken as `Reset` takes it).
     pub held: u32,
-    /// Iterations left in which a change settles, each pixel's light checked against the
-    /// noise of its history.
+    /// Iterations left in which a change settles: each pixel's history is capped to the
+    /// window and its light checked against the noise of its history.
     settling: u32,
-    /// Iterations left in which history is capped to the window.
-    capped: u32,
     /// The next iteration checks each pixel's surface, reprojecting when the camera moved.
     check_surface: bool,
     reproject: bool,
@@ -58,7 +56,6 @@ impl HistoryClock {
                 self.held = 0;
                 // Old light fades (a scene change), and a reprojected history does not blur
                 // without end (a camera move).
-                self.capped = window;
                 self.settling = window;
                 self.check_surface = true;
                 self.reproject |= changes.moved;
@@ -89,7 +86,7 @@ impl HistoryClock {
         );
         flags.set(HistoryFlags::CHECK_LIGHT, self.settling > 0);
         let cap = match window {
-            Some(window) if self.capped > 0 => window,
+            Some(window) if self.settling > 0 => window,
             _ => u32::MAX,
         };
         (cap, flags)
@@ -100,7 +97,6 @@ impl HistoryClock {
         self.iteration += 1;
         self.held += 1;
         self.settling = self.settling.saturating_sub(1);
-        self.capped = self.capped.saturating_sub(1);
         self.check_surface = false;
         self.reproject = false;
     }

@@ -33,13 +33,12 @@ fn plate(y: f32) -> Mesh {
     }
     Mesh::new(PrimitiveTopology::TriangleList, RenderAssetUsages::all())
         .with_inserted_attribute(Mesh::ATTRIBUTE_POSITION, positions)
-        .with_inserted_attribute(Mesh::ATTRIBUTE_JOINT_INDEX, joints_attribute(joints))
+        .with_inserted_attribute(
+            Mesh::ATTRIBUTE_JOINT_INDEX,
+            bevy::mesh::VertexAttributeValues::Uint16x4(joints),
+        )
         .with_inserted_attribute(Mesh::ATTRIBUTE_JOINT_WEIGHT, weights)
         .with_inserted_indices(Indices::U32(indices))
-}
-
-fn joints_attribute(j: Vec<[u16; 4]>) -> bevy::mesh::VertexAttributeValues {
-    bevy::mesh::VertexAttributeValues::Uint16x4(j)
 }
 
 /// Linear blend skinning of `mesh`'s positions, written out here: Σ wᵢ (Jᵢ · Bᵢ⁻¹) p.

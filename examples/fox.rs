@@ -13,7 +13,7 @@ use bevy::core_pipeline::tonemapping::Tonemapping;
 use bevy::light::GlobalAmbientLight;
 use bevy::prelude::*;
 use bevy::world_serialization::{WorldAssetRoot, WorldInstanceReady};
-use bevy_rppm::PhotonMapping;
+use bevy_rppm::{PhotonCount, PhotonMapping};
 use common::{ExampleArgs, ExampleCamera, example_app};
 
 const FOX: &str = "fox/Fox.glb";
@@ -86,7 +86,7 @@ fn setup(
         Camera3d::default(),
         Transform::from_xyz(1.4, 1.0, 2.0).looking_at(Vec3::new(-0.2, 0.35, -0.2), Vec3::Y),
         PhotonMapping {
-            photons_per_iteration: 131_072,
+            photons_per_iteration: PhotonCount::Fixed(131_072),
             ..default()
         },
         // A tonemapper that needs no lookup table (the crate leaves out Bevy's LUTs).

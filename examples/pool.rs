@@ -11,7 +11,7 @@ use bevy::asset::RenderAssetUsages;
 use bevy::core_pipeline::tonemapping::Tonemapping;
 use bevy::mesh::{Indices, PrimitiveTopology, VertexAttributeValues};
 use bevy::prelude::*;
-use bevy_rppm::{PhotonMapping, RppmHistory};
+use bevy_rppm::{PhotonCount, PhotonMapping, RppmHistory};
 use common::{ExampleArgs, ExampleCamera, example_app};
 
 /// Water grid cells along each side, and the pool's half width and depth in metres.
@@ -87,7 +87,7 @@ fn setup(
         Camera3d::default(),
         Transform::from_xyz(0.0, 3.2, 4.2).looking_at(Vec3::new(0.0, -DEPTH, 0.0), Vec3::Y),
         PhotonMapping {
-            photons_per_iteration: 131_072,
+            photons_per_iteration: PhotonCount::Fixed(131_072),
             // The moving water changes the caustics every frame: keep 8 iterations of them.
             history: RppmHistory::Reuse { iterations: 8 },
             ..default()

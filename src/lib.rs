@@ -54,8 +54,8 @@ pub struct ReadmeDoctests;
 pub use ppm::{next_radius2, radius2_after};
 pub use scene::{RppmScene, SceneData};
 pub use settings::{
-    PhotonMapping, RppmDebugView, RppmFastForward, RppmHistory, RppmMode, RppmPreset, RppmReadback,
-    ViewEpoch,
+    PhotonCount, PhotonMapping, RppmDebugView, RppmFastForward, RppmHistory, RppmMode, RppmPreset,
+    RppmReadback, ViewEpoch,
 };
 pub use stats::{RadianceImage, RppmRadiance, RppmStats, ViewStats};
 

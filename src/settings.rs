@@ -29,9 +29,43 @@ pub enum RppmDebugView {
     /// jitter: it should match `GBufferNormals`.
     CubemapNormals,
     /// Direct light from photons (stored at their first hit, not bounced) instead of shadow
-    /// maps: it should match the estimate with `photons_per_iteration = 0`, which checks
+    /// maps: it should match the estimate with no photons (`PhotonCount::Fixed(0)`), which checks
     /// photon flux against the local stage.
     DirectPhotons,
+}
+
+/// How many photons each iteration emits, split between lights by power.
+#[derive(Reflect, Clone, Copy, Debug, PartialEq)]
+#[reflect(Default, Clone, PartialEq)]
+pub enum PhotonCount {
+    /// Exactly this many every iteration. Range 0..=2^24.
+    Fixed(u32),
+    /// As many as the device affords (default, `max` 262 144): the photon stages (tracing,
+    /// splatting, indirect splatting) are kept at about twice the GPU time of the rest of the
+    /// iteration, measured by timestamps, so a CPU rasteriser and a big GPU both run many
+    /// iterations a minute. The count starts at 16 384 (or `max`) and moves in powers of two
+    /// between 1024 and `max` (range 1024..=2^24); a change of count keeps the estimate.
+    /// Without timestamp queries it stays at its start.
+    Auto { max: u32 },
+    /// As many as keep a whole iteration near `milliseconds` of GPU time (range 0.1..=60 000),
+    /// between 1024 and `max`: for a game's per-frame budget.
+    GpuMilliseconds { milliseconds: f32, max: u32 },
+}
+
+impl Default for PhotonCount {
+    fn default() -> Self {
+        Self::Auto { max: 262_144 }
+    }
+}
+
+impl PhotonCount {
+    /// The most photons an iteration may emit.
+    pub fn max(self) -> u32 {
+        match self {
+            Self::Fixed(n) => n,
+            Self::Auto { max } | Self::GpuMilliseconds { max, .. } => max,
+        }
+    }
 }
 
 /// What a change in the scene or a camera move does to the progressive estimate. A change of
@@ -81,9 +115,9 @@ pub struct PhotonMapping {
     pub enabled: bool,
     /// Full replacement or hybrid. Default [`RppmMode::Full`].
     pub mode: RppmMode,
-    /// Photons emitted per iteration, split between lights by power. Range 0..=2^24,
-    /// default 262 144.
-    pub photons_per_iteration: u32,
+    /// Photons emitted per iteration: a fixed count, or as many as the device affords.
+    /// Default [`PhotonCount::Auto`] up to 262 144.
+    pub photons_per_iteration: PhotonCount,
     /// Bounces a photon may take. Range 1..=64, default 8.
     pub max_photon_depth: u32,
     /// Bounces an importon (camera path) may take through mirrors and glass; 1 means the
@@ -133,11 +167,11 @@ pub struct PhotonMapping {
 /// README): each is the Pareto-best setting for its time budget on the Cornell scenes.
 #[derive(Reflect, Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum RppmPreset {
-    /// Interactive preview: 16 384 photons, subsampled splats, a 128² cubemap with 4 bins.
+    /// Interactive preview: 16 384 photons (fixed), subsampled splats, a 128² cubemap with 4 bins.
     Preview,
-    /// The best image from about 5 to 20 seconds: 16 384 photons, subsampled splats.
+    /// The best image from about 5 to 20 seconds: 16 384 photons (fixed), subsampled splats.
     Balanced,
-    /// Lowest error after a minute and more: 65 536 photons, full-resolution splats.
+    /// Lowest error after a minute and more: 65 536 photons (fixed), full-resolution splats.
     Reference,
 }
 
@@ -146,7 +180,7 @@ impl Default for PhotonMapping {
         Self {
             enabled: true,
             mode: RppmMode::Full,
-            photons_per_iteration: 262_144,
+            photons_per_iteration: PhotonCount::default(),
             max_photon_depth: 8,
             max_eye_depth: 16,
             alpha: 0.7,
@@ -174,7 +208,7 @@ impl From<RppmPreset> for PhotonMapping {
             // a coarser cubemap with fewer bins costs nothing in error at first and halves
             // memory.
             RppmPreset::Preview => PhotonMapping {
-                photons_per_iteration: 16_384,
+                photons_per_iteration: PhotonCount::Fixed(16_384),
                 indirect_subsampling: 2,
                 cubemap_resolution: 128,
                 bins: 4,
@@ -182,13 +216,13 @@ impl From<RppmPreset> for PhotonMapping {
             },
             // The best setting from 5 s to 20 s on cornell_glass.
             RppmPreset::Balanced => PhotonMapping {
-                photons_per_iteration: 16_384,
+                photons_per_iteration: PhotonCount::Fixed(16_384),
                 indirect_subsampling: 2,
                 ..base
             },
             // No upsampling bias, and enough photons per iteration for minutes-long runs.
             RppmPreset::Reference => PhotonMapping {
-                photons_per_iteration: 65_536,
+                photons_per_iteration: PhotonCount::Fixed(65_536),
                 ..base
             },
         }
@@ -201,13 +235,22 @@ impl PhotonMapping {
     pub fn validated(&self) -> (Self, Vec<String>) {
         let mut out = self.clone();
         let mut notes = Vec::new();
-        clamp_u32(
-            &mut out.photons_per_iteration,
-            0,
-            1 << 24,
-            "photons_per_iteration",
-            &mut notes,
-        );
+        match &mut out.photons_per_iteration {
+            PhotonCount::Fixed(n) => clamp_u32(n, 0, 1 << 24, "photons_per_iteration", &mut notes),
+            PhotonCount::Auto { max } => {
+                clamp_u32(max, 1024, 1 << 24, "photons_per_iteration max", &mut notes);
+            }
+            PhotonCount::GpuMilliseconds { milliseconds, max } => {
+                clamp_f32(
+                    milliseconds,
+                    0.1,
+                    60_000.0,
+                    "photon milliseconds",
+                    &mut notes,
+                );
+                clamp_u32(max, 1024, 1 << 24, "photons_per_iteration max", &mut notes);
+            }
+        }
         clamp_u32(
             &mut out.max_photon_depth,
             1,

@@ -13,18 +13,11 @@ import json
 import math
 import struct
 
+from suite_scenes import look
+
 CELLS, HALF, DEPTH = 32, 2.0, 1.0
 # Travelling waves: amplitude (m), wave vector (rad/m) and cycles per period.
 WAVES = [(0.04, (2.1, 0.0), 1), (0.03, (0.0, 2.7), 1), (0.02, (1.7, 1.7), 2)]
-
-
-def look(direction):
-    """The rotation taking −Z to `direction`, +Y kept up."""
-    norm = math.sqrt(sum(c * c for c in direction))
-    d = [c / norm for c in direction]
-    yaw, pitch = math.atan2(-d[0], -d[2]), math.asin(max(-1.0, min(1.0, d[1])))
-    cy, sy, cp, sp = math.cos(yaw / 2), math.sin(yaw / 2), math.cos(pitch / 2), math.sin(pitch / 2)
-    return [cy * sp, sy * cp, -sy * sp, cy * cp]
 
 
 def main():

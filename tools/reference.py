@@ -20,7 +20,8 @@ bilinear repeating bitmaps, COLOR_0 as the `vertex_color` mesh attribute, alpha 
 base) as a `blendbsdf` of Lambert and `roughconductor` weighted by metallic, a normal texture
 as `normalmap`; KHR_texture_transform and the normal map's scale are left out.
 Lights: KHR_lights_punctual point (W/sr = cd), spot (hard cone at the outer angle: Mitsuba's
-falloff differs from Bevy's a², so only the cone is kept), directional (W/m² = lux).
+falloff differs from Bevy's a², so only the cone is kept), directional (W/m² = lux); their
+colour is read as sRGB, as Bevy's glTF loader reads it.
 """
 
 import argparse
@@ -63,6 +64,10 @@ def accessor(gltf, buffers, index):
         off = start + i * stride
         out.append(struct.unpack_from("<" + fmt * width, data, off))
     return out
+
+
+def srgb_to_linear(c):
+    return c / 12.92 if c <= 0.04045 else ((c + 0.055) / 1.055) ** 2.4
 
 
 def mat_mul(a, b):
@@ -317,7 +322,9 @@ def build_scene(path, width, height, tmp, max_depth=16):
         light = node.get("extensions", {}).get("KHR_lights_punctual")
         if light is not None:
             l = lights[light["light"]]
-            colour = [c * l.get("intensity", 1.0) for c in l.get("color", [1, 1, 1])]
+            # Bevy's glTF loader reads a light's colour as sRGB (Color::srgb_from_array), so
+            # its linear value is what Bevy lights with.
+            colour = [srgb_to_linear(c) * l.get("intensity", 1.0) for c in l.get("color", [1, 1, 1])]
             position = transform_point(world, [0, 0, 0])
             direction = transform_dir(world, [0, 0, -1])
             kind = l["type"]

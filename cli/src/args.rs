@@ -3,7 +3,7 @@
 
 use std::path::{Path, PathBuf};
 
-use bevy_rppm::{PhotonMapping, RppmDebugView, RppmPreset};
+use bevy_rppm::{PhotonCount, PhotonMapping, RppmDebugView, RppmPreset};
 use bevy_rppm_cli::headless::{Budget, RenderRequest};
 use clap::{Args, Parser, Subcommand, ValueEnum};
 
@@ -45,6 +45,28 @@ pub enum BenchCommand {
     /// A scripted animation under `Reset` and `Reuse`: each sampled frame's relMSE against
     /// the same frozen state rendered to convergence; a table, motion.csv and motion.png.
     Motion(MotionArgs),
+    /// Every scene with a reference beside it (NAME.gltf, NAME.ref.exr) at an equal time
+    /// budget: our relMSE and energy at default settings against Mitsuba 3's path tracer's
+    /// relMSE in the same wall time; a Markdown table.
+    Suite(SuiteArgs),
+}
+
+#[derive(Args)]
+pub struct SuiteArgs {
+    /// Folders of scenes and references (default: assets/suite and ../shared/scenes).
+    pub dirs: Vec<PathBuf>,
+    /// Wall-clock seconds each renderer gets per scene.
+    #[arg(long, default_value_t = 60.0, value_parser = positive_seconds)]
+    pub budget: f64,
+    /// Only our renders, without Mitsuba.
+    #[arg(long)]
+    pub no_path_tracer: bool,
+    /// Where Mitsuba's images go.
+    #[arg(long, default_value = "out/suite")]
+    pub out: PathBuf,
+    /// Write the table here too.
+    #[arg(long)]
+    pub table: Option<PathBuf>,
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -132,9 +154,14 @@ pub struct RenderArgs {
     /// Start from a measured preset; the flags below override it.
     #[arg(long, value_enum)]
     pub preset: Option<Preset>,
-    /// Photons per iteration.
+    /// Photons per iteration, fixed (default: as many as keep the photon stages at twice the
+    /// GPU time of the rest of an iteration, up to 262 144).
     #[arg(long)]
     pub photons: Option<u32>,
+    /// Photons follow a GPU time per iteration instead: as many as keep an iteration near
+    /// this many milliseconds (at most `--photons`, else 262 144).
+    #[arg(long)]
+    pub iteration_ms: Option<f32>,
     /// Bounces a photon may take.
     #[arg(long)]
     pub photon_depth: Option<u32>,
@@ -279,7 +306,14 @@ impl RenderArgs {
             Some(Preset::Reference) => RppmPreset::Reference.into(),
         };
         let set = |field: &mut u32, value: Option<u32>| *field = value.unwrap_or(*field);
-        set(&mut s.photons_per_iteration, self.photons);
+        s.photons_per_iteration = match (self.iteration_ms, self.photons) {
+            (Some(milliseconds), max) => PhotonCount::GpuMilliseconds {
+                milliseconds,
+                max: max.unwrap_or(s.photons_per_iteration.max()),
+            },
+            (None, Some(n)) => PhotonCount::Fixed(n),
+            (None, None) => s.photons_per_iteration,
+        };
         set(&mut s.max_photon_depth, self.photon_depth);
         set(&mut s.max_eye_depth, self.eye_depth);
         set(&mut s.cubemap_resolution, self.cubemap);

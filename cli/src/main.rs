@@ -8,7 +8,7 @@ use std::process::ExitCode;
 
 use anyhow::{Context, Result, bail};
 use bevy_rppm::cubemap::CubemapConfig;
-use bevy_rppm::{PhotonMapping, ViewStats};
+use bevy_rppm::{PhotonCount, PhotonMapping, ViewStats};
 use bevy_rppm_cli::animation;
 use bevy_rppm_cli::bench::{print_table, sweep_configs};
 use bevy_rppm_cli::headless::{
@@ -25,8 +25,8 @@ use indicatif::{ProgressBar, ProgressStyle};
 use serde::Serialize;
 
 use args::{
-    BenchCommand, Cli, Command, DirtArgs, MotionArgs, MotionScript, RenderArgs, TradeArgs,
-    default_render, extension,
+    BenchCommand, Cli, Command, DirtArgs, MotionArgs, MotionScript, RenderArgs, SuiteArgs,
+    TradeArgs, default_render, extension,
 };
 
 fn main() -> ExitCode {
@@ -57,6 +57,7 @@ fn main() -> ExitCode {
         Some(Command::Bench(BenchCommand::Trade(args))) => trade(&args),
         Some(Command::Bench(BenchCommand::Plot { dir })) => plot(&dir),
         Some(Command::Bench(BenchCommand::Motion(args))) => motion(&args),
+        Some(Command::Bench(BenchCommand::Suite(args))) => suite(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -280,9 +281,9 @@ fn plot(dir: &Path) -> Result<()> {
 /// Sweeps the knobs, writes the CSVs and plots, and prints the best setting per budget.
 fn trade(args: &TradeArgs) -> Result<()> {
     let mut base = PhotonMapping::default();
-    if let Some(photons) = args.photons {
-        base.photons_per_iteration = photons;
-    }
+    // Runs compare settings, so the photon count is fixed: 262 144 unless `--photons`.
+    base.photons_per_iteration =
+        PhotonCount::Fixed(args.photons.unwrap_or(base.photons_per_iteration.max()));
     let names: Vec<&str> = knobs(&base).iter().map(|k| k.name).collect();
     if let Some(unknown) = args.knobs.iter().find(|k| !names.contains(&k.as_str())) {
         bail!("--knobs: no knob '{unknown}'; knobs: {}", names.join(","));
@@ -323,6 +324,40 @@ fn trade(args: &TradeArgs) -> Result<()> {
     Ok(())
 }
 
+fn suite(args: &SuiteArgs) -> Result<()> {
+    use bevy_rppm_cli::suite::{find_scenes, run_scene, table};
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    let dirs = if args.dirs.is_empty() {
+        vec![root.join("assets/suite"), root.join("../shared/scenes")]
+            .into_iter()
+            .filter(|d| d.is_dir())
+            .collect()
+    } else {
+        args.dirs.clone()
+    };
+    let scenes = find_scenes(&dirs)?;
+    let tool = root.join("tools/reference.py");
+    let mitsuba = (!args.no_path_tracer).then_some(tool.as_path());
+    let mut rows = Vec::new();
+    for scene in &scenes {
+        eprintln!("rppm: {} ({} s each)", scene.name, args.budget);
+        let settings = PhotonMapping::default();
+        rows.push(run_scene(
+            scene,
+            &settings,
+            args.budget,
+            mitsuba,
+            &args.out,
+        )?);
+    }
+    let text = table(&rows, args.budget);
+    print!("{text}");
+    if let Some(path) = &args.table {
+        std::fs::write(path, &text).with_context(|| format!("cannot write {}", path.display()))?;
+    }
+    Ok(())
+}
+
 fn motion(args: &MotionArgs) -> Result<()> {
     use bevy_rppm_cli::motion::{
         MotionRequest, Script, bench_motion, write_csv, write_images, write_plot,
@@ -342,7 +377,7 @@ fn motion(args: &MotionArgs) -> Result<()> {
         width: args.width,
         height: args.height,
         settings: PhotonMapping {
-            photons_per_iteration: args.photons,
+            photons_per_iteration: PhotonCount::Fixed(args.photons),
             iterations_per_frame: args.iterations_per_frame,
             ..PhotonMapping::default()
         },

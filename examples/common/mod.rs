@@ -17,7 +17,7 @@ use bevy::world_serialization::WorldAssetRoot;
 
 use bevy_rppm::stats::diagnostics::{ITERATIONS, MEMORY_MIB, stage_path};
 use bevy_rppm::stats::timing::Stage;
-use bevy_rppm::{PhotonMapping, RppmMode, RppmPlugin};
+use bevy_rppm::{PhotonCount, PhotonMapping, RppmMode, RppmPlugin};
 use clap::Parser;
 
 /// Command-line options every example takes.
@@ -145,7 +145,7 @@ fn adopt_camera(
     for camera in &cameras {
         commands.entity(camera).insert((
             PhotonMapping {
-                photons_per_iteration: 65_536,
+                photons_per_iteration: PhotonCount::Fixed(65_536),
                 ..default()
             },
             Hdr,
@@ -160,7 +160,7 @@ fn adopt_camera(
     }
 }
 
-/// G: GI on/off, M: Full/Indirect, + / −: photons per iteration, R: restart.
+/// G: GI on/off, M: Full/Indirect, + / −: photons per iteration (then fixed), R: restart.
 fn gi_keys(keys: Res<ButtonInput<KeyCode>>, mut cameras: Query<&mut PhotonMapping>) {
     for mut gi in &mut cameras {
         if keys.just_pressed(KeyCode::KeyG) {
@@ -173,10 +173,12 @@ fn gi_keys(keys: Res<ButtonInput<KeyCode>>, mut cameras: Query<&mut PhotonMappin
             };
         }
         if keys.just_pressed(KeyCode::Equal) || keys.just_pressed(KeyCode::NumpadAdd) {
-            gi.photons_per_iteration = (gi.photons_per_iteration * 2).min(1 << 22);
+            let n = gi.photons_per_iteration.max();
+            gi.photons_per_iteration = PhotonCount::Fixed((n * 2).min(1 << 22));
         }
         if keys.just_pressed(KeyCode::Minus) || keys.just_pressed(KeyCode::NumpadSubtract) {
-            gi.photons_per_iteration = (gi.photons_per_iteration / 2).max(1024);
+            let n = gi.photons_per_iteration.max();
+            gi.photons_per_iteration = PhotonCount::Fixed((n / 2).max(1024));
         }
         if keys.just_pressed(KeyCode::KeyR) {
             gi.set_changed();

@@ -153,7 +153,8 @@ const GLOSSY_STORE_ROUGHNESS: f32 = 0.3;
 // estimation): a diffuse lobe, or a glossy one at least GLOSSY_STORE_ROUGHNESS rough. Camera
 // paths go on through the others: mirrors, clear glass, smooth glossy metals.
 fn stores_photons(m: Material) -> bool {
-    let glossy_store = has_glossy_lobe(m) && m.perceptual_roughness >= GLOSSY_STORE_ROUGHNESS;
+    let glossy_store = has_glossy_lobe(m) && m.perceptual_roughness >= GLOSSY_STORE_ROUGHNESS
+        && any(specular_f0(m) > vec3<f32>(0.0));
     return any(diffuse_color(m) > vec3<f32>(0.0)) || glossy_store;
 }
 

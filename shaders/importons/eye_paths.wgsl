@@ -4,7 +4,7 @@
 // through the deep cubemap to the first non-specular surface, lights it the same way, and
 // leaves an importon there for indirect splatting.
 #import bevy_rppm::common::{Material, IterationParams, Importon, NO_IMPORTON, cubemap_tile, gather_radius, random, pcg_hash}
-#import bevy_rppm::scene::{triangles, gbuffer_material, material_at, normal_at, interpolated_normal}
+#import bevy_rppm::scene::{triangles, gbuffer_material, material_at, as_seen_from, normal_at, interpolated_normal}
 #import bevy_rppm::lighting::{params, surface_light}
 #ifdef IMPORTONS
 #import bevy_rppm::bsdf::{fresnel_dielectric, scatter_photon, stores_photons}
@@ -47,7 +47,9 @@ fn specular_bounce(m: Material, d: vec3<f32>, n: vec3<f32>, front: bool, rng: pt
     if random(rng) < fresnel_dielectric(dot(-d, n), eta) || all(refracted == vec3<f32>(0.0)) {
         return Bounce(reflect(d, n), vec3<f32>(total));
     }
-    return Bounce(refracted, vec3<f32>(total));
+    // Radiance over n² is what crossing keeps: light leaving water for air is 1/1.33² as
+    // bright (photons carry flux and need no such factor). Cancels through closed glass.
+    return Bounce(refracted, vec3<f32>(total * eta * eta));
 #else
     return Bounce(d, vec3<f32>(0.0));
 #endif
@@ -83,11 +85,11 @@ fn follow_camera_path(pixel: u32, x0: vec3<f32>, n0: vec3<f32>, m0: Material, tr
             return found;
         }
         let t = triangles[hit.triangle];
-        let m = material_at(hit.triangle, hit.uv, 0.0);
         let x = o + d * hit.t;
         length += hit.t;
         let geometric = cross(t.position_b - t.position_a, t.position_c - t.position_a);
         let front = dot(geometric, d) < 0.0;
+        let m = as_seen_from(material_at(hit.triangle, hit.uv, 0.0), front);
         var interpolated = interpolated_normal(t, hit.uv);
         var n = normal_at(hit.triangle, hit.uv, interpolated, 0.0);
         if !front {

@@ -3,7 +3,7 @@
 // (direct light is the local-illumination stage's), then scattered by the material
 // (bsdf.wgsl's scatter_photon: diffuse, GGX glossy, mirror, Fresnel glass) or absorbed.
 #import bevy_rppm::common::{Light, Photon, IterationParams, PI, LIGHT_POINT, LIGHT_SPOT, LIGHT_DIRECTIONAL, random, pcg_hash, basis_around, cosine_direction}
-#import bevy_rppm::scene::{triangles, material_at, normal_at, interpolated_normal, triangle_point, uniform_barycentrics, lights, emitters, light_cdf, find_source}
+#import bevy_rppm::scene::{triangles, material_at, as_seen_from, normal_at, interpolated_normal, triangle_point, uniform_barycentrics, lights, emitters, light_cdf, find_source}
 #import bevy_rppm::cubemap::{trace_cubemap, NO_HIT}
 #import bevy_rppm::bsdf::{stores_photons, scatter_photon}
 
@@ -111,10 +111,10 @@ fn trace(@builtin(global_invocation_id) id: vec3<u32>) {
             return;
         }
         let t = triangles[hit.triangle];
-        let m = material_at(hit.triangle, hit.uv, 0.0);
         let x = ray.origin + ray.direction * hit.t;
         let geometric = normalize(cross(t.position_b - t.position_a, t.position_c - t.position_a));
         let front = dot(geometric, ray.direction) < 0.0;
+        let m = as_seen_from(material_at(hit.triangle, hit.uv, 0.0), front);
         // Shading normal (normal map applied) and the kernel's (stored), on the side the
         // photon arrives from.
         var interpolated = interpolated_normal(t, hit.uv);

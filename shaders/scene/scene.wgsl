@@ -2,7 +2,7 @@
 // and the material lookups that apply textures and vertex colours (src/scene/textures.rs).
 #define_import_path bevy_rppm::scene
 
-#import bevy_rppm::common::{Triangle, Material, Light, Emitter, ShadowView, TriangleAttributes, Texture, DELTA_ROUGHNESS, MATERIAL_TEXTURED, MATERIAL_ALPHA_MASK, MATERIAL_ALPHA_HASHED, MATERIAL_UNLIT, MATERIAL_FLIP_NORMAL_Y, NO_TEXTURE, pcg_hash}
+#import bevy_rppm::common::{Triangle, Material, Light, Emitter, ShadowView, TriangleAttributes, Texture, DELTA_ROUGHNESS, MATERIAL_TEXTURED, MATERIAL_ALPHA_MASK, MATERIAL_ALPHA_HASHED, MATERIAL_DOUBLE_SIDED, MATERIAL_UNLIT, MATERIAL_FLIP_NORMAL_Y, NO_TEXTURE, pcg_hash}
 
 @group(0) @binding(0) var<storage, read> triangles: array<Triangle>;
 @group(0) @binding(1) var<storage, read> shadow_views: array<ShadowView>;
@@ -52,7 +52,23 @@ fn uniform_barycentrics(u: f32, v: f32) -> vec2<f32> {
 // The material of a camera G-buffer texel (w: ±(triangle + 1)) `footprint` metres wide.
 fn gbuffer_material(position: vec4<f32>, footprint: f32) -> Material {
     let triangle = u32(abs(position.w)) - 1u;
-    return material_at(triangle, barycentrics(triangles[triangle], position.xyz), footprint);
+    let m = material_at(triangle, barycentrics(triangles[triangle], position.xyz), footprint);
+    return as_seen_from(m, position.w > 0.0);
+}
+
+// The material on the side a ray arrives from: the back of a one-sided (not `double_sided`)
+// opaque surface absorbs all light and emits none, as a one-sided BSDF does in Mitsuba;
+// glass is two-sided by nature.
+fn as_seen_from(m: Material, front: bool) -> Material {
+    if front || (m.flags & MATERIAL_DOUBLE_SIDED) != 0u || m.specular_transmission > 0.0 {
+        return m;
+    }
+    var black = m;
+    black.base_color = vec4<f32>(0.0, 0.0, 0.0, m.base_color.a);
+    black.emissive = vec4<f32>(0.0, 0.0, 0.0, m.emissive.w);
+    black.metallic = 0.0;
+    black.reflectance = 0.0;
+    return black;
 }
 
 fn uv_transform(m: Material) -> mat2x2<f32> {

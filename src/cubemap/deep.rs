@@ -8,7 +8,7 @@ use bevy::render::renderer::{RenderDevice, RenderQueue};
 use super::{BuildContext, CubemapConfig, CubemapParams, CubemapPipelines};
 use crate::scene::SceneBuffers;
 use crate::stats::readback::{AsyncReadback, read_back};
-use crate::stats::timing::{Stage, StageTimer};
+use crate::stats::timing::{FrameWork, Stage, StageTimer};
 
 /// Byte stride of the per-level uniforms of the hierarchy reduction.
 const LEVEL_STRIDE: u64 = 256;
@@ -256,7 +256,10 @@ impl DeepCubemap {
     /// for, entries lost) and the build's GPU ms.
     pub fn build_now(&self, ctx: &BuildContext) -> ([u32; 2], f64) {
         let mut timer = StageTimer::new(ctx.device, ctx.queue, 16);
-        timer.begin_frame(1);
+        timer.begin_frame(FrameWork {
+            iterations: 1,
+            photons: 0,
+        });
         let mut encoder = ctx
             .device
             .create_command_encoder(&CommandEncoderDescriptor::default());

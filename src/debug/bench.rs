@@ -19,7 +19,7 @@ use crate::scene::SceneData;
 use crate::scene::prepare::{SceneBuffers, storage_buffer};
 use crate::shaders::RppmShaders;
 use crate::stats::readback::read_back;
-use crate::stats::timing::{Stage, StageTimer};
+use crate::stats::timing::{FrameWork, Stage, StageTimer};
 use crate::view::ViewLayouts;
 
 /// A ray as the harness uploads it (`Ray` in cubemap_bench.wgsl).
@@ -247,7 +247,10 @@ impl Gpu<'_> {
             )),
         );
         let mut timer = StageTimer::new(self.device, self.queue, 2);
-        timer.begin_frame(1);
+        timer.begin_frame(FrameWork {
+            iterations: 1,
+            photons: 0,
+        });
         let mut encoder = self
             .device
             .create_command_encoder(&CommandEncoderDescriptor::default());

@@ -11,7 +11,7 @@ use crate::cubemap::{CubemapPipelines, TracingGroups};
 use crate::scene::SceneBuffers;
 use crate::settings::RppmDebugView;
 use crate::shadows::{ShadowPipeline, render_layers};
-use crate::stats::timing::StageTimer;
+use crate::stats::timing::{FrameWork, StageTimer};
 use crate::view::PARAMS_STRIDE;
 
 /// Pipelines the node records with, all compiled.
@@ -64,7 +64,10 @@ pub(crate) fn rppm_node(
     };
     let timer = &mut timer.0;
     let encoder = ctx.command_encoder();
-    timer.begin_frame(state.frame.1);
+    timer.begin_frame(FrameWork {
+        iterations: state.frame.1,
+        photons: state.photons,
+    });
     let (_, count) = state.frame;
     if state.reprojects {
         state.estimate.encode_keep_previous(encoder);

@@ -16,8 +16,8 @@ use crate::gbuffer::GBufferPipeline;
 use crate::importons::{EyePathKey, EyePathPipeline};
 use crate::indirect_splat::IndirectSplatPipeline;
 use crate::output::{OutputPipeline, output_key};
-use crate::photons::{PHOTON_BYTES, PhotonKey, PhotonPipeline};
-use crate::ppm::{next_radius2, photon_store_capacity, radius2_after};
+use crate::photons::{PhotonKey, PhotonPipeline, store_capacity};
+use crate::ppm::{next_radius2, radius2_after};
 use crate::scene::{SceneBuffers, SceneData};
 use crate::settings::{PhotonMapping, RppmDebugView, RppmMode};
 use crate::shadows::{ShadowPipeline, cube_views};
@@ -65,28 +65,6 @@ impl Pipelines<'_> {
     fn shared_ready(&self) -> Result<bool, String> {
         readiness([self.cache.get_render_pipeline_state(self.shadow.0)])
     }
-}
-
-/// Photons the view's store must hold (see [`photon_store_capacity`]), capped by the GPU's
-/// largest storage binding; 0 when nothing emits or no photon can be stored.
-fn photon_capacity(settings: &PhotonMapping, scene: &SceneBuffers, device: &RenderDevice) -> u32 {
-    let direct = settings.debug_view == RppmDebugView::DirectPhotons;
-    let stores = if direct {
-        1
-    } else {
-        settings.max_photon_depth - 1
-    };
-    if scene.data.light_cdf.is_empty() || settings.photons_per_iteration == 0 || stores == 0 {
-        return 0;
-    }
-    let wanted = photon_store_capacity(
-        settings.photons_per_iteration,
-        stores,
-        scene.max_scatter,
-        direct,
-    );
-    let limit = device.limits().max_storage_buffer_binding_size / PHOTON_BYTES;
-    (wanted.ceil() as u64).min(limit).min(u32::MAX as u64) as u32
 }
 
 /// Tiles of the view's cubemap, when camera paths go past the G-buffer; else 0.
@@ -265,11 +243,15 @@ pub(crate) fn prepare_views(
             continue; // a zero-sized target renders nothing; keep the state for when it returns
         };
         let settings = &rppm.settings;
+        let mut photon_count = existing.as_deref().map(|s| s.photon_count);
+        let photons = photon_count
+            .get_or_insert_default()
+            .count(settings.photons_per_iteration);
         let key = ResourceKey {
             size,
             slots: settings.iterations_per_frame,
             shadow_resolution: settings.shadow_map_resolution,
-            photon_capacity: photon_capacity(settings, scene, &device),
+            photon_capacity: store_capacity(settings, photons, scene, &device),
             importon_tiles: importon_tiles(settings, &scene.data),
             subsampling: settings.indirect_subsampling,
             history: settings.history.window().is_some(),
@@ -296,9 +278,20 @@ pub(crate) fn prepare_views(
             }
         };
         if state.key != key {
-            *state = fresh(&pipelines, &mut textures);
-            targets_taken = true;
+            let same_but_store = ResourceKey {
+                photon_capacity: key.photon_capacity,
+                ..state.key
+            } == key;
+            if same_but_store {
+                let stages = pipelines.stages();
+                state.resize_store(key.photon_capacity, &device, &pipelines.cache, &stages);
+            } else {
+                *state = fresh(&pipelines, &mut textures);
+                targets_taken = true;
+            }
         }
+        state.photon_count = photon_count.unwrap_or_default();
+        state.photon_setting = settings.photons_per_iteration;
         if state.scene_epoch != scene.epoch {
             state.rebind_scene(
                 &device,
@@ -377,7 +370,7 @@ fn prepare_view(
         RppmDebugView::None | RppmDebugView::DirectPhotons
     );
     state.photons = if key.photon_capacity > 0 && estimate {
-        settings.photons_per_iteration
+        state.photon_count.count
     } else {
         0
     };

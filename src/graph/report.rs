@@ -1,10 +1,13 @@
 //! After submission: read back what was asked for and report each view to the main world.
 
+use std::time::Instant;
+
 use bevy::prelude::*;
 use bevy::render::renderer::{RenderAdapterInfo, RenderDevice, RenderQueue};
 use bevy::render::sync_world::MainEntity;
 
 use super::state::{RppmViewState, ViewTimer};
+use crate::photons::FrameCost;
 use crate::scene::SceneBuffers;
 use crate::settings::RppmDebugView;
 use crate::stats::readback::read_back;
@@ -80,7 +83,29 @@ pub(crate) fn report_views(
         timer.start_readback();
         // A read-back frame waits for the GPU anyway; others only look.
         let waiting = state.readback_pending;
-        timer.collect(&device, waiting);
+        let now = Instant::now();
+        let wall_ms = state
+            .last_report
+            .replace(now)
+            .map_or(0.0, |t| (now - t).as_secs_f64() * 1e3);
+        if timer.collect(&device, waiting) {
+            let frame = timer.last_frame;
+            let cost = FrameCost {
+                ms: timer.last_ms,
+                iterations: frame.iterations,
+                photons: frame.photons,
+                // The clock's interval is the latest frame's; the timestamps' an earlier one
+                // of the same count.
+                wall_ms: wall_ms * frame.iterations as f64 / state.frame.1.max(1) as f64,
+            };
+            let (before, setting) = (state.photon_count.count, state.photon_setting);
+            if state.photon_count.observe(setting, cost) {
+                info!(
+                    "bevy_rppm: {} photons per iteration (was {before}, {:.1} ms an iteration)",
+                    state.photon_count.count, state.photon_count.before.ms
+                );
+            }
+        }
         if waiting && let Some(bytes) = read_back(&device, &queue, &state.estimate.radiance) {
             let pixels = bytemuck::cast_slice(&bytes).to_vec();
             let _ = sender.send(RenderMessage::Radiance(RadianceImage {

@@ -12,9 +12,9 @@ use crate::gbuffer::GBuffer;
 use crate::importons::{EyePathPipeline, EyePaths};
 use crate::indirect_splat::{self, IndirectSplatPipeline};
 use crate::output::{self, OutputPipeline};
-use crate::photons::{PhotonPipeline, PhotonStore};
+use crate::photons::{PhotonController, PhotonPipeline, PhotonStore};
 use crate::scene::SceneBuffers;
-use crate::settings::{RppmDebugView, RppmMode};
+use crate::settings::{PhotonCount, RppmDebugView, RppmMode};
 use crate::shadows::ShadowMaps;
 use crate::splat::{SplatPipeline, SplatTarget};
 use crate::stats::timing::StageTimer;
@@ -75,6 +75,11 @@ pub struct RppmViewState {
     pub fast_forward: Option<u32>,
     /// Photons emitted per iteration this frame (0: no photon passes).
     pub photons: u32,
+    /// The photon count asked for, and where its controller stands.
+    pub photon_setting: PhotonCount,
+    pub photon_count: PhotonController,
+    /// When the view's last frame was reported (its interval times an iteration).
+    pub last_report: Option<std::time::Instant>,
     /// Whether camera paths go past the G-buffer this frame (importon tracing and indirect
     /// splatting).
     pub importons: bool,
@@ -143,20 +148,7 @@ impl RppmViewState {
         let eye_paths = EyePaths::new(device, size, key.importon_tiles);
         let splats = SplatTarget::new(textures, device, pipelines.splat, size, key.subsampling);
         let estimate = Estimate::new(device, size, key.history);
-        let store = (key.photon_capacity > 0)
-            .then(|| PhotonStore::new(device, cache, pipelines.photons, key.photon_capacity));
-        let indirect_group = store
-            .as_ref()
-            .filter(|_| key.importon_tiles > 0)
-            .map(|store| {
-                indirect_splat::bind_group(
-                    device,
-                    cache,
-                    pipelines.indirect_splat,
-                    store,
-                    &eye_paths,
-                )
-            });
+        let (store, indirect_group) = photon_store(key, device, cache, pipelines, &eye_paths);
         let params_group = device.create_bind_group(
             "rppm_params_group",
             &cache.get_bind_group_layout(&pipelines.layouts.params),
@@ -186,6 +178,9 @@ impl RppmViewState {
             radius2: 0.0,
             fast_forward: None,
             photons: 0,
+            photon_setting: PhotonCount::default(),
+            photon_count: PhotonController::default(),
+            last_report: None,
             importons: false,
             traced_shadows: false,
             photons_stored: 0,
@@ -310,6 +305,21 @@ impl RppmViewState {
         self.scene_shape = shape;
     }
 
+    /// A new photon count keeps the estimate: only the store and the groups that hold it
+    /// are made again.
+    pub fn resize_store(
+        &mut self,
+        capacity: u32,
+        device: &RenderDevice,
+        cache: &PipelineCache,
+        pipelines: &StagePipelines,
+    ) {
+        self.key.photon_capacity = capacity;
+        (self.store, self.indirect_group) =
+            photon_store(self.key, device, cache, pipelines, &self.eye_paths);
+        self.bind_targets(device, cache, pipelines);
+    }
+
     /// Bytes held per buffer or texture of the view.
     pub fn memory(&self) -> Vec<(String, u64)> {
         let pixels = self.key.size.x as u64 * self.key.size.y as u64;
@@ -336,4 +346,23 @@ impl RppmViewState {
             .map(|(n, b)| (n.to_string(), b))
             .collect()
     }
+}
+
+/// The photon store of `key`'s capacity (none at 0), and the indirect splat's group on it.
+fn photon_store(
+    key: ResourceKey,
+    device: &RenderDevice,
+    cache: &PipelineCache,
+    pipelines: &StagePipelines,
+    eye_paths: &EyePaths,
+) -> (Option<PhotonStore>, Option<BindGroup>) {
+    let store = (key.photon_capacity > 0)
+        .then(|| PhotonStore::new(device, cache, pipelines.photons, key.photon_capacity));
+    let group = store
+        .as_ref()
+        .filter(|_| key.importon_tiles > 0)
+        .map(|store| {
+            indirect_splat::bind_group(device, cache, pipelines.indirect_splat, store, eye_paths)
+        });
+    (store, group)
 }

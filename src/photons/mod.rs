@@ -3,6 +3,8 @@
 //! roulette (`shaders/photons/trace.wgsl`). The pipeline is specialized by the scene's
 //! scattering paths.
 
+mod budget;
+
 use bevy::prelude::*;
 use bevy::render::render_resource::binding_types::storage_buffer_sized;
 use bevy::render::render_resource::*;
@@ -10,13 +12,40 @@ use bevy::render::renderer::RenderDevice;
 use bevy::render::{RenderApp, RenderStartup};
 
 use crate::cubemap::{TracingGroups, tracing_pipeline};
-use crate::scene::{ScatterPaths, texture_defs};
+use crate::ppm::photon_store_capacity;
+use crate::scene::{ScatterPaths, SceneBuffers, texture_defs};
+use crate::settings::{PhotonMapping, RppmDebugView};
 use crate::shaders::RppmShaders;
 use crate::stats::timing::{Stage, StageTimer};
 use crate::view::ViewLayouts;
 
+pub use budget::{FrameCost, MIN_PHOTONS, PhotonController, START_PHOTONS};
+
 /// Bytes of one stored photon (`Photon` in common.wgsl).
 pub const PHOTON_BYTES: u64 = 64;
+
+/// Photons a view's store must hold for `photons` a iteration (see
+/// [`photon_store_capacity`]), capped by the GPU's largest storage binding; 0 when nothing
+/// emits or no photon can be stored.
+pub(crate) fn store_capacity(
+    settings: &PhotonMapping,
+    photons: u32,
+    scene: &SceneBuffers,
+    device: &RenderDevice,
+) -> u32 {
+    let direct = settings.debug_view == RppmDebugView::DirectPhotons;
+    let stores = if direct {
+        1
+    } else {
+        settings.max_photon_depth - 1
+    };
+    if scene.data.light_cdf.is_empty() || photons == 0 || stores == 0 {
+        return 0;
+    }
+    let wanted = photon_store_capacity(photons, stores, scene.max_scatter, direct);
+    let limit = device.limits().max_storage_buffer_binding_size / PHOTON_BYTES;
+    (wanted.ceil() as u64).min(limit).min(u32::MAX as u64) as u32
+}
 
 pub(crate) struct PhotonsPlugin;
 

@@ -56,6 +56,13 @@ impl Stage {
     }
 }
 
+/// What a timed frame ran: its iterations, and the photons each emitted.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct FrameWork {
+    pub iterations: u32,
+    pub photons: u32,
+}
+
 /// Timestamp pairs around each pass of a frame, summed per stage once the GPU is done.
 pub struct StageTimer {
     query_set: Option<QuerySet>,
@@ -64,15 +71,17 @@ pub struct StageTimer {
     spans: Vec<Stage>,
     resolve: Option<Buffer>,
     readback: Option<Buffer>,
-    /// Spans of the frame whose timestamps are being mapped, its iteration count, and the
-    /// map's state (`PENDING`, `MAPPED` or `FAILED`).
-    in_flight: Option<(Vec<Stage>, u32, Arc<AtomicU8>)>,
-    /// Iterations of the frame being recorded.
-    frame_iterations: u32,
+    /// Spans of the frame whose timestamps are being mapped, its iterations and photons per
+    /// iteration, and the map's state (`PENDING`, `MAPPED` or `FAILED`).
+    in_flight: Option<(Vec<Stage>, FrameWork, Arc<AtomicU8>)>,
+    /// The work of the frame being recorded.
+    frame: FrameWork,
     copied: bool,
     period_ns: f32,
     /// GPU ms per stage of the last frame read back.
     pub last_ms: [f64; STAGES],
+    /// The work of that frame.
+    pub last_frame: FrameWork,
     /// GPU ms per stage summed over every frame read back since the timer was made.
     pub total_ms: [f64; STAGES],
     /// Iterations in the frames summed into `total_ms`.
@@ -126,7 +135,8 @@ impl StageTimer {
             last_ms: [0.0; STAGES],
             total_ms: [0.0; STAGES],
             timed_iterations: 0,
-            frame_iterations: 0,
+            frame: FrameWork::default(),
+            last_frame: FrameWork::default(),
         }
     }
 
@@ -134,10 +144,9 @@ impl StageTimer {
         self.query_set.is_some()
     }
 
-    /// Starts a frame of `iterations`; timing is skipped while the previous read-back is
-    /// still mapped.
-    pub fn begin_frame(&mut self, iterations: u32) {
-        self.frame_iterations = iterations;
+    /// Starts a frame; timing is skipped while the previous read-back is still mapped.
+    pub fn begin_frame(&mut self, frame: FrameWork) {
+        self.frame = frame;
         self.used = 0;
         self.spans.clear();
         self.copied = false;
@@ -205,11 +214,7 @@ impl StageTimer {
             .map_async(MapMode::Read, move |r| {
                 flag.store(if r.is_ok() { MAPPED } else { FAILED }, Ordering::Release);
             });
-        self.in_flight = Some((
-            std::mem::take(&mut self.spans),
-            self.frame_iterations,
-            state,
-        ));
+        self.in_flight = Some((std::mem::take(&mut self.spans), self.frame, state));
         self.copied = false;
     }
 
@@ -218,7 +223,7 @@ impl StageTimer {
         let Some(readback) = &self.readback else {
             return false;
         };
-        let Some((spans, iterations, state)) = &self.in_flight else {
+        let Some((spans, frame, state)) = &self.in_flight else {
             return false;
         };
         let poll = if wait {
@@ -250,7 +255,8 @@ impl StageTimer {
         for (total, frame) in self.total_ms.iter_mut().zip(ms) {
             *total += frame;
         }
-        self.timed_iterations += *iterations as u64;
+        self.timed_iterations += frame.iterations as u64;
+        self.last_frame = *frame;
         self.in_flight = None;
         true
     }

@@ -38,7 +38,7 @@ fn photons_carry_the_same_direct_light_as_the_local_stage() {
     use bevy_rppm_cli::image_io::energy_ratio;
     let local = render_box(
         PhotonMapping {
-            photons_per_iteration: 0,
+            photons_per_iteration: PhotonCount::Fixed(0),
             ..default()
         },
         64,
@@ -48,7 +48,7 @@ fn photons_carry_the_same_direct_light_as_the_local_stage() {
     // is the estimator's bias, not a flux error.
     let photons = render_box(
         PhotonMapping {
-            photons_per_iteration: 65_536,
+            photons_per_iteration: PhotonCount::Fixed(65_536),
             initial_radius_pixels: 1.0,
             debug_view: bevy_rppm::RppmDebugView::DirectPhotons,
             ..default()
@@ -204,7 +204,7 @@ fn sphere_light_keeps_the_irradiance_and_softens_shadows() {
         0.4,
         false,
         PhotonMapping {
-            photons_per_iteration: 65_536,
+            photons_per_iteration: PhotonCount::Fixed(65_536),
             debug_view: bevy_rppm::RppmDebugView::DirectPhotons,
             ..default()
         },

@@ -77,7 +77,7 @@ fn indirect_mode_adds_our_light_to_bevys_and_off_gives_bevys_image() {
         Msaa::Off,
         PhotonMapping {
             mode: bevy_rppm::RppmMode::Indirect,
-            photons_per_iteration: 16_384,
+            photons_per_iteration: PhotonCount::Fixed(16_384),
             max_iterations: Some(4),
             ..default()
         },

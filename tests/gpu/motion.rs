@@ -22,7 +22,7 @@ fn shadow_scene(history: RppmHistory, x: f32, camera_x: f32) -> (App, Entity, En
     );
     let settings = PhotonMapping {
         history,
-        photons_per_iteration: 65_536,
+        photons_per_iteration: PhotonCount::Fixed(65_536),
         ..default()
     };
     let (camera, _) = plane_scene(&mut app, light, 32, settings);

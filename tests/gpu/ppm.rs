@@ -6,7 +6,7 @@ fn photon_mapping_converges_towards_the_reference() {
     let assets = Path::new(env!("CARGO_MANIFEST_DIR")).join("assets");
     let reference = downsample(&read_exr(&assets.join("cornell_box.ref.exr")).unwrap(), 4);
     let settings = PhotonMapping {
-        photons_per_iteration: 8192,
+        photons_per_iteration: PhotonCount::Fixed(8192),
         ..default()
     };
     let render = |iterations: u32| render_asset(settings.clone(), 64, 64, iterations);
@@ -38,7 +38,7 @@ fn error_falls_faster_than_the_square_root_of_iterations() {
     // Few photons and a small radius: the variance term dominates, as it does in the long run
     // (the shipped reference also differs by Bevy's 4% specular layer, a floor near 0.003).
     let settings = PhotonMapping {
-        photons_per_iteration: 1024,
+        photons_per_iteration: PhotonCount::Fixed(1024),
         initial_radius_pixels: 2.0,
         ..default()
     };

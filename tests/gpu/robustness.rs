@@ -45,21 +45,21 @@ fn a_target_resized_to_zero_and_back_keeps_rendering() {
 #[test]
 fn extreme_settings_render_finite_images() {
     let base = PhotonMapping {
-        photons_per_iteration: 4096,
+        photons_per_iteration: PhotonCount::Fixed(4096),
         ..default()
     };
     let cases: Vec<(&str, PhotonMapping)> = vec![
         (
             "0 photons",
             PhotonMapping {
-                photons_per_iteration: 0,
+                photons_per_iteration: PhotonCount::Fixed(0),
                 ..base.clone()
             },
         ),
         (
             "1 photon",
             PhotonMapping {
-                photons_per_iteration: 1,
+                photons_per_iteration: PhotonCount::Fixed(1),
                 ..base.clone()
             },
         ),

@@ -122,7 +122,7 @@ fn textured_scenes_match_their_references() {
             height: 64,
             budget: Budget::Iterations(16),
             settings: PhotonMapping {
-                photons_per_iteration: 65_536,
+                photons_per_iteration: PhotonCount::Fixed(65_536),
                 ..default()
             },
         };

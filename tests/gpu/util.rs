@@ -7,7 +7,7 @@ pub use bevy::asset::RenderAssetUsages;
 pub use bevy::camera::ScalingMode;
 pub use bevy::mesh::{Indices, PrimitiveTopology};
 pub use bevy::prelude::*;
-pub use bevy_rppm::{PhotonMapping, RppmRadiance, RppmReadback, RppmScene, RppmStats};
+pub use bevy_rppm::{PhotonCount, PhotonMapping, RppmRadiance, RppmReadback, RppmScene, RppmStats};
 pub use bevy_rppm_cli::headless::{check_gpu_adapter, headless_app, offscreen_target};
 pub use bevy_rppm_cli::image_io::{RgbImage, bad_pixels, read_exr};
 
@@ -324,7 +324,7 @@ pub fn check_light(light: impl Bundle + Clone, radiance: impl Fn(f32, f32) -> f3
         RgbImage::from_rgba(image.width, image.height, &image.pixels)
     };
     let local = render(PhotonMapping {
-        photons_per_iteration: 0,
+        photons_per_iteration: PhotonCount::Fixed(0),
         max_iterations: Some(iterations),
         history: bevy_rppm::RppmHistory::Reset,
         ..default()
@@ -340,7 +340,7 @@ pub fn check_light(light: impl Bundle + Clone, radiance: impl Fn(f32, f32) -> f3
         });
     }
     let photons = render(PhotonMapping {
-        photons_per_iteration: 65_536,
+        photons_per_iteration: PhotonCount::Fixed(65_536),
         max_iterations: Some(iterations),
         debug_view: bevy_rppm::RppmDebugView::DirectPhotons,
         history: bevy_rppm::RppmHistory::Reset,
@@ -438,7 +438,7 @@ pub fn render_transformed_box(scale: f32, power: f32, size: u32) -> RgbImage {
         height: size,
         budget: Budget::Iterations(16),
         settings: PhotonMapping {
-            photons_per_iteration: 16_384,
+            photons_per_iteration: PhotonCount::Fixed(16_384),
             ..default()
         },
     };

@@ -7,7 +7,7 @@ pub mod plot;
 use std::path::{Path, PathBuf};
 
 use bevy_rppm::stats::timing::Stage;
-use bevy_rppm::{PhotonMapping, RppmMode, ViewStats};
+use bevy_rppm::{PhotonCount, PhotonMapping, RppmMode, ViewStats};
 
 use crate::headless::{Budget, RenderRequest, render_gltf};
 use crate::image_io::{RgbImage, relmse};
@@ -40,7 +40,7 @@ fn sweep<T: std::fmt::Display + Copy>(
 pub fn knobs(base: &PhotonMapping) -> Vec<Knob> {
     vec![
         sweep(base, "photons", &[16_384u32, 65_536, 262_144], |s, v| {
-            s.photons_per_iteration = v
+            s.photons_per_iteration = PhotonCount::Fixed(v)
         }),
         sweep(base, "cubemap", &[128u32, 256, 512], |s, v| {
             s.cubemap_resolution = v

@@ -1,0 +1,201 @@
+//! `rppm bench suite`: every scene with a Mitsuba 3 reference beside it (`NAME.gltf` and
+//! `NAME.ref.exr`), rendered for the same wall-clock budget by us (default settings) and by
+//! Mitsuba 3's path tracer (`tools/reference.py`, its spp chosen to take the budget), each
+//! scored against the reference.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use anyhow::{Context, Result, bail};
+use bevy_rppm::PhotonMapping;
+use serde::Deserialize;
+
+use crate::headless::{Budget, RenderRequest, render_gltf};
+use crate::image_io::{RgbImage, bad_pixels, energy_ratio, read_exr, relmse};
+
+/// A scene and its reference.
+#[derive(Clone, Debug)]
+pub struct SuiteScene {
+    pub name: String,
+    pub scene: PathBuf,
+    pub reference: PathBuf,
+}
+
+/// Every `NAME.gltf` in `dirs` with a `NAME.ref.exr` beside it, by name.
+pub fn find_scenes(dirs: &[PathBuf]) -> Result<Vec<SuiteScene>> {
+    let mut scenes = Vec::new();
+    for dir in dirs {
+        let entries = std::fs::read_dir(dir).with_context(|| format!("{}", dir.display()))?;
+        for entry in entries {
+            let scene = entry?.path();
+            let Some(name) = scene
+                .file_name()
+                .and_then(|n| n.to_str())
+                .and_then(|n| n.strip_suffix(".gltf"))
+            else {
+                continue;
+            };
+            let reference = dir.join(format!("{name}.ref.exr"));
+            if reference.exists() {
+                scenes.push(SuiteScene {
+                    name: name.to_string(),
+                    scene,
+                    reference,
+                });
+            }
+        }
+    }
+    scenes.sort_by(|a, b| a.name.cmp(&b.name));
+    if scenes.is_empty() {
+        bail!("no NAME.gltf with a NAME.ref.exr beside it in {dirs:?}");
+    }
+    Ok(scenes)
+}
+
+/// Error and energy of an image against its reference.
+#[derive(Clone, Copy, Debug)]
+pub struct Score {
+    pub relmse: f64,
+    pub energy: f64,
+    pub bad_pixels: usize,
+}
+
+impl Score {
+    pub fn of(image: &RgbImage, reference: &RgbImage) -> Result<Self> {
+        Ok(Self {
+            relmse: relmse(image, reference).map_err(anyhow::Error::msg)?,
+            energy: energy_ratio(image, reference).map_err(anyhow::Error::msg)?,
+            bad_pixels: bad_pixels(image),
+        })
+    }
+}
+
+/// One scene's row of the table.
+#[derive(Clone, Debug)]
+pub struct SuiteRow {
+    pub name: String,
+    pub width: u32,
+    pub height: u32,
+    pub ours: Score,
+    pub iterations: u32,
+    /// Photons per iteration at the end (the automatic count's choice).
+    pub photons: u32,
+    /// Mitsuba's path tracer at the same wall time: spp, seconds and score.
+    pub path: Option<(u32, f64, Score)>,
+}
+
+/// Renders `scene` for `seconds` with `settings` at its reference's size, and with Mitsuba's
+/// path tracer for as long when `mitsuba` is given (the path of `tools/reference.py`).
+pub fn run_scene(
+    scene: &SuiteScene,
+    settings: &PhotonMapping,
+    seconds: f64,
+    mitsuba: Option<&Path>,
+    scratch: &Path,
+) -> Result<SuiteRow> {
+    let reference = read_exr(&scene.reference).map_err(anyhow::Error::msg)?;
+    let request = RenderRequest {
+        scene: scene.scene.clone(),
+        width: reference.width as u32,
+        height: reference.height as u32,
+        budget: Budget::Seconds(seconds),
+        settings: settings.clone(),
+    };
+    let ours = render_gltf(&request, |_| {}).map_err(anyhow::Error::msg)?;
+    let path = match mitsuba {
+        Some(tool) => Some(path_tracer(tool, scene, &reference, seconds, scratch)?),
+        None => None,
+    };
+    Ok(SuiteRow {
+        name: scene.name.clone(),
+        width: reference.width as u32,
+        height: reference.height as u32,
+        ours: Score::of(&ours.image, &reference)?,
+        iterations: ours.iterations,
+        photons: ours.stats.photons_per_iteration,
+        path,
+    })
+}
+
+#[derive(Deserialize)]
+struct MitsubaRun {
+    time_render_s: f64,
+}
+
+/// Mitsuba 3's path tracer on `scene` for about `seconds` of render time: a short run times
+/// a sample per pixel, then the budget's spp run is scored.
+fn path_tracer(
+    tool: &Path,
+    scene: &SuiteScene,
+    reference: &RgbImage,
+    seconds: f64,
+    scratch: &Path,
+) -> Result<(u32, f64, Score)> {
+    std::fs::create_dir_all(scratch)?;
+    let exr = scratch.join(format!("{}.path.exr", scene.name));
+    let json = scratch.join(format!("{}.path.json", scene.name));
+    let run = |spp: u32| -> Result<f64> {
+        let status = Command::new("python3")
+            .arg(tool)
+            .arg(&scene.scene)
+            .args([
+                "--out".as_ref(),
+                exr.as_os_str(),
+                "--json".as_ref(),
+                json.as_os_str(),
+            ])
+            .args(["--width", &reference.width.to_string()])
+            .args(["--height", &reference.height.to_string()])
+            .args(["--spp", &spp.to_string(), "--seed", "7"])
+            .output()
+            .context("running python3 (Mitsuba 3: pip install mitsuba numpy)")?;
+        if !status.status.success() {
+            bail!(
+                "{} failed: {}",
+                tool.display(),
+                String::from_utf8_lossy(&status.stderr).trim()
+            );
+        }
+        let text = std::fs::read_to_string(&json)?;
+        let run: MitsubaRun = serde_json::from_str(&text)?;
+        Ok(run.time_render_s)
+    };
+    // The first run also compiles Mitsuba's kernels: time a second one.
+    run(4)?;
+    let probe = 16;
+    let per_spp = run(probe)?.max(1e-3) / probe as f64;
+    let spp = ((seconds / per_spp) as u32).max(1);
+    let took = run(spp)?;
+    let image = read_exr(&exr).map_err(anyhow::Error::msg)?;
+    Ok((spp, took, Score::of(&image, reference)?))
+}
+
+/// The table, in Markdown.
+pub fn table(rows: &[SuiteRow], seconds: f64) -> String {
+    let mut out = format!(
+        "| scene | size | iterations | photons / it. | relMSE | energy | bad px | path spp ({seconds} s) | path relMSE | path / ours |\n\
+         |---|---|---:|---:|---:|---:|---:|---:|---:|---:|\n"
+    );
+    for r in rows {
+        let (spp, path, ratio) = match r.path {
+            Some((spp, _, s)) => (
+                spp.to_string(),
+                format!("{:.4}", s.relmse),
+                format!("{:.2}", s.relmse / r.ours.relmse.max(1e-12)),
+            ),
+            None => ("–".into(), "–".into(), "–".into()),
+        };
+        out += &format!(
+            "| {} | {}×{} | {} | {} | {:.4} | {:.3} | {} | {spp} | {path} | {ratio} |\n",
+            r.name,
+            r.width,
+            r.height,
+            r.iterations,
+            r.photons,
+            r.ours.relmse,
+            r.ours.energy,
+            r.ours.bad_pixels
+        );
+    }
+    out
+}

@@ -1,0 +1,298 @@
+//! How many photons the next iterations emit under [`PhotonCount`]: a controller fed by the
+//! GPU time each stage took (timestamps). Pure arithmetic, unit-tested here.
+
+use crate::settings::PhotonCount;
+use crate::stats::timing::{STAGES, Stage};
+
+/// The fewest photons an adaptive count goes down to.
+pub const MIN_PHOTONS: u32 = 1024;
+/// Where an adaptive count starts, before any timing is read back.
+pub const START_PHOTONS: u32 = 16_384;
+/// Under `Auto`, the photon stages' GPU time over the rest of the iteration's. The trade bench
+/// (README) found 16 384 photons best for budgets up to 20 s on llvmpipe, where that is about
+/// 1.5×; 65 536 (about 6×) wins from a minute on.
+pub const PHOTON_SHARE: f64 = 2.0;
+/// A new count is taken only when the best one is this many octaves away (hysteresis: a
+/// count that the noise of timing would move back and forth stays).
+const OCTAVES: f64 = 0.75;
+
+/// Weight of a new reading in the smoothed costs: frame times on a CPU rasteriser swing by 2×
+/// from frame to frame, and a count that followed each reading would too.
+const SMOOTHING: f64 = 0.2;
+/// Readings taken at a count before it may move again.
+const SETTLE: u32 = 4;
+
+/// The photon count of a view's iterations, and the costs it was chosen from.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct PhotonController {
+    /// Photons per iteration now; 0 before the first frame.
+    pub count: u32,
+    /// Smoothed time per iteration at this count and at the one before it (`Auto`).
+    pub now: Timing,
+    pub before: Timing,
+    /// Smoothed GPU ms per photon of the photon stages, and of the other stages per
+    /// iteration (`GpuMilliseconds`).
+    pub per_photon_ms: f64,
+    pub other_gpu_ms: f64,
+}
+
+/// Smoothed ms per iteration at a photon count.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Timing {
+    pub count: u32,
+    pub ms: f64,
+    pub readings: u32,
+}
+
+impl Timing {
+    fn add(&mut self, ms: f64) {
+        self.ms = if self.readings == 0 {
+            ms
+        } else {
+            self.ms + SMOOTHING * (ms - self.ms)
+        };
+        self.readings += 1;
+    }
+}
+
+/// One frame's costs.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FrameCost {
+    /// GPU ms per stage (timestamps), summed over the frame.
+    pub ms: [f64; STAGES],
+    pub iterations: u32,
+    /// Photons each iteration emitted.
+    pub photons: u32,
+    /// Wall-clock ms the frame took (0 when unknown).
+    pub wall_ms: f64,
+}
+
+impl PhotonController {
+    /// The count for this frame under `setting` (which may have changed since the last).
+    pub fn count(&mut self, setting: PhotonCount) -> u32 {
+        self.count = match setting {
+            PhotonCount::Fixed(n) => n,
+            PhotonCount::Auto { max } | PhotonCount::GpuMilliseconds { max, .. } => {
+                if self.count == 0 {
+                    START_PHOTONS.min(max)
+                } else {
+                    self.count.clamp(MIN_PHOTONS.min(max), max)
+                }
+            }
+        };
+        self.count
+    }
+
+    /// Takes a frame's costs and moves the count toward what `setting` asks for. Returns
+    /// whether it moved.
+    pub fn observe(&mut self, setting: PhotonCount, cost: FrameCost) -> bool {
+        if cost.photons == 0 || cost.iterations == 0 || cost.photons != self.count {
+            return false; // timing of another count, or of no photon pass
+        }
+        let n = cost.iterations as f64;
+        let (photon_ms, other_ms) = split(&cost.ms);
+        let (photon_ms, other_ms) = (photon_ms / n, other_ms / n);
+        if !photon_ms.is_finite() || !other_ms.is_finite() || !cost.wall_ms.is_finite() {
+            return false;
+        }
+        let next = match setting {
+            PhotonCount::Fixed(n) => n,
+            PhotonCount::Auto { max } => {
+                self.auto((cost.wall_ms / n).max(photon_ms + other_ms), max)
+            }
+            PhotonCount::GpuMilliseconds { milliseconds, max } => {
+                self.gpu_budget(photon_ms, other_ms, milliseconds as f64, max)
+            }
+        };
+        let moved = next != self.count;
+        if moved {
+            self.before = self.now;
+            self.now = Timing {
+                count: next,
+                ..Timing::default()
+            };
+            self.count = next;
+        }
+        moved
+    }
+
+    /// `Auto`: an iteration takes a + b·n ms for n photons, by wall clock or GPU, whichever is
+    /// longer (a CPU rasteriser's timestamps see part of its work, and stages overlap). a and
+    /// b come from the smoothed times at the last two counts; the best n makes b·n =
+    /// [`PHOTON_SHARE`] · a. Until two counts are timed, the count doubles.
+    fn auto(&mut self, iteration_ms: f64, max: u32) -> u32 {
+        self.now.count = self.count;
+        self.now.add(iteration_ms);
+        if self.now.readings < SETTLE {
+            return self.count;
+        }
+        let (now, before) = (self.now, self.before);
+        if before.readings < SETTLE || before.count == now.count {
+            let up = self.count.saturating_mul(2).min(max);
+            return if up != self.count {
+                up
+            } else {
+                (self.count / 2).max(MIN_PHOTONS.min(max))
+            };
+        }
+        let per_photon = (now.ms - before.ms) / (now.count as f64 - before.count as f64);
+        // Photons that cost nothing measurable (timing noise): as many as allowed.
+        if per_photon.is_nan() || per_photon <= 0.0 {
+            return if now.count > before.count {
+                max
+            } else {
+                self.count
+            };
+        }
+        let fixed = (now.ms - per_photon * now.count as f64).max(0.0);
+        next_count(
+            self.count,
+            per_photon * self.count as f64,
+            PHOTON_SHARE * fixed,
+            max,
+        )
+    }
+
+    /// `GpuMilliseconds`: the photon stages' smoothed GPU time per photon fills what the
+    /// other stages leave of the budget.
+    fn gpu_budget(&mut self, photon_ms: f64, other_ms: f64, budget: f64, max: u32) -> u32 {
+        let per_photon = photon_ms / self.count as f64;
+        if self.now.readings == 0 && self.per_photon_ms == 0.0 {
+            (self.per_photon_ms, self.other_gpu_ms) = (per_photon, other_ms);
+        } else {
+            self.per_photon_ms += SMOOTHING * (per_photon - self.per_photon_ms);
+            self.other_gpu_ms += SMOOTHING * (other_ms - self.other_gpu_ms);
+        }
+        self.now.readings += 1;
+        if self.now.readings < SETTLE {
+            return self.count;
+        }
+        let photon_ms = self.per_photon_ms * self.count as f64;
+        next_count(self.count, photon_ms, budget - self.other_gpu_ms, max)
+    }
+}
+
+/// GPU ms of the stages whose work grows with the photon count, and of the others.
+pub fn split(ms: &[f64; STAGES]) -> (f64, f64) {
+    let mut photon = 0.0;
+    let mut other = 0.0;
+    for (stage, t) in Stage::ALL.iter().zip(ms) {
+        match stage {
+            Stage::PhotonTrace | Stage::Splat | Stage::IndirectSplat => photon += t,
+            _ => other += t,
+        }
+    }
+    (photon, other)
+}
+
+/// The count after `current` photons took `photon_ms`, when `target_ms` is what the photon
+/// stages should take: a power of two (or `max`) in `MIN_PHOTONS..=max`, moved only when the
+/// best count is more than [`OCTAVES`] away.
+pub fn next_count(current: u32, photon_ms: f64, target_ms: f64, max: u32) -> u32 {
+    let lowest = MIN_PHOTONS.min(max);
+    if !photon_ms.is_finite() || photon_ms <= 0.0 || !target_ms.is_finite() {
+        return current;
+    }
+    let best = current as f64 * target_ms.max(0.0) / photon_ms;
+    if best < lowest as f64 {
+        return lowest;
+    }
+    let octaves = (best / current as f64).log2();
+    if octaves.abs() <= OCTAVES {
+        return current;
+    }
+    let power = 2f64.powf(best.log2().round()).min(u32::MAX as f64) as u32;
+    power.clamp(lowest, max)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn cost(photon: f64, other: f64, photons: u32) -> FrameCost {
+        let mut ms = [0.0; STAGES];
+        ms[Stage::ALL
+            .iter()
+            .position(|s| *s == Stage::PhotonTrace)
+            .unwrap()] = photon;
+        ms[Stage::ALL
+            .iter()
+            .position(|s| *s == Stage::CubemapBuild)
+            .unwrap()] = other;
+        FrameCost {
+            ms,
+            iterations: 1,
+            photons,
+            wall_ms: 0.0,
+        }
+    }
+
+    /// Feeds `frames` frames of a device where a photon costs `per_photon` ms and the rest of
+    /// an iteration `other` ms, with the given timing noise, and returns the counts taken.
+    fn run(setting: PhotonCount, per_photon: f64, other: f64, noise: &[f64]) -> Vec<u32> {
+        let mut c = PhotonController::default();
+        c.count(setting);
+        let mut counts = Vec::new();
+        for k in 0..64 {
+            let f = noise[k % noise.len()];
+            let n = c.count;
+            c.observe(setting, cost(n as f64 * per_photon * f, other / f, n));
+            counts.push(c.count);
+        }
+        counts
+    }
+
+    #[test]
+    fn auto_settles_where_photons_take_twice_the_rest() {
+        let setting = PhotonCount::Auto { max: 1 << 20 };
+        assert_eq!(PhotonController::default().count(setting), START_PHOTONS);
+        // A photon costs 1 µs and the rest of an iteration 40 ms: the best count is 80 000,
+        // whose nearest power of two is 65 536; timing that swings by ±30 % moves it no more.
+        let counts = run(setting, 1e-3, 40.0, &[1.0]);
+        assert_eq!(*counts.last().unwrap(), 65_536);
+        let noisy = run(setting, 1e-3, 40.0, &[0.7, 1.3, 0.8, 1.25, 1.0, 1.4, 0.75]);
+        let settled = &noisy[32..];
+        assert!(settled.iter().all(|&n| n == 65_536), "{noisy:?}");
+    }
+
+    #[test]
+    fn wall_clock_time_counts_when_it_is_longer() {
+        // The GPU's timestamps see 10 ms of the rest, the clock 100 ms.
+        let setting = PhotonCount::Auto { max: 1 << 20 };
+        let mut c = PhotonController::default();
+        c.count(setting);
+        for _ in 0..16 {
+            let n = c.count;
+            let mut f = cost(n as f64 * 1e-3, 10.0, n);
+            f.wall_ms = 100.0 + n as f64 * 1e-3;
+            c.observe(setting, f);
+        }
+        assert_eq!(c.count, 262_144); // 200 ms of photons at 1 µs
+    }
+
+    #[test]
+    fn counts_stay_in_range() {
+        assert_eq!(next_count(16_384, 100.0, 0.001, 1 << 20), MIN_PHOTONS);
+        assert_eq!(next_count(16_384, 0.001, 1e9, 262_144), 262_144);
+        assert_eq!(next_count(16_384, 0.001, 1e9, 100_000), 100_000);
+        assert_eq!(next_count(16_384, 10.0, -5.0, 262_144), MIN_PHOTONS);
+        assert_eq!(next_count(16_384, 0.0, 10.0, 262_144), 16_384);
+        assert_eq!(next_count(16_384, f64::NAN, 10.0, 262_144), 16_384);
+        assert_eq!(next_count(500, 1.0, 1e9, 500), 500);
+    }
+
+    #[test]
+    fn a_gpu_budget_fills_what_the_rest_leaves() {
+        // 8 ms of other work leave 8 of 16 ms: at 0.25 µs a photon, 32 768 photons.
+        let setting = PhotonCount::GpuMilliseconds {
+            milliseconds: 16.0,
+            max: 1 << 24,
+        };
+        assert_eq!(*run(setting, 0.25e-3, 8.0, &[1.0]).last().unwrap(), 32_768);
+        // Timing of a count no longer in use is ignored, and a fixed count is what it says.
+        let mut c = PhotonController::default();
+        c.count(setting);
+        assert!(!c.observe(setting, cost(1.0, 8.0, 4096)));
+        assert_eq!(c.count(PhotonCount::Fixed(7)), 7);
+    }
+}

@@ -1,0 +1,245 @@
+#!/usr/bin/env python3
+"""Suite scenes the renderer was not tuned on (assets/suite/README.md), each aimed at one class
+of failure:
+
+- `sun_room`: a closed room with dark walls (albedo 0.12–0.2) and one-sided faces, lit only by
+  a directional sun through a window in one wall, the camera inside;
+- `glass_slab`: a flat-faced glass block (ior 1.5, one-sided faces) on a floor in an open box,
+  under a small bright emissive panel: its caustic and total internal reflection;
+- `water_pool`: a static water height field (ior 1.33) in a tiled pool under a large sky quad.
+
+    python3 tools/suite_scenes.py assets/suite
+    python3 tools/reference.py assets/suite/sun_room.gltf --out assets/suite/sun_room.ref.exr \
+        --width 128 --height 128 --spp 2048 --variant scalar_rgb
+"""
+import argparse
+import base64
+import json
+import math
+import os
+import struct
+
+
+def look(direction):
+    """The rotation taking −Z to `direction`, +Y kept up."""
+    norm = math.sqrt(sum(c * c for c in direction))
+    d = [c / norm for c in direction]
+    yaw, pitch = math.atan2(-d[0], -d[2]), math.asin(max(-1.0, min(1.0, d[1])))
+    cy, sy, cp, sp = math.cos(yaw / 2), math.sin(yaw / 2), math.cos(pitch / 2), math.sin(pitch / 2)
+    return [cy * sp, sy * cp, -sy * sp, cy * cp]
+
+
+def sub(a, b):
+    return [a[i] - b[i] for i in range(3)]
+
+
+def cross(a, b):
+    return [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+
+
+def unit(a):
+    n = math.sqrt(sum(c * c for c in a))
+    return [c / n for c in a]
+
+
+class Gltf:
+    """A glTF 2.0 document with its buffer inline; quads and triangles carry flat normals."""
+
+    def __init__(self):
+        self.buf = bytearray()
+        self.views, self.accessors, self.meshes, self.nodes, self.materials = [], [], [], [], []
+        self.lights, self.extensions = [], {"KHR_lights_punctual"}
+
+    def push(self, fmt, rows, kind, target, minmax=False, component=5126):
+        offset = len(self.buf)
+        for r in rows:
+            self.buf.extend(struct.pack(fmt, *(r if isinstance(r, (list, tuple)) else [r])))
+        while len(self.buf) % 4:
+            self.buf.append(0)
+        self.views.append({"buffer": 0, "byteOffset": offset, "byteLength": len(self.buf) - offset,
+                           "target": target})
+        acc = {"bufferView": len(self.views) - 1, "componentType": component, "count": len(rows), "type": kind}
+        if minmax:
+            acc["min"] = [min(r[k] for r in rows) for k in range(3)]
+            acc["max"] = [max(r[k] for r in rows) for k in range(3)]
+        self.accessors.append(acc)
+        return len(self.accessors) - 1
+
+    def material(self, rgb, roughness=1.0, metallic=0.0, **extra):
+        m = {"pbrMetallicRoughness": {"baseColorFactor": list(rgb) + [1.0], "metallicFactor": metallic,
+                                      "roughnessFactor": roughness}}
+        m.update(extra)
+        self.extensions.update(extra.get("extensions", {}).keys())
+        self.materials.append(m)
+        return len(self.materials) - 1
+
+    def glass(self, ior):
+        return self.material([1, 1, 1], roughness=0.0, extensions={
+            "KHR_materials_transmission": {"transmissionFactor": 1.0}, "KHR_materials_ior": {"ior": ior}})
+
+    def emitter(self, rgb, strength):
+        return self.material([0, 0, 0], emissiveFactor=list(rgb), extensions={
+            "KHR_materials_emissive_strength": {"emissiveStrength": strength}})
+
+    def mesh(self, positions, normals, indices, material):
+        prim = {"attributes": {"POSITION": self.push("<3f", positions, "VEC3", 34962, True),
+                               "NORMAL": self.push("<3f", normals, "VEC3", 34962)},
+                "indices": self.push("<I", indices, "SCALAR", 34963, component=5125), "material": material}
+        self.meshes.append({"primitives": [prim]})
+        self.nodes.append({"mesh": len(self.meshes) - 1})
+
+    def quads(self, quads, material):
+        """Quads given counter-clockwise as seen from the side they face."""
+        pos, nor, idx = [], [], []
+        for q in quads:
+            n = unit(cross(sub(q[1], q[0]), sub(q[2], q[0])))
+            b = len(pos)
+            pos += q
+            nor += [n] * 4
+            idx += [b, b + 1, b + 2, b, b + 2, b + 3]
+        self.mesh(pos, nor, idx, material)
+
+    def light(self, light, translation=None, direction=None):
+        self.lights.append(light)
+        node = {"extensions": {"KHR_lights_punctual": {"light": len(self.lights) - 1}}}
+        if translation:
+            node["translation"] = translation
+        if direction:
+            node["rotation"] = look(direction)
+        self.nodes.append(node)
+
+    def camera(self, position, target, yfov=0.9):
+        self.cameras = [{"type": "perspective", "perspective": {"yfov": yfov, "znear": 0.05, "zfar": 100.0}}]
+        self.nodes.append({"camera": 0, "translation": position, "rotation": look(sub(target, position))})
+
+    def write(self, path, generator):
+        doc = {
+            "asset": {"version": "2.0", "generator": generator},
+            "extensionsUsed": sorted(self.extensions),
+            "extensions": {"KHR_lights_punctual": {"lights": self.lights}},
+            "scene": 0, "scenes": [{"nodes": list(range(len(self.nodes)))}], "nodes": self.nodes,
+            "meshes": self.meshes, "materials": self.materials, "cameras": self.cameras,
+            "buffers": [{"byteLength": len(self.buf),
+                         "uri": "data:application/octet-stream;base64," + base64.b64encode(bytes(self.buf)).decode()}],
+            "bufferViews": self.views, "accessors": self.accessors,
+        }
+        with open(path, "w") as f:
+            json.dump(doc, f)
+
+
+def box(lo, hi, inward):
+    """The six faces of an axis-aligned box, facing in or out."""
+    (x0, y0, z0), (x1, y1, z1) = lo, hi
+    faces = [
+        [[x0, y0, z0], [x1, y0, z0], [x1, y0, z1], [x0, y0, z1]],  # bottom, facing −y
+        [[x0, y1, z0], [x0, y1, z1], [x1, y1, z1], [x1, y1, z0]],  # top, +y
+        [[x0, y0, z0], [x0, y1, z0], [x1, y1, z0], [x1, y0, z0]],  # back, −z
+        [[x0, y0, z1], [x1, y0, z1], [x1, y1, z1], [x0, y1, z1]],  # front, +z
+        [[x0, y0, z0], [x0, y0, z1], [x0, y1, z1], [x0, y1, z0]],  # left, −x
+        [[x1, y0, z0], [x1, y1, z0], [x1, y1, z1], [x1, y0, z1]],  # right, +x
+    ]
+    return [f[::-1] for f in faces] if inward else faces
+
+
+def rotate_y(points, angle, centre):
+    c, s = math.cos(angle), math.sin(angle)
+    return [[centre[0] + c * (p[0] - centre[0]) + s * (p[2] - centre[2]), p[1],
+             centre[2] - s * (p[0] - centre[0]) + c * (p[2] - centre[2])] for p in points]
+
+
+def sun_room(path):
+    g = Gltf()
+    w, h, d = 4.0, 3.0, 4.0
+    x0, x1, z0, z1 = -w / 2, w / 2, -d / 2, d / 2
+    floor, ceiling, back, front, _left, right = box([x0, 0, z0], [x1, h, z1], inward=True)
+    g.quads([floor], g.material([0.5, 0.45, 0.4]))
+    g.quads([ceiling, front], g.material([0.18, 0.18, 0.18]))
+    g.quads([back], g.material([0.2, 0.12, 0.1]))
+    g.quads([right], g.material([0.1, 0.15, 0.12]))
+    # The left wall (x = x0, facing +x) around a window of z in [wz0, wz1], y in [wy0, wy1].
+    wz0, wz1, wy0, wy1 = -0.9, 0.7, 1.0, 2.3
+    wall = g.material([0.15, 0.15, 0.18])
+
+    def panel(za, zb, ya, yb):
+        return [[x0, ya, za], [x0, yb, za], [x0, yb, zb], [x0, ya, zb]]
+    g.quads([panel(z0, wz0, 0, h), panel(wz1, z1, 0, h), panel(wz0, wz1, 0, wy0), panel(wz0, wz1, wy1, h)], wall)
+    # A grey block on the floor in the sunlit patch.
+    g.quads([rotate_y(f, 0.4, [0.2, 0, 0.0]) for f in box([-0.1, 0, -0.3], [0.5, 0.6, 0.3], inward=False)],
+            g.material([0.5, 0.5, 0.5]))
+    g.light({"type": "directional", "color": [1.0, 0.95, 0.85], "intensity": 6.0}, direction=[0.75, -0.55, 0.1])
+    g.camera([1.6, 1.7, 1.8], [-1.2, 0.6, -0.7])
+    g.write(path, "bevy_rppm tools/suite_scenes.py sun_room")
+
+
+def glass_slab(path):
+    g = Gltf()
+    w, h, d = 3.0, 2.4, 3.0
+    floor, ceiling, back, _front, left, right = box([-w / 2, 0, -d / 2], [w / 2, h, d / 2], inward=True)
+    g.quads([floor, ceiling, back], g.material([0.7, 0.7, 0.68]))
+    g.quads([left], g.material([0.65, 0.2, 0.15]))
+    g.quads([right], g.material([0.2, 0.3, 0.65]))
+    # A glass block on the floor, turned 25° about y.
+    faces = [rotate_y(f, 0.44, [0.1, 0, -0.2]) for f in box([-0.45, 0, -0.45], [0.65, 0.35, 0.05], inward=False)]
+    g.quads(faces, g.glass(1.5))
+    # A small panel facing down, above and behind the block, 0.4 m square.
+    y, cx, cz, s = h - 0.01, -0.4, -0.8, 0.2
+    g.quads([[[cx - s, y, cz - s], [cx + s, y, cz - s], [cx + s, y, cz + s], [cx - s, y, cz + s]]],
+            g.emitter([1.0, 0.9, 0.75], 40.0))
+    g.camera([0.0, 1.5, 2.9], [0.0, 0.3, -0.4], yfov=0.8)
+    g.write(path, "bevy_rppm tools/suite_scenes.py glass_slab")
+
+
+def water_pool(path):
+    g = Gltf()
+    half, depth, cells = 1.5, 0.8, 24
+    light_tile, dark_tile = g.material([0.85, 0.87, 0.9]), g.material([0.2, 0.45, 0.7])
+    for colour, parity in ((light_tile, 0), (dark_tile, 1)):
+        quads = []
+        n = 6
+        step = 2 * half / n
+        for i in range(n):
+            for j in range(n):
+                if (i + j) % 2 == parity:
+                    xa, za = -half + step * i, -half + step * j
+                    quads.append([[xa, -depth, za], [xa, -depth, za + step], [xa + step, -depth, za + step],
+                                  [xa + step, -depth, za]])
+        g.quads(quads, colour)
+    _bottom, _top, back, front, left, right = box([-half, -depth, -half], [half, 0.1, half], inward=True)
+    g.quads([back, front, left, right], g.material([0.6, 0.6, 0.55]))
+    # Water: height 0 plus two crossing waves, smooth normals from the analytic slope.
+    waves = [(0.05, 2.3, 0.0), (0.035, 0.9, 2.9)]
+    n = cells + 1
+    step = 2 * half / cells
+    pos, nor, idx = [], [], []
+    for k in range(n * n):
+        x, z = -half + step * (k % n), -half + step * (k // n)
+        hgt = sum(a * math.sin(kx * x + kz * z) for a, kx, kz in waves)
+        dx = sum(a * kx * math.cos(kx * x + kz * z) for a, kx, kz in waves)
+        dz = sum(a * kz * math.cos(kx * x + kz * z) for a, kx, kz in waves)
+        pos.append([x, -0.1 + hgt, z])
+        nor.append(unit([-dx, 1.0, -dz]))
+    for j in range(cells):
+        for i in range(cells):
+            a = j * n + i
+            idx += [a, a + n, a + 1, a + 1, a + n, a + n + 1]
+    g.mesh(pos, nor, idx, g.glass(1.33))
+    # The sky: a large quad facing down.
+    s, y = 4.0, 3.0
+    g.quads([[[-s, y, -s], [s, y, -s], [s, y, s], [-s, y, s]]], g.emitter([0.8, 0.9, 1.0], 2.0))
+    g.camera([0.0, 2.2, 2.9], [0.0, -0.6, -0.2], yfov=0.8)
+    g.write(path, "bevy_rppm tools/suite_scenes.py water_pool")
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("out", help="folder for the .gltf files")
+    args = parser.parse_args()
+    os.makedirs(args.out, exist_ok=True)
+    for make in (sun_room, glass_slab, water_pool):
+        path = os.path.join(args.out, f"{make.__name__}.gltf")
+        make(path)
+        print(f"wrote {path}")
+
+
+if __name__ == "__main__":
+    main()

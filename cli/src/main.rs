@@ -14,9 +14,7 @@ use bevy_rppm_cli::bench::{print_table, sweep_configs};
 use bevy_rppm_cli::headless::{
     Budget, Progress, RenderResult, bench_dirt, load_gltf, render_gltf, render_loaded,
 };
-use bevy_rppm_cli::image_io::{
-    RgbImage, bad_pixels, energy_ratio, read_exr, relmse, write_exr, write_png,
-};
+use bevy_rppm_cli::image_io::{RgbImage, bad_pixels, read_exr, write_exr, write_png};
 use bevy_rppm_cli::trade::{
     TradeRequest, best_at, knobs, pareto_front, read_csv, run_trade, write_csv,
 };
@@ -199,25 +197,14 @@ fn mean_rgb(image: &RgbImage) -> [f64; 3] {
     sum.map(|s| s / n)
 }
 
-#[derive(Serialize)]
-struct Comparison {
-    relmse: f64,
-    energy_ratio: f64,
-    bad_pixels: usize,
-}
-
 /// Prints the metrics of shared/docs/CONVENTIONS.md for a test image against a reference.
 fn compare(test: &Path, reference: &Path) -> Result<()> {
     let (test, reference) = (
         read_exr(test).map_err(anyhow::Error::msg)?,
         read_exr(reference).map_err(anyhow::Error::msg)?,
     );
-    let comparison = Comparison {
-        relmse: relmse(&test, &reference).map_err(anyhow::Error::msg)?,
-        energy_ratio: energy_ratio(&test, &reference).map_err(anyhow::Error::msg)?,
-        bad_pixels: bad_pixels(&test),
-    };
-    println!("{}", serde_json::to_string(&comparison)?);
+    let score = bevy_rppm_cli::suite::Score::of(&test, &reference)?;
+    println!("{}", serde_json::to_string(&score)?);
     Ok(())
 }
 

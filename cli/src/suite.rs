@@ -8,7 +8,7 @@ use std::process::Command;
 
 use anyhow::{Context, Result, bail};
 use bevy_rppm::PhotonMapping;
-use serde::Deserialize;
+use serde::{Deserialize, Serialize};
 
 use crate::headless::{Budget, RenderRequest, render_gltf};
 use crate::image_io::{RgbImage, bad_pixels, energy_ratio, read_exr, relmse};
@@ -52,11 +52,11 @@ pub fn find_scenes(dirs: &[PathBuf]) -> Result<Vec<SuiteScene>> {
     Ok(scenes)
 }
 
-/// Error and energy of an image against its reference.
-#[derive(Clone, Copy, Debug)]
+/// Error and energy of an image against its reference (`rppm compare` prints it as JSON).
+#[derive(Clone, Copy, Debug, Serialize)]
 pub struct Score {
     pub relmse: f64,
-    pub energy: f64,
+    pub energy_ratio: f64,
     pub bad_pixels: usize,
 }
 
@@ -64,7 +64,7 @@ impl Score {
     pub fn of(image: &RgbImage, reference: &RgbImage) -> Result<Self> {
         Ok(Self {
             relmse: relmse(image, reference).map_err(anyhow::Error::msg)?,
-            energy: energy_ratio(image, reference).map_err(anyhow::Error::msg)?,
+            energy_ratio: energy_ratio(image, reference).map_err(anyhow::Error::msg)?,
             bad_pixels: bad_pixels(image),
         })
     }
@@ -193,7 +193,7 @@ pub fn table(rows: &[SuiteRow], seconds: f64) -> String {
             r.iterations,
             r.photons,
             r.ours.relmse,
-            r.ours.energy,
+            r.ours.energy_ratio,
             r.ours.bad_pixels
         );
     }

@@ -71,7 +71,7 @@ fn intersect_triangle(o: vec3<f32>, d: vec3<f32>, id: u32) -> vec3<f32> {
 fn consider(o: vec3<f32>, d: vec3<f32>, id: u32, t_min: f32, best: ptr<function, Hit>) {
     let h = intersect_triangle(o, d, id);
     // Equal distances (an edge two triangles share) go to the lower index, not to whichever
-    // the list, filled by atomics in no set order, gives first: renders repeat exactly.
+    // the list, filled by atomics in no set order, gives first.
     let nearer = h.x < (*best).t || (h.x == (*best).t && id < (*best).triangle);
     if h.x > t_min && nearer && opaque_at(id, h.yz) {
         *best = Hit(h.x, id, h.yz);

@@ -243,10 +243,12 @@ pub(crate) fn prepare_views(
             continue; // a zero-sized target renders nothing; keep the state for when it returns
         };
         let settings = &rppm.settings;
-        let mut photon_count = existing.as_deref().map(|s| s.photon_count);
-        let photons = photon_count
-            .get_or_insert_default()
-            .count(settings.photons_per_iteration);
+        // A state made anew below keeps the controller.
+        let mut photon_count = existing
+            .as_deref()
+            .map(|s| s.photon_count)
+            .unwrap_or_default();
+        let photons = photon_count.count(settings.photons_per_iteration);
         let key = ResourceKey {
             size,
             slots: settings.iterations_per_frame,
@@ -290,8 +292,7 @@ pub(crate) fn prepare_views(
                 targets_taken = true;
             }
         }
-        state.photon_count = photon_count.unwrap_or_default();
-        state.photon_setting = settings.photons_per_iteration;
+        state.photon_count = photon_count;
         if state.scene_epoch != scene.epoch {
             state.rebind_scene(
                 &device,

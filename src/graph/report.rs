@@ -9,10 +9,12 @@ use bevy::render::sync_world::MainEntity;
 use super::state::{RppmViewState, ViewTimer};
 use crate::photons::FrameCost;
 use crate::scene::SceneBuffers;
+use crate::settings::PhotonCount;
 use crate::settings::RppmDebugView;
 use crate::stats::readback::read_back;
 use crate::stats::timing::Stage;
 use crate::stats::{RadianceImage, RenderMessage, RenderSender, ViewStats};
+use crate::view::ExtractedRppm;
 
 /// The passes an iteration of this view runs, by the scene and settings (for the stats).
 fn passes(state: &RppmViewState) -> Vec<String> {
@@ -49,7 +51,12 @@ fn passes(state: &RppmViewState) -> Vec<String> {
 }
 
 pub(crate) fn report_views(
-    mut views: Query<(&MainEntity, &mut RppmViewState, &mut ViewTimer)>,
+    mut views: Query<(
+        &MainEntity,
+        &mut RppmViewState,
+        &mut ViewTimer,
+        Option<&ExtractedRppm>,
+    )>,
     scene: Option<Res<SceneBuffers>>,
     device: Res<RenderDevice>,
     queue: Res<RenderQueue>,
@@ -77,7 +84,7 @@ pub(crate) fn report_views(
                 .collect()
         })
         .unwrap_or_default();
-    for (camera, mut state, mut timer) in &mut views {
+    for (camera, mut state, mut timer, rppm) in &mut views {
         let camera = camera.id();
         let timer = &mut timer.0;
         timer.start_readback();
@@ -89,16 +96,15 @@ pub(crate) fn report_views(
             .replace(now)
             .map_or(0.0, |t| (now - t).as_secs_f64() * 1e3);
         if timer.collect(&device, waiting) {
-            let frame = timer.last_frame;
             let cost = FrameCost {
                 ms: timer.last_ms,
-                iterations: frame.iterations,
-                photons: frame.photons,
+                work: timer.last_frame,
                 // The clock's interval is the latest frame's; the timestamps' an earlier one
                 // of the same count.
-                wall_ms: wall_ms * frame.iterations as f64 / state.frame.1.max(1) as f64,
+                wall_ms_per_iteration: wall_ms / state.frame.1.max(1) as f64,
             };
-            let (before, setting) = (state.photon_count.count, state.photon_setting);
+            let before = state.photon_count.count;
+            let setting = rppm.map_or(PhotonCount::default(), |r| r.settings.photons_per_iteration);
             if state.photon_count.observe(setting, cost) {
                 info!(
                     "bevy_rppm: {} photons per iteration (was {before}, {:.1} ms an iteration)",

@@ -14,7 +14,7 @@ use crate::indirect_splat::{self, IndirectSplatPipeline};
 use crate::output::{self, OutputPipeline};
 use crate::photons::{PhotonController, PhotonPipeline, PhotonStore};
 use crate::scene::SceneBuffers;
-use crate::settings::{PhotonCount, RppmDebugView, RppmMode};
+use crate::settings::{RppmDebugView, RppmMode};
 use crate::shadows::ShadowMaps;
 use crate::splat::{SplatPipeline, SplatTarget};
 use crate::stats::timing::StageTimer;
@@ -75,8 +75,7 @@ pub struct RppmViewState {
     pub fast_forward: Option<u32>,
     /// Photons emitted per iteration this frame (0: no photon passes).
     pub photons: u32,
-    /// The photon count asked for, and where its controller stands.
-    pub photon_setting: PhotonCount,
+    /// Where the photon count's controller stands.
     pub photon_count: PhotonController,
     /// When the view's last frame was reported (its interval times an iteration).
     pub last_report: Option<std::time::Instant>,
@@ -178,7 +177,6 @@ impl RppmViewState {
             radius2: 0.0,
             fast_forward: None,
             photons: 0,
-            photon_setting: PhotonCount::default(),
             photon_count: PhotonController::default(),
             last_report: None,
             importons: false,

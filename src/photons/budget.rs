@@ -2,7 +2,7 @@
 //! GPU time each stage took (timestamps). Pure arithmetic, unit-tested here.
 
 use crate::settings::PhotonCount;
-use crate::stats::timing::{STAGES, Stage};
+use crate::stats::timing::{FrameWork, STAGES, Stage};
 
 /// The fewest photons an adaptive count goes down to.
 pub const MIN_PHOTONS: u32 = 1024;
@@ -60,11 +60,10 @@ impl Timing {
 pub struct FrameCost {
     /// GPU ms per stage (timestamps), summed over the frame.
     pub ms: [f64; STAGES],
-    pub iterations: u32,
-    /// Photons each iteration emitted.
-    pub photons: u32,
-    /// Wall-clock ms the frame took (0 when unknown).
-    pub wall_ms: f64,
+    /// The iterations and photons those timestamps were taken of.
+    pub work: FrameWork,
+    /// Wall-clock ms an iteration took (0 when unknown).
+    pub wall_ms_per_iteration: f64,
 }
 
 impl PhotonController {
@@ -86,19 +85,26 @@ impl PhotonController {
     /// Takes a frame's costs and moves the count toward what `setting` asks for. Returns
     /// whether it moved.
     pub fn observe(&mut self, setting: PhotonCount, cost: FrameCost) -> bool {
-        if cost.photons == 0 || cost.iterations == 0 || cost.photons != self.count {
+        let FrameWork {
+            iterations,
+            photons,
+        } = cost.work;
+        if photons == 0 || iterations == 0 || photons != self.count {
             return false; // timing of another count, or of no photon pass
         }
-        let n = cost.iterations as f64;
+        let n = iterations as f64;
         let (photon_ms, other_ms) = split(&cost.ms);
         let (photon_ms, other_ms) = (photon_ms / n, other_ms / n);
-        if !photon_ms.is_finite() || !other_ms.is_finite() || !cost.wall_ms.is_finite() {
+        if !photon_ms.is_finite()
+            || !other_ms.is_finite()
+            || !cost.wall_ms_per_iteration.is_finite()
+        {
             return false;
         }
         let next = match setting {
             PhotonCount::Fixed(n) => n,
             PhotonCount::Auto { max } => {
-                self.auto((cost.wall_ms / n).max(photon_ms + other_ms), max)
+                self.auto(cost.wall_ms_per_iteration.max(photon_ms + other_ms), max)
             }
             PhotonCount::GpuMilliseconds { milliseconds, max } => {
                 self.gpu_budget(photon_ms, other_ms, milliseconds as f64, max)
@@ -221,9 +227,11 @@ mod tests {
             .unwrap()] = other;
         FrameCost {
             ms,
-            iterations: 1,
-            photons,
-            wall_ms: 0.0,
+            work: FrameWork {
+                iterations: 1,
+                photons,
+            },
+            wall_ms_per_iteration: 0.0,
         }
     }
 
@@ -264,7 +272,7 @@ mod tests {
         for _ in 0..16 {
             let n = c.count;
             let mut f = cost(n as f64 * 1e-3, 10.0, n);
-            f.wall_ms = 100.0 + n as f64 * 1e-3;
+            f.wall_ms_per_iteration = 100.0 + n as f64 * 1e-3;
             c.observe(setting, f);
         }
         assert_eq!(c.count, 262_144); // 200 ms of photons at 1 µs

@@ -126,7 +126,8 @@ pub struct PhotonMapping {
     pub max_eye_depth: u32,
     /// Knaus–Zwicker radius reduction, r²ᵢ₊₁ = r²ᵢ (i+α)/(i+1). Range (0, 1], default 0.7.
     pub alpha: f32,
-    /// Initial gather radius, in pixels of the camera view. Range 0.25..=256, default 4.
+    /// Initial gather radius, in pixels of the camera view. Range 0.25..=256 and at most a
+    /// quarter of the view's larger side, default 4.
     pub initial_radius_pixels: f32,
     /// Edge length in pixels of each face of the camera-centred deep cubemap.
     /// Range 16..=4096, default 256.

@@ -49,6 +49,32 @@ pub enum BenchCommand {
     /// budget: our relMSE and energy at default settings against Mitsuba 3's path tracer's
     /// relMSE in the same wall time; a Markdown table.
     Suite(SuiteArgs),
+    /// The catalogue of bad and extreme input: each case's files, `rppm` run on them, and
+    /// whether it kept the promise (one error line and exit 2, or an image of finite pixels;
+    /// never a panic or a hang); a Markdown table.
+    Inputs(InputsArgs),
+}
+
+#[derive(Args)]
+pub struct InputsArgs {
+    /// Also the slow cases (big scenes, big renders).
+    #[arg(long)]
+    pub all: bool,
+    /// Only the cases whose name holds this text.
+    #[arg(long)]
+    pub filter: Option<String>,
+    /// List the cases (group, name, what must happen) without running them.
+    #[arg(long)]
+    pub list: bool,
+    /// Seconds a case may take before it counts as a hang.
+    #[arg(long, default_value_t = 120.0, value_parser = positive_seconds)]
+    pub limit: f64,
+    /// Where the cases' files go (default: a temporary folder).
+    #[arg(long)]
+    pub dir: Option<PathBuf>,
+    /// Write the table here too.
+    #[arg(long)]
+    pub table: Option<PathBuf>,
 }
 
 #[derive(Args)]
@@ -61,6 +87,9 @@ pub struct SuiteArgs {
     /// Only our renders, without Mitsuba.
     #[arg(long)]
     pub no_path_tracer: bool,
+    /// Mitsuba's variant (`llvm_ad_rgb` is faster where drjit accepts the machine's LLVM).
+    #[arg(long, default_value = "scalar_rgb")]
+    pub variant: String,
     /// Where Mitsuba's images go.
     #[arg(long, default_value = "out/suite")]
     pub out: PathBuf,
@@ -133,6 +162,9 @@ pub enum DebugView {
 pub struct RenderArgs {
     /// The glTF (or GLB) scene; its first camera is used, or a default one.
     pub scene: PathBuf,
+    /// Let the scene's buffer and image URIs name files outside its folder.
+    #[arg(long)]
+    pub allow_outside_files: bool,
     /// Image width in pixels (1..=16384).
     #[arg(long, default_value_t = 512)]
     pub width: u32,
@@ -160,7 +192,7 @@ pub struct RenderArgs {
     pub photons: Option<u32>,
     /// Photons follow a GPU time per iteration instead: as many as keep an iteration near
     /// this many milliseconds (at most `--photons`, else 262 144).
-    #[arg(long)]
+    #[arg(long, value_parser = positive_number)]
     pub iteration_ms: Option<f32>,
     /// Bounces a photon may take.
     #[arg(long)]
@@ -169,10 +201,10 @@ pub struct RenderArgs {
     #[arg(long)]
     pub eye_depth: Option<u32>,
     /// Initial gather radius in pixels.
-    #[arg(long)]
+    #[arg(long, value_parser = positive_number)]
     pub radius: Option<f32>,
     /// Knaus–Zwicker α.
-    #[arg(long)]
+    #[arg(long, value_parser = finite_number)]
     pub alpha: Option<f32>,
     /// Deep-cubemap face resolution.
     #[arg(long)]
@@ -184,7 +216,7 @@ pub struct RenderArgs {
     #[arg(long)]
     pub tile: Option<u32>,
     /// Gather-kernel thickness along the normal, over its radius.
-    #[arg(long)]
+    #[arg(long, value_parser = finite_number)]
     pub flattening: Option<f32>,
     /// Splat photons on every n-th pixel (1, 2 or 4).
     #[arg(long)]
@@ -250,6 +282,20 @@ pub fn positive_seconds(text: &str) -> Result<f64, String> {
     match text.parse::<f64>() {
         Ok(s) if s.is_finite() && s > 0.0 => Ok(s),
         _ => Err(format!("'{text}' is not a positive number of seconds")),
+    }
+}
+
+fn finite_number(text: &str) -> Result<f32, String> {
+    match text.parse::<f32>() {
+        Ok(x) if x.is_finite() => Ok(x),
+        _ => Err(format!("'{text}' is not a finite number")),
+    }
+}
+
+fn positive_number(text: &str) -> Result<f32, String> {
+    match finite_number(text) {
+        Ok(x) if x > 0.0 => Ok(x),
+        _ => Err(format!("'{text}' is not a finite number above 0")),
     }
 }
 

@@ -27,6 +27,7 @@ use bevy_rppm::{
 };
 
 use crate::image_io::RgbImage;
+use crate::validate::{Access, check_gltf};
 
 /// What to do when no GPU adapter is found.
 pub const INSTALL_HINT: &str = "no GPU adapter found. On a machine without a GPU, install Mesa's \
@@ -146,11 +147,17 @@ const STALL: Duration = Duration::from_secs(120);
 /// Loads a glTF file into a fresh headless app and runs it until the scene is spawned and
 /// extracted. Every failure is a one-line message.
 pub fn load_gltf(scene: &Path) -> Result<App, String> {
+    load_gltf_with(scene, Access::default())
+}
+
+/// [`load_gltf`], with what the file may reach besides itself.
+pub fn load_gltf_with(scene: &Path, access: Access) -> Result<App, String> {
     let meta =
         std::fs::metadata(scene).map_err(|e| format!("cannot read {}: {e}", scene.display()))?;
     if !meta.is_file() {
         return Err(format!("{} is not a file", scene.display()));
     }
+    check_gltf(scene, access)?;
     check_gpu_adapter()?;
     let absolute = std::fs::canonicalize(scene)
         .map_err(|e| format!("cannot read {}: {e}", scene.display()))?;
@@ -202,7 +209,8 @@ pub fn render_gltf(
     render_loaded(&mut app, request, progress)
 }
 
-fn check_size(request: &RenderRequest) -> Result<(), String> {
+/// The image size is inside 1..=16384 on both sides.
+pub fn check_size(request: &RenderRequest) -> Result<(), String> {
     let valid = 1..=16384;
     if valid.contains(&request.width) && valid.contains(&request.height) {
         return Ok(());

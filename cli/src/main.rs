@@ -12,20 +12,24 @@ use bevy_rppm::{PhotonCount, PhotonMapping, ViewStats};
 use bevy_rppm_cli::animation;
 use bevy_rppm_cli::bench::{print_table, sweep_configs};
 use bevy_rppm_cli::headless::{
-    Budget, Progress, RenderResult, bench_dirt, load_gltf, render_gltf, render_loaded,
+    Budget, Progress, RenderResult, bench_dirt, check_size, load_gltf_with, render_loaded,
 };
 use bevy_rppm_cli::image_io::{RgbImage, bad_pixels, read_exr, write_exr, write_png};
 use bevy_rppm_cli::trade::{
     TradeRequest, best_at, knobs, pareto_front, read_csv, run_trade, write_csv,
 };
+use bevy_rppm_cli::validate::{Access, check_gltf};
 use clap::Parser;
 use indicatif::{ProgressBar, ProgressStyle};
 use serde::Serialize;
 
 use args::{
-    BenchCommand, Cli, Command, DirtArgs, MotionArgs, MotionScript, RenderArgs, SuiteArgs,
-    TradeArgs, default_render, extension,
+    BenchCommand, Cli, Command, DirtArgs, InputsArgs, MotionArgs, MotionScript, RenderArgs,
+    SuiteArgs, TradeArgs, default_render, extension,
 };
+
+/// The first panic's message and place, for the error line.
+static LAST_PANIC: std::sync::Mutex<Option<String>> = std::sync::Mutex::new(None);
 
 fn main() -> ExitCode {
     let cli = match Cli::try_parse() {
@@ -47,7 +51,24 @@ fn main() -> ExitCode {
             return ExitCode::from(2);
         }
     };
-    let result = match cli.command {
+    // A panic (inside Bevy's loader, say) becomes the one error line, without the default
+    // hook's message and backtrace.
+    std::panic::set_hook(Box::new(|info| {
+        let message = info
+            .payload()
+            .downcast_ref::<&str>()
+            .map(|s| s.to_string())
+            .or_else(|| info.payload().downcast_ref::<String>().cloned())
+            .unwrap_or_default();
+        let at = info
+            .location()
+            .map(|l| format!(" at {l}"))
+            .unwrap_or_default();
+        if let Ok(mut last) = LAST_PANIC.lock() {
+            last.get_or_insert(format!("{message}{at}"));
+        }
+    }));
+    let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| match cli.command {
         None => render(&default_render()),
         Some(Command::Render(args)) => render(&args),
         Some(Command::Compare { test, reference }) => compare(&test, &reference),
@@ -56,6 +77,13 @@ fn main() -> ExitCode {
         Some(Command::Bench(BenchCommand::Plot { dir })) => plot(&dir),
         Some(Command::Bench(BenchCommand::Motion(args))) => motion(&args),
         Some(Command::Bench(BenchCommand::Suite(args))) => suite(&args),
+        Some(Command::Bench(BenchCommand::Inputs(args))) => inputs(&args),
+    }))
+    .unwrap_or_else(|_| Err(anyhow::anyhow!("internal error")));
+    let panic = LAST_PANIC.lock().ok().and_then(|mut p| p.take());
+    let result = match (result, panic) {
+        (Err(e), Some(panic)) => Err(anyhow::anyhow!("{e:#} (internal error: {panic})")),
+        (result, _) => result,
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -118,16 +146,20 @@ fn render(args: &RenderArgs) -> Result<()> {
             bar.set_message(format!("{} iterations, {rate:.2} it/s", p.iteration));
         }
     };
-    let result = match args.animation {
-        None => render_gltf(&request, progress),
-        Some(index) => load_gltf(&request.scene).and_then(|mut app| {
-            let clip = animation::pose(&mut app, &request.scene, index, args.animation_time)?;
-            let (name, at) = (clip.name, args.animation_time);
-            bar.suspend(|| eprintln!("posed by animation {name} at {at} s"));
+    let access = Access {
+        outside_files: args.allow_outside_files,
+    };
+    let result = check_size(&request)
+        .and_then(|()| load_gltf_with(&request.scene, access))
+        .and_then(|mut app| {
+            if let Some(index) = args.animation {
+                let clip = animation::pose(&mut app, &request.scene, index, args.animation_time)?;
+                let (name, at) = (clip.name, args.animation_time);
+                bar.suspend(|| eprintln!("posed by animation {name} at {at} s"));
+            }
             render_loaded(&mut app, &request, progress)
-        }),
-    }
-    .map_err(anyhow::Error::msg)?;
+        })
+        .map_err(anyhow::Error::msg)?;
     bar.finish_and_clear();
     for path in &args.out {
         match extension(path).as_deref() {
@@ -154,9 +186,20 @@ fn render(args: &RenderArgs) -> Result<()> {
 }
 
 /// Makes the file's folder, so that a path that cannot be written fails before the render.
+/// Makes `path`'s folder and tries the file, so that a path that cannot be written fails
+/// before the render rather than after it.
 fn writable(path: &Path) -> Result<()> {
     if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    }
+    let existed = path.exists();
+    std::fs::OpenOptions::new()
+        .append(true)
+        .create(true)
+        .open(path)
+        .with_context(|| format!("cannot write {}", path.display()))?;
+    if !existed {
+        let _ = std::fs::remove_file(path);
     }
     Ok(())
 }
@@ -217,6 +260,7 @@ struct DirtReport<'a> {
 }
 
 fn dirt(args: &DirtArgs) -> Result<()> {
+    check_gltf(&args.scene, Access::default()).map_err(anyhow::Error::msg)?;
     let defaults = PhotonMapping::default();
     let default = CubemapConfig {
         resolution: defaults.cubemap_resolution,
@@ -267,6 +311,7 @@ fn plot(dir: &Path) -> Result<()> {
 
 /// Sweeps the knobs, writes the CSVs and plots, and prints the best setting per budget.
 fn trade(args: &TradeArgs) -> Result<()> {
+    check_gltf(&args.scene, Access::default()).map_err(anyhow::Error::msg)?;
     let mut base = PhotonMapping::default();
     // Runs compare settings, so the photon count is fixed: 262 144 unless `--photons`.
     base.photons_per_iteration =
@@ -311,6 +356,35 @@ fn trade(args: &TradeArgs) -> Result<()> {
     Ok(())
 }
 
+fn inputs(args: &InputsArgs) -> Result<()> {
+    use bevy_rppm_cli::catalogue::{default_root, listing, run_cases, select, table};
+    let cases = select(args.all, args.filter.as_deref());
+    if args.list {
+        print!("{}", listing(&cases));
+        return Ok(());
+    }
+    let rppm = std::env::current_exe().context("finding rppm itself")?;
+    let root = args.dir.clone().unwrap_or_else(default_root);
+    let limit = std::time::Duration::from_secs_f64(args.limit);
+    let verdicts = run_cases(&rppm, &cases, &root, limit, |v| {
+        let mark = if v.passed { "pass" } else { "FAIL" };
+        eprintln!("{mark} {:5.1} s  {}: {}", v.seconds, v.name, v.detail);
+    });
+    let text = table(&verdicts);
+    println!("{text}");
+    if let Some(path) = &args.table {
+        std::fs::write(path, &text).with_context(|| format!("cannot write {}", path.display()))?;
+    }
+    if args.dir.is_none() {
+        let _ = std::fs::remove_dir_all(&root);
+    }
+    let failed = verdicts.iter().filter(|v| !v.passed).count();
+    if failed > 0 {
+        bail!("{failed} of {} cases failed", verdicts.len());
+    }
+    Ok(())
+}
+
 fn suite(args: &SuiteArgs) -> Result<()> {
     use bevy_rppm_cli::suite::{find_scenes, run_scene, table};
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
@@ -324,7 +398,7 @@ fn suite(args: &SuiteArgs) -> Result<()> {
     };
     let scenes = find_scenes(&dirs)?;
     let tool = root.join("tools/reference.py");
-    let mitsuba = (!args.no_path_tracer).then_some(tool.as_path());
+    let mitsuba = (!args.no_path_tracer).then_some((tool.as_path(), args.variant.as_str()));
     let mut rows = Vec::new();
     for scene in &scenes {
         eprintln!("rppm: {} ({} s each)", scene.name, args.budget);
@@ -349,6 +423,7 @@ fn motion(args: &MotionArgs) -> Result<()> {
     use bevy_rppm_cli::motion::{
         MotionRequest, Script, bench_motion, write_csv, write_images, write_plot,
     };
+    check_gltf(&args.scene, Access::default()).map_err(anyhow::Error::msg)?;
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("cannot create {}", args.out.display()))?;
     let script = match args.script {

@@ -90,7 +90,7 @@ pub fn run_scene(
     scene: &SuiteScene,
     settings: &PhotonMapping,
     seconds: f64,
-    mitsuba: Option<&Path>,
+    mitsuba: Option<(&Path, &str)>,
     scratch: &Path,
 ) -> Result<SuiteRow> {
     let reference = read_exr(&scene.reference).map_err(anyhow::Error::msg)?;
@@ -103,7 +103,9 @@ pub fn run_scene(
     };
     let ours = render_gltf(&request, |_| {}).map_err(anyhow::Error::msg)?;
     let path = match mitsuba {
-        Some(tool) => Some(path_tracer(tool, scene, &reference, seconds, scratch)?),
+        Some((tool, variant)) => Some(path_tracer(
+            tool, scene, &reference, seconds, variant, scratch,
+        )?),
         None => None,
     };
     Ok(SuiteRow {
@@ -129,6 +131,7 @@ fn path_tracer(
     scene: &SuiteScene,
     reference: &RgbImage,
     seconds: f64,
+    variant: &str,
     scratch: &Path,
 ) -> Result<(u32, f64, Score)> {
     std::fs::create_dir_all(scratch)?;
@@ -146,7 +149,14 @@ fn path_tracer(
             ])
             .args(["--width", &reference.width.to_string()])
             .args(["--height", &reference.height.to_string()])
-            .args(["--spp", &spp.to_string(), "--seed", "7"])
+            .args([
+                "--spp",
+                &spp.to_string(),
+                "--seed",
+                "7",
+                "--variant",
+                variant,
+            ])
             .output()
             .context("running python3 (Mitsuba 3: pip install mitsuba numpy)")?;
         if !status.status.success() {

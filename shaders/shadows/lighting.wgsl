@@ -65,68 +65,87 @@ fn visibility(x: vec3<f32>, dir: vec3<f32>, distance: f32, origin_triangle: u32)
 }
 #endif
 
+// Past this many punctual lights, traced shadows draw this many of them by power per pixel
+// and iteration instead of tracing a ray to each: the cost stays that of a few lights, the
+// average over iterations the same.
+const MANY_LIGHTS: u32 = 8u;
+
 // Direct light from the punctual lights; `rng` draws a point on the spheres of lights with a
 // radius (traced shadows only: shadow maps see their centre).
 fn direct_light(m: Material, x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, origin_triangle: u32, rng: ptr<function, u32>) -> vec3<f32> {
     var sum = vec3<f32>(0.0);
-    for (var i = 0u; i < params.light_count; i += 1u) {
-        let l = lights[i];
-        var wi: vec3<f32>;
-        var li: vec3<f32>;
-        // How far the light is (1e30: a direction).
-        var distance = 1.0e30;
-        if l.kind == LIGHT_DIRECTIONAL {
-            wi = -l.direction.xyz;
-            li = l.radiance.rgb;
-        } else {
-            let to_light = l.position.xyz - x;
-            let d2 = max(dot(to_light, to_light), 1e-12);
-            distance = sqrt(d2);
-            wi = to_light / distance;
-            li = l.radiance.rgb / d2;
-            if l.kind == LIGHT_SPOT {
-                let c = dot(-wi, l.direction.xyz);
-                let a = clamp((c - l.cos_outer) / max(l.cos_inner - l.cos_outer, 1e-6), 0.0, 1.0);
-                li *= select(a * a, select(0.0, 1.0, c >= l.cos_outer), l.cos_inner <= l.cos_outer);
-            }
 #ifdef TRACED_SHADOWS
-            let radius = l.position.w;
-            if radius > 0.0 && d2 > radius * radius * 1.0001 {
-                // A direction in the cone the sphere subtends, uniform in solid angle Ω: the
-                // sphere's radiance I/(πR²) times Ω averages to I/d² (and the spot's falloff
-                // stays that of the centre).
-                let sin2 = radius * radius / d2;
-                let cos_max = sqrt(1.0 - sin2);
-                let one_minus = sin2 / (1.0 + cos_max);
-                let cos_t = 1.0 - random(rng) * one_minus;
-                let sin_t = sqrt(max(1.0 - cos_t * cos_t, 0.0));
-                let phi = 2.0 * PI * random(rng);
-                let dir = basis_around(wi) * vec3<f32>(sin_t * cos(phi), sin_t * sin(phi), cos_t);
-                li *= 2.0 * one_minus / sin2;
-                let b = dot(dir, l.position.xyz - x);
-                distance = b - sqrt(max(b * b - (d2 - radius * radius), 0.0));
-                wi = dir;
-            }
+    if params.light_count > MANY_LIGHTS {
+        let total = light_cdf[params.light_count - 1u];
+        for (var k = 0u; k < MANY_LIGHTS; k += 1u) {
+            let i = find_source(random(rng) * total, 0u, params.light_count - 1u);
+            let p = (light_cdf[i] - select(0.0, light_cdf[max(i, 1u) - 1u], i > 0u)) / total;
+            sum += one_light(lights[i], m, x, n, wo, origin_triangle, rng) / (f32(MANY_LIGHTS) * max(p, 1e-12));
+        }
+        return sum;
+    }
 #endif
-        }
-        let lit = bsdf_eval(m, n, wo, wi) * li * max(dot(n, wi), 0.0);
-        // No shadow test where nothing would arrive (behind the surface, outside a cone, a
-        // delta lobe).
-        if all(lit <= vec3<f32>(0.0)) {
-            continue;
+    for (var i = 0u; i < params.light_count; i += 1u) {
+        sum += one_light(lights[i], m, x, n, wo, origin_triangle, rng);
+    }
+    return sum;
+}
+
+// Light `l` reflected at x toward wo, shadowed.
+fn one_light(l: Light, m: Material, x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, origin_triangle: u32, rng: ptr<function, u32>) -> vec3<f32> {
+    var wi: vec3<f32>;
+    var li: vec3<f32>;
+    // How far the light is (1e30: a direction).
+    var distance = 1.0e30;
+    if l.kind == LIGHT_DIRECTIONAL {
+        wi = -l.direction.xyz;
+        li = l.radiance.rgb;
+    } else {
+        let to_light = l.position.xyz - x;
+        let d2 = max(dot(to_light, to_light), 1e-12);
+        distance = sqrt(d2);
+        wi = to_light / distance;
+        li = l.radiance.rgb / d2;
+        if l.kind == LIGHT_SPOT {
+            let c = dot(-wi, l.direction.xyz);
+            let a = clamp((c - l.cos_outer) / max(l.cos_inner - l.cos_outer, 1e-6), 0.0, 1.0);
+            li *= select(a * a, select(0.0, 1.0, c >= l.cos_outer), l.cos_inner <= l.cos_outer);
         }
 #ifdef TRACED_SHADOWS
-        sum += lit * visibility(x, wi, distance, origin_triangle);
-#else
-        if l.kind == LIGHT_DIRECTIONAL {
-            let view = shadow_views[l.shadow_layer];
-            sum += lit * shadow_visibility(l.shadow_layer, l.shadow_layer, x + n * 2.0 * view.texel);
-        } else {
-            sum += lit * cube_visibility(l.shadow_layer, l.shadow_layer, l.position.xyz, x, n);
+        let radius = l.position.w;
+        if radius > 0.0 && d2 > radius * radius * 1.0001 {
+            // A direction in the cone the sphere subtends, uniform in solid angle Ω: the
+            // sphere's radiance I/(πR²) times Ω averages to I/d² (and the spot's falloff
+            // stays that of the centre).
+            let sin2 = radius * radius / d2;
+            let cos_max = sqrt(1.0 - sin2);
+            let one_minus = sin2 / (1.0 + cos_max);
+            let cos_t = 1.0 - random(rng) * one_minus;
+            let sin_t = sqrt(max(1.0 - cos_t * cos_t, 0.0));
+            let phi = 2.0 * PI * random(rng);
+            let dir = basis_around(wi) * vec3<f32>(sin_t * cos(phi), sin_t * sin(phi), cos_t);
+            li *= 2.0 * one_minus / sin2;
+            let b = dot(dir, l.position.xyz - x);
+            distance = b - sqrt(max(b * b - (d2 - radius * radius), 0.0));
+            wi = dir;
         }
 #endif
     }
-    return sum;
+    let lit = bsdf_eval(m, n, wo, wi) * li * max(dot(n, wi), 0.0);
+    // No shadow test where nothing would arrive (behind the surface, outside a cone, a
+    // delta lobe).
+    if all(lit <= vec3<f32>(0.0)) {
+        return vec3<f32>(0.0);
+    }
+#ifdef TRACED_SHADOWS
+    return lit * visibility(x, wi, distance, origin_triangle);
+#else
+    if l.kind == LIGHT_DIRECTIONAL {
+        let view = shadow_views[l.shadow_layer];
+        return lit * shadow_visibility(l.shadow_layer, l.shadow_layer, x + n * 2.0 * view.texel);
+    }
+    return lit * cube_visibility(l.shadow_layer, l.shadow_layer, l.position.xyz, x, n);
+#endif
 }
 
 // This iteration's sample on the emissive surfaces: a point light-like term weighted by the

@@ -16,7 +16,7 @@ use crate::gbuffer::GBufferPipeline;
 use crate::importons::{EyePathKey, EyePathPipeline};
 use crate::indirect_splat::IndirectSplatPipeline;
 use crate::output::{OutputPipeline, output_key};
-use crate::photons::{PhotonKey, PhotonPipeline, store_capacity};
+use crate::photons::{PhotonKey, PhotonPipeline, device_photon_count, store_capacity};
 use crate::ppm::{next_radius2, radius2_after};
 use crate::scene::{SceneBuffers, SceneData};
 use crate::settings::{PhotonMapping, RppmDebugView, RppmMode};
@@ -248,7 +248,8 @@ pub(crate) fn prepare_views(
             .as_deref()
             .map(|s| s.photon_count)
             .unwrap_or_default();
-        let photons = photon_count.count(settings.photons_per_iteration);
+        let photons =
+            photon_count.count(device_photon_count(settings.photons_per_iteration, &device));
         let key = ResourceKey {
             size,
             slots: settings.iterations_per_frame,
@@ -352,7 +353,9 @@ fn prepare_view(
     };
     state.view_epoch = frame.rppm.view_epoch;
     state.view_moves = frame.rppm.view_moves;
-    let initial = (settings.initial_radius_pixels as f64).powi(2);
+    // A radius past a quarter of the image blurs it all and makes every splat cover it.
+    let widest = (key.size.x.max(key.size.y) as f32 / 4.0).max(0.25);
+    let initial = (settings.initial_radius_pixels.min(widest) as f64).powi(2);
     // A new start, or a change under `Reuse` (its index is back at 0).
     if state.clock.begin_frame(changes, window) || changes.moved || changes.scene {
         state.radius2 = initial;
@@ -402,6 +405,10 @@ fn prepare_view(
     state.importons &= state.cubemap.cubemap.is_some();
     // Without a cubemap (its buffers refused) shadows fall back to shadow maps.
     state.traced_shadows = lit && state.cubemap.cubemap.is_some();
+    if lit && !state.traced_shadows && !state.shadows.mapped {
+        state.shadows.mapped = true; // made for real by the rebind
+        state.rebind_scene(device, queue, &pipelines.cache, &pipelines.stages(), scene);
+    }
     state.stages = Some(select_stages(state, scene, frame.output, pipelines));
     let ready = match stages_ready(state, &pipelines.cache) {
         Ok(view_ready) => frame.ready && view_ready,

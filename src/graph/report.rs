@@ -8,7 +8,7 @@ use bevy::render::sync_world::MainEntity;
 
 use super::state::{RppmViewState, ViewTimer};
 use crate::photons::FrameCost;
-use crate::scene::SceneBuffers;
+use crate::scene::{SceneBuffers, SceneRefused};
 use crate::settings::PhotonCount;
 use crate::settings::RppmDebugView;
 use crate::stats::readback::read_back;
@@ -57,7 +57,8 @@ pub(crate) fn report_views(
         &mut ViewTimer,
         Option<&ExtractedRppm>,
     )>,
-    scene: Option<Res<SceneBuffers>>,
+    (scene, refused): (Option<Res<SceneBuffers>>, Option<Res<SceneRefused>>),
+    stateless: Query<&MainEntity, (With<ExtractedRppm>, Without<RppmViewState>)>,
     device: Res<RenderDevice>,
     queue: Res<RenderQueue>,
     adapter: Res<RenderAdapterInfo>,
@@ -84,6 +85,14 @@ pub(crate) fn report_views(
                 .collect()
         })
         .unwrap_or_default();
+    // A view whose state was never made (the first scene was refused) still hears why.
+    for camera in refused.iter().flat_map(|_| &stateless) {
+        let error = refused.as_ref().map(|r| r.0.clone());
+        let _ = sender.send(RenderMessage::Stats(
+            camera.id(),
+            ViewStats { error, ..default() },
+        ));
+    }
     for (camera, mut state, mut timer, rppm) in &mut views {
         let camera = camera.id();
         let timer = &mut timer.0;
@@ -161,7 +170,10 @@ pub(crate) fn report_views(
                 timed_iterations: timer.timed_iterations,
                 memory: memory.into_iter().collect(),
                 adapter: adapter.name.clone(),
-                error: state.error.clone(),
+                error: refused
+                    .as_ref()
+                    .map(|r| r.0.clone())
+                    .or(state.error.clone()),
                 cubemap_nodes: state.cubemap.nodes.0,
                 photons_per_iteration: state.photons,
                 photons_stored: state.photons_stored,

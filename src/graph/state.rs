@@ -160,7 +160,7 @@ impl RppmViewState {
             params_binding(&params),
             &estimate.radiance,
         );
-        let shadows = ShadowMaps::new(device, &scene.data, key.shadow_resolution, key.slots);
+        let shadows = ShadowMaps::new(device, &scene.data, key.shadow_resolution, key.slots, false);
         shadows.write_light_views(queue, &scene.data);
         let scene_group = scene.bind_group(device, cache, &pipelines.layouts.scene, &shadows.views);
         let mut state = Self {
@@ -288,6 +288,7 @@ impl RppmViewState {
             &scene.data,
             self.key.shadow_resolution,
             self.key.slots,
+            self.shadows.mapped,
         );
         self.shadows.write_light_views(queue, &scene.data);
         self.scene_group =

@@ -14,7 +14,7 @@ use bevy::render::{RenderApp, RenderStartup};
 use crate::cubemap::{TracingGroups, tracing_pipeline};
 use crate::ppm::photon_store_capacity;
 use crate::scene::{ScatterPaths, SceneBuffers, texture_defs};
-use crate::settings::{PhotonMapping, RppmDebugView};
+use crate::settings::{PhotonCount, PhotonMapping, RppmDebugView};
 use crate::shaders::RppmShaders;
 use crate::stats::timing::{Stage, StageTimer};
 use crate::view::ViewLayouts;
@@ -44,7 +44,40 @@ pub(crate) fn store_capacity(
     }
     let wanted = photon_store_capacity(photons, stores, scene.max_scatter, direct);
     let limit = device.limits().max_storage_buffer_binding_size / PHOTON_BYTES;
-    (wanted.ceil() as u64).min(limit).min(u32::MAX as u64) as u32
+    // The indirect splat dispatches one thread per stored photon, in one dimension.
+    (wanted.ceil() as u64)
+        .min(limit)
+        .min(dispatch_limit(device) as u64) as u32
+}
+
+/// The most threads one dimension of a 64-wide compute dispatch can have on this device.
+fn dispatch_limit(device: &RenderDevice) -> u32 {
+    device
+        .limits()
+        .max_compute_workgroups_per_dimension
+        .saturating_mul(64)
+}
+
+/// The photon setting with its counts at most what one dispatch of the device can trace
+/// (4 194 240 on most), with one warning when that cuts it.
+pub(crate) fn device_photon_count(setting: PhotonCount, device: &RenderDevice) -> PhotonCount {
+    let limit = dispatch_limit(device);
+    let capped = match setting {
+        PhotonCount::Fixed(n) => PhotonCount::Fixed(n.min(limit)),
+        PhotonCount::Auto { max } => PhotonCount::Auto {
+            max: max.min(limit),
+        },
+        PhotonCount::GpuMilliseconds { milliseconds, max } => PhotonCount::GpuMilliseconds {
+            milliseconds,
+            max: max.min(limit),
+        },
+    };
+    if capped != setting {
+        warn_once!(
+            "bevy_rppm: {setting:?} photons per iteration is more than one dispatch of this GPU traces; using at most {limit}"
+        );
+    }
+    capped
 }
 
 pub(crate) struct PhotonsPlugin;

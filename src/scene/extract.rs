@@ -235,8 +235,13 @@ fn material_to_gpu(m: &StandardMaterial, textures: [u32; 4]) -> GpuMaterial {
     } else {
         ([1.0, 0.0, 0.0, 1.0], Vec2::ZERO)
     };
+    let base_color = [base.red, base.green, base.blue, base.alpha];
+    // An albedo past 1 makes light from nothing (and overflows after enough bounces).
+    if base_color.iter().any(|c| !(0.0..=1.0).contains(c)) {
+        warn_once!("bevy_rppm: a base colour {base_color:?} outside 0..=1 is clamped");
+    }
     GpuMaterial {
-        base_color: [base.red, base.green, base.blue, base.alpha].map(|c| finite(c, 0.0)),
+        base_color: base_color.map(|c| finite(c, 0.0).clamp(0.0, 1.0)),
         emissive: [m.emissive.red, m.emissive.green, m.emissive.blue, 0.0]
             .map(|c| finite(c, 0.0).max(0.0)),
         metallic: finite(m.metallic, 0.0).clamp(0.0, 1.0),

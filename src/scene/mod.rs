@@ -23,7 +23,7 @@ use bytemuck::{Pod, Zeroable};
 use crate::bsdf::{DELTA_ROUGHNESS, GLOSSY_STORE_ROUGHNESS, specular_energy_average};
 
 pub use lights::{LightKind, spot_cone_fraction};
-pub use prepare::SceneBuffers;
+pub use prepare::{SceneBuffers, SceneRefused};
 pub use textures::{GpuTexture, NO_TEXTURE, PackedTexture};
 
 bitflags::bitflags! {

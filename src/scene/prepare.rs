@@ -13,6 +13,11 @@ use bytemuck::Pod;
 use super::{RppmScene, ScatterPaths, SceneData};
 use crate::bsdf::ggx_albedo_table;
 
+/// Why the scene's tables were refused (too big for the GPU), while they are; every view
+/// reports it as its error.
+#[derive(Resource, Clone, Debug)]
+pub struct SceneRefused(pub String);
+
 /// Scene tables as storage buffers, in the render world.
 #[derive(Resource)]
 pub struct SceneBuffers {
@@ -143,17 +148,20 @@ pub(crate) fn prepare_scene(
     .max()
     .unwrap_or(0) as u64;
     if bytes > limit {
-        error!(
-            "bevy_rppm: the scene has {} triangles and {} texels (up to {bytes} bytes in one \
-             table), over this GPU's storage binding limit of {limit} bytes; photon mapping is \
-             paused until the scene is smaller",
+        let why = format!(
+            "the scene has {} triangles and {} texels (up to {bytes} bytes in one table), over \
+             this GPU's storage binding limit of {limit} bytes; photon mapping is paused until \
+             the scene is smaller",
             data.triangles.len(),
             data.texels.len()
         );
+        error!("bevy_rppm: {why}");
         *refused_epoch = Some(scene.epoch);
         commands.remove_resource::<SceneBuffers>();
+        commands.insert_resource(SceneRefused(why));
         return;
     }
+    commands.remove_resource::<SceneRefused>();
     commands.insert_resource(SceneBuffers {
         epoch: scene.epoch,
         data: data.clone(),

@@ -97,6 +97,10 @@ fn views_of(light: &GpuLight, scene: &SceneData, resolution: u32) -> Vec<ShadowV
 
 /// The shadow-map array of one view and the buffer of views it is rendered from.
 pub struct ShadowMaps {
+    /// Whether the maps are real: only views without traced shadows need them.
+    pub mapped: bool,
+    /// Views of the punctual lights (more than `light_layers` past the device's layers).
+    pub light_views: u32,
     pub resolution: u32,
     /// Layers of the punctual lights; the area-light cube follows them.
     pub light_layers: u32,
@@ -115,19 +119,37 @@ pub struct ShadowMaps {
 }
 
 impl ShadowMaps {
+    /// Shadow maps for `scene`'s lights when `mapped`; else a one-texel stand-in for the
+    /// bindings (traced shadows read none), so that a thousand lights cost nothing here.
     pub fn new(
         device: &RenderDevice,
         scene: &SceneData,
         resolution: u32,
         iteration_slots: u32,
+        mapped: bool,
     ) -> Self {
-        let light_layers: u32 = scene
+        let mut light_layers: u32 = scene
             .lights
             .iter()
             .map(|l| LightKind::from_u32(l.kind).shadow_views())
             .sum();
-        let has_area = !scene.emitters.is_empty();
-        let layers = (light_layers + if has_area { 6 } else { 0 }).max(1);
+        let has_area = mapped && !scene.emitters.is_empty();
+        let area_layers = if has_area { 6 } else { 0 };
+        // Past the device's array layers, the last lights go unshadowed (a warning says so).
+        let most = device.limits().max_texture_array_layers;
+        if mapped && light_layers + area_layers > most {
+            warn_once!(
+                "bevy_rppm: {light_layers} shadow-map layers are more than this GPU's {most}; \
+                 the last lights cast no shadow"
+            );
+        }
+        let light_views = if mapped { light_layers } else { 0 };
+        light_layers = light_layers.min(most.saturating_sub(area_layers));
+        if !mapped {
+            light_layers = 0;
+        }
+        let resolution = if mapped { resolution } else { 1 };
+        let layers = (light_layers + area_layers).clamp(1, most);
         let texture = device.create_texture(&TextureDescriptor {
             label: Some("rppm_shadow_maps"),
             size: Extent3d {
@@ -156,7 +178,7 @@ impl ShadowMaps {
                 })
             })
             .collect();
-        let view_count = light_layers + 6 * iteration_slots;
+        let view_count = light_views + 6 * iteration_slots;
         let views = device.create_buffer(&BufferDescriptor {
             label: Some("rppm_shadow_views"),
             size: (view_count.max(1) as u64) * std::mem::size_of::<ShadowView>() as u64,
@@ -167,6 +189,8 @@ impl ShadowMaps {
             resolution,
             light_layers,
             has_area,
+            mapped,
+            light_views,
             array_view,
             layer_views,
             views,
@@ -182,7 +206,7 @@ impl ShadowMaps {
 
     /// Index of the first area view of an iteration slot.
     pub fn area_view_base(&self, slot: u32) -> u32 {
-        self.light_layers + 6 * slot
+        self.light_views + 6 * slot
     }
 
     /// Marks the light maps for rendering in this frame's first iteration if they do not
@@ -210,7 +234,7 @@ impl ShadowMaps {
 
     pub fn write_light_views(&self, queue: &RenderQueue, scene: &SceneData) {
         let views = light_views(scene, self.resolution);
-        if !views.is_empty() {
+        if self.mapped && !views.is_empty() {
             queue.write_buffer(&self.views, 0, bytemuck::cast_slice(&views));
         }
     }

@@ -15,7 +15,7 @@ fn cli_reports_bad_input_in_one_line() {
             .arg(&garbage)
             .args(["--iterations", "1"]),
     );
-    assert!(unparsable.contains("cannot load"), "{unparsable}");
+    assert!(unparsable.contains("is not valid glTF"), "{unparsable}");
     let flag = run_failing(rppm().args(["render", "x.gltf", "--frobnicate"]));
     assert!(flag.contains("'--frobnicate'"), "{flag}");
     let zero = run_failing(rppm().args(["render", "x.gltf", "--iterations", "0"]));
@@ -32,6 +32,24 @@ fn cli_reports_bad_input_in_one_line() {
             .env("WGPU_BACKEND", "vulkan"),
     );
     assert!(no_gpu.contains("mesa-vulkan-drivers"), "{no_gpu}");
+}
+
+/// The catalogue of bad and extreme input (`rppm bench inputs --all` runs the slow cases
+/// too): malformed glTF and GLB, numbers out of range, cameras that cannot see, many lights,
+/// flags at their extremes, other commands' inputs. Each gives one error line and exit 2, or
+/// an image of finite pixels; none panics or hangs.
+#[test]
+fn bad_input_catalogue_keeps_the_promise() {
+    use bevy_rppm_cli::catalogue::{all_cases, run_cases, table};
+    check_gpu_adapter().unwrap_or_else(|hint| panic!("{hint}"));
+    let cases: Vec<_> = all_cases().into_iter().filter(|c| !c.slow).collect();
+    assert!(cases.len() >= 100, "{} cases", cases.len());
+    let root = temp("inputs");
+    let limit = std::time::Duration::from_secs(120);
+    let verdicts = run_cases(&rppm_path(), &cases, &root, limit, |_| {});
+    let text = table(&verdicts);
+    println!("{text}");
+    assert!(verdicts.iter().all(|v| v.passed), "{text}");
 }
 
 #[test]

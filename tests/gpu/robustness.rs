@@ -233,3 +233,71 @@ fn camera_inside_geometry_and_grazing_coplanar_triangles_stay_finite() {
         assert_finite(&radiance(&app, camera), &format!("camera at {pose:?}"));
     }
 }
+
+/// In a Bevy app, malformed glTF assets (the catalogue's structure cases that Bevy's own
+/// loader turns down) fail to load with an error log, and the scene around them keeps
+/// rendering: the estimate goes on, finite and lit.
+#[test]
+fn bad_assets_leave_the_rest_of_the_scene_rendering() {
+    use bevy::world_serialization::WorldAssetRoot;
+    use bevy_rppm_cli::catalogue::{Expect, all_cases};
+    let mut app = gpu_app();
+    let (camera, _) = lit_plane(&mut app, 1000.0, 2.0, 32);
+    until_iterations(&mut app, camera, 2);
+    // Under the crate's asset root (the test app's), in the ignored out/.
+    let folder = Path::new(env!("CARGO_MANIFEST_DIR")).join("out/bad_assets");
+    let _ = std::fs::remove_dir_all(&folder);
+    let mut handles = Vec::new();
+    for (i, case) in all_cases()
+        .into_iter()
+        .filter(|c| c.group == "structure" && matches!(c.expect, Expect::Error(_)))
+        .filter(|c| c.files.len() == 1 && !c.name.contains("deep"))
+        .enumerate()
+    {
+        let file = folder.join(format!("{i:03}.gltf"));
+        std::fs::create_dir_all(&folder).unwrap();
+        std::fs::write(&file, &case.files[0].1).unwrap();
+        let path = format!("out/bad_assets/{i:03}.gltf");
+        let handle = app
+            .world()
+            .resource::<AssetServer>()
+            .load(bevy::gltf::GltfAssetLabel::Scene(0).from_asset(path));
+        app.world_mut().spawn(WorldAssetRoot(handle.clone()));
+        handles.push((case.name, handle));
+    }
+    assert!(handles.len() >= 30, "{} bad assets", handles.len());
+    let before = iteration(&app, camera);
+    for _ in 0..200 {
+        app.update();
+        let server = app.world().resource::<AssetServer>();
+        let settled = handles.iter().all(|(_, h)| {
+            !matches!(
+                server.get_load_state(h),
+                Some(bevy::asset::LoadState::Loading)
+            )
+        });
+        if settled && iteration(&app, camera) >= before + 4 {
+            break;
+        }
+    }
+    let server = app.world().resource::<AssetServer>();
+    let loaded: Vec<&String> = handles
+        .iter()
+        .filter(|(_, h)| {
+            matches!(
+                server.get_load_state(h),
+                Some(bevy::asset::LoadState::Loaded)
+            )
+        })
+        .map(|(name, _)| name)
+        .collect();
+    println!("bad assets Bevy's loader accepted anyway: {loaded:?}");
+    assert!(
+        iteration(&app, camera) >= before + 4,
+        "the estimate stopped"
+    );
+    let image = radiance(&app, camera);
+    assert_finite(&image, "beside bad assets");
+    let lit = image.pixels.iter().filter(|p| p[1] > 0.0).count();
+    assert!(lit > image.pixels.len() / 2, "only {lit} lit pixels");
+}

@@ -147,13 +147,17 @@ fn target_dir() -> PathBuf {
 /// The `rppm` binary of the tool crate. `cargo test --workspace` builds it before any test
 /// runs (the tool crate has integration tests of its own).
 pub fn rppm() -> Command {
+    Command::new(rppm_path())
+}
+
+pub fn rppm_path() -> PathBuf {
     let path = target_dir().join(format!("rppm{}", std::env::consts::EXE_SUFFIX));
     assert!(
         path.exists(),
         "{} is missing: run the tests with `cargo test --workspace`",
         path.display()
     );
-    Command::new(path)
+    path
 }
 
 pub fn temp(name: &str) -> PathBuf {

@@ -7,6 +7,17 @@ const PI: f32 = 3.141592653589793;
 // Below this perceptual roughness the specular lobe is a perfect mirror (src/bsdf.rs).
 const DELTA_ROUGHNESS: f32 = 0.02;
 
+// A triangle as stored (52 bytes, src/scene/packed.rs); `triangle_at` unpacks it.
+struct PackedTriangle {
+    ax: f32, ay: f32, az: f32,
+    bx: f32, by: f32, bz: f32,
+    cx: f32, cy: f32, cz: f32,
+    material: u32,
+    normal_a: u32,
+    normal_b: u32,
+    normal_c: u32,
+}
+
 struct Triangle {
     position_a: vec3<f32>,
     material: u32,

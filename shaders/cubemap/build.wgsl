@@ -6,7 +6,7 @@
 //   fragment_insert: the triangle id into every depth bin its span in the tile overlaps.
 // Then `reduce` builds the min/max hierarchy, level 0 from the tile bounds.
 #import bevy_rppm::common::{CubemapParams, face_basis, level_offset}
-#import bevy_rppm::scene::triangles
+#import bevy_rppm::scene::{triangles, triangle_at}
 
 @group(1) @binding(0) var<uniform> cubemap: CubemapParams;
 @group(1) @binding(1) var<storage, read_write> tile_bounds: array<atomic<u32>>;
@@ -57,7 +57,7 @@ fn clipped_bounds(l: array<vec3<f32>, 3>, near: f32, depth: ptr<function, vec2<f
 fn vertex(@builtin(vertex_index) vertex: u32, @builtin(instance_index) face: u32) -> VertexOut {
     let id = vertex / 6u;
     let corner = vertex % 6u;
-    let t = triangles[id];
+    let t = triangle_at(id);
     let basis = transpose(face_basis(face));
     let c = cubemap.centre.xyz;
     let l = array<vec3<f32>, 3>(basis * (t.position_a - c), basis * (t.position_b - c), basis * (t.position_c - c));
@@ -97,7 +97,7 @@ fn tile_of(position: vec2<f32>, face: u32) -> vec3<u32> {
 // Depth span of the triangle's plane over the tile's pyramid, clamped to its clipped range;
 // the whole range when the plane's depth is not monotone there (plane through the centre).
 fn tile_span(id: u32, face: u32, tile: vec2<u32>, range: vec2<f32>) -> vec2<f32> {
-    let t = triangles[id];
+    let t = triangle_at(id);
     let basis = transpose(face_basis(face));
     let c = cubemap.centre.xyz;
     let a = basis * (t.position_a - c);

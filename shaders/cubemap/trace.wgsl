@@ -6,7 +6,7 @@
 #define_import_path bevy_rppm::cubemap
 
 #import bevy_rppm::common::{CubemapParams, face_basis, level_offset, face_of}
-#import bevy_rppm::scene::{triangles, opaque_at}
+#import bevy_rppm::scene::{triangles, triangle_at, opaque_at}
 
 @group(3) @binding(0) var<uniform> cubemap: CubemapParams;
 @group(3) @binding(1) var<storage, read> hierarchy: array<vec2<f32>>;
@@ -27,7 +27,7 @@ struct Hit {
 // ray-aligned shear space, so a ray through a shared edge hits one of its two triangles.
 // Returns (t, u, v) with t < 0 on a miss.
 fn intersect_triangle(o: vec3<f32>, d: vec3<f32>, id: u32) -> vec3<f32> {
-    let tri = triangles[id];
+    let tri = triangle_at(id);
     let ad = abs(d);
     var kz = 0u;
     if ad.y > ad.x && ad.y >= ad.z {

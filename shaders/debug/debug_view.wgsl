@@ -1,7 +1,7 @@
 // Debug images: shading normals of the camera G-buffer, or of primary rays traced through the
 // deep cubemap with the same jitter, as this iteration's sample. The two should match.
 #import bevy_rppm::common::{IterationParams, triangle_normal}
-#import bevy_rppm::scene::{triangles, interpolated_normal}
+#import bevy_rppm::scene::{triangle_at, interpolated_normal}
 #import bevy_rppm::cubemap::{trace_cubemap, NO_HIT}
 
 @group(1) @binding(0) var<uniform> params: IterationParams;
@@ -42,7 +42,7 @@ fn cubemap_normals(@builtin(global_invocation_id) id: vec3<u32>) {
     let hit = trace_cubemap(o, d, 0.0, 1.0e30, NO_HIT);
     var sample = vec3<f32>(0.0);
     if hit.triangle != NO_HIT {
-        let t = triangles[hit.triangle];
+        let t = triangle_at(hit.triangle);
         var n = interpolated_normal(t, hit.uv);
         // As the G-buffer: seen from behind its winding, the normal faces the camera.
         if dot(cross(t.position_b - t.position_a, t.position_c - t.position_a), d) > 0.0 {

@@ -2,7 +2,7 @@
 // footprint, rasterised with this iteration's sub-pixel jitter (baked into clip_from_world);
 // alpha cut-outs are discarded.
 #import bevy_rppm::common::{IterationParams, triangle_position, triangle_normal}
-#import bevy_rppm::scene::{triangles, barycentrics, opaque_at, normal_at}
+#import bevy_rppm::scene::{triangle_at, barycentrics, opaque_at, normal_at}
 
 @group(1) @binding(0) var<uniform> params: IterationParams;
 
@@ -15,7 +15,7 @@ struct VertexOut {
 
 @vertex
 fn vertex(@builtin(vertex_index) vertex: u32) -> VertexOut {
-    let t = triangles[vertex / 3u];
+    let t = triangle_at(vertex / 3u);
     let corner = vertex % 3u;
     var out: VertexOut;
     out.world = triangle_position(t, corner);
@@ -34,7 +34,7 @@ struct GBuffer {
 
 @fragment
 fn fragment(in: VertexOut, @builtin(front_facing) front: bool) -> GBuffer {
-    let b = barycentrics(triangles[in.triangle], in.world);
+    let b = barycentrics(triangle_at(in.triangle), in.world);
     if !opaque_at(in.triangle, b) {
         discard;
     }

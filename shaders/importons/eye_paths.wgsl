@@ -4,7 +4,7 @@
 // through the deep cubemap to the first non-specular surface, lights it the same way, and
 // leaves an importon there for indirect splatting.
 #import bevy_rppm::common::{Material, IterationParams, Importon, NO_IMPORTON, cubemap_tile, gather_radius, random, pcg_hash}
-#import bevy_rppm::scene::{triangles, gbuffer_material, material_at, as_seen_from, normal_at, interpolated_normal}
+#import bevy_rppm::scene::{triangle_at, gbuffer_material, material_at, as_seen_from, normal_at, interpolated_normal}
 #import bevy_rppm::lighting::{params, surface_light}
 #ifdef IMPORTONS
 #import bevy_rppm::bsdf::{fresnel_dielectric, scatter_photon, stores_photons}
@@ -84,7 +84,7 @@ fn follow_camera_path(pixel: u32, x0: vec3<f32>, n0: vec3<f32>, m0: Material, tr
         if hit.triangle == NO_HIT || all(throughput <= vec3<f32>(0.0)) {
             return found;
         }
-        let t = triangles[hit.triangle];
+        let t = triangle_at(hit.triangle);
         let x = o + d * hit.t;
         length += hit.t;
         let geometric = cross(t.position_b - t.position_a, t.position_c - t.position_a);

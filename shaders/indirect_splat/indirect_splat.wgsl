@@ -4,7 +4,7 @@
 // and a photon inside an importon's radius, on its surface, adds
 // throughput · f(wo, wi) · Φ / (π r²) to the importon's pixel.
 #import bevy_rppm::common::{Photon, Importon, IterationParams, PI, face_basis, splat_survives, splat_weight}
-#import bevy_rppm::scene::{triangles, barycentrics, material_at}
+#import bevy_rppm::scene::{triangle_at, barycentrics, material_at}
 #import bevy_rppm::bsdf::bsdf_eval
 #import bevy_rppm::cubemap::cubemap
 
@@ -43,7 +43,7 @@ fn gather(p: Photon, photon: u32, list: u32) {
         if !splat_survives(params, photon, pixel) {
             continue;
         }
-        let f = bsdf_eval(material_at(imp.triangle, barycentrics(triangles[imp.triangle], imp.position), 0.0), imp.normal, imp.outgoing, p.incoming);
+        let f = bsdf_eval(material_at(imp.triangle, barycentrics(triangle_at(imp.triangle), imp.position), 0.0), imp.normal, imp.outgoing, p.incoming);
         let c = imp.throughput * f * p.flux * (splat_weight(params) / (PI * r * r));
         add_f32(4u * pixel, c.x);
         add_f32(4u * pixel + 1u, c.y);

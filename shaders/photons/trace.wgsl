@@ -3,7 +3,7 @@
 // (direct light is the local-illumination stage's), then scattered by the material
 // (bsdf.wgsl's scatter_photon: diffuse, GGX glossy, mirror, Fresnel glass) or absorbed.
 #import bevy_rppm::common::{Light, Photon, IterationParams, PI, LIGHT_POINT, LIGHT_SPOT, LIGHT_DIRECTIONAL, random, pcg_hash, basis_around, cosine_direction}
-#import bevy_rppm::scene::{triangles, material_at, as_seen_from, normal_at, interpolated_normal, triangle_point, uniform_barycentrics, lights, emitters, light_cdf, find_source}
+#import bevy_rppm::scene::{triangle_at, material_at, as_seen_from, normal_at, interpolated_normal, triangle_point, uniform_barycentrics, lights, emitters, light_cdf, find_source}
 #import bevy_rppm::cubemap::{trace_cubemap, NO_HIT}
 #import bevy_rppm::bsdf::{stores_photons, scatter_photon}
 
@@ -37,7 +37,7 @@ fn emit(rng: ptr<function, u32>) -> Ray {
     ray.ignore = NO_HIT;
     if index >= params.light_count {
         let e = emitters[index - params.light_count];
-        let t = triangles[e.triangle];
+        let t = triangle_at(e.triangle);
         let u = random(rng);
         let b = uniform_barycentrics(u, random(rng));
         ray.origin = triangle_point(t, b);
@@ -110,7 +110,7 @@ fn trace(@builtin(global_invocation_id) id: vec3<u32>) {
         if hit.triangle == NO_HIT {
             return;
         }
-        let t = triangles[hit.triangle];
+        let t = triangle_at(hit.triangle);
         let x = ray.origin + ray.direction * hit.t;
         let geometric = normalize(cross(t.position_b - t.position_a, t.position_c - t.position_a));
         let front = dot(geometric, ray.direction) < 0.0;

@@ -2,9 +2,9 @@
 // and the material lookups that apply textures and vertex colours (src/scene/textures.rs).
 #define_import_path bevy_rppm::scene
 
-#import bevy_rppm::common::{Triangle, Material, Light, Emitter, ShadowView, TriangleAttributes, Texture, DELTA_ROUGHNESS, MATERIAL_TEXTURED, MATERIAL_ALPHA_MASK, MATERIAL_ALPHA_HASHED, MATERIAL_DOUBLE_SIDED, MATERIAL_UNLIT, MATERIAL_FLIP_NORMAL_Y, NO_TEXTURE, pcg_hash}
+#import bevy_rppm::common::{Triangle, PackedTriangle, Material, Light, Emitter, ShadowView, TriangleAttributes, Texture, DELTA_ROUGHNESS, MATERIAL_TEXTURED, MATERIAL_ALPHA_MASK, MATERIAL_ALPHA_HASHED, MATERIAL_DOUBLE_SIDED, MATERIAL_UNLIT, MATERIAL_FLIP_NORMAL_Y, NO_TEXTURE, pcg_hash}
 
-@group(0) @binding(0) var<storage, read> triangles: array<Triangle>;
+@group(0) @binding(0) var<storage, read> triangles: array<PackedTriangle>;
 @group(0) @binding(1) var<storage, read> shadow_views: array<ShadowView>;
 @group(0) @binding(2) var<storage, read> materials: array<Material>;
 @group(0) @binding(3) var<storage, read> lights: array<Light>;
@@ -39,6 +39,29 @@ fn triangle_point(t: Triangle, b: vec2<f32>) -> vec3<f32> {
 }
 
 // The vertex normals of triangle t interpolated at barycentrics b.
+// Triangle `i` unpacked (src/scene/packed.rs): normals from octahedral snorm16 pairs.
+fn triangle_at(i: u32) -> Triangle {
+    let p = triangles[i];
+    return Triangle(
+        vec3<f32>(p.ax, p.ay, p.az), p.material,
+        vec3<f32>(p.bx, p.by, p.bz), 0u,
+        vec3<f32>(p.cx, p.cy, p.cz), 0u,
+        unpack_normal(p.normal_a), 0u,
+        unpack_normal(p.normal_b), 0u,
+        unpack_normal(p.normal_c), 0u,
+    );
+}
+
+fn unpack_normal(v: u32) -> vec3<f32> {
+    let e = unpack2x16snorm(v);
+    let z = 1.0 - abs(e.x) - abs(e.y);
+    var xy = e;
+    if z < 0.0 {
+        xy = (1.0 - abs(e.yx)) * select(vec2<f32>(-1.0), vec2<f32>(1.0), e >= vec2<f32>(0.0));
+    }
+    return normalize(vec3<f32>(xy, z));
+}
+
 fn interpolated_normal(t: Triangle, b: vec2<f32>) -> vec3<f32> {
     return normalize(t.normal_a * (1.0 - b.x - b.y) + t.normal_b * b.x + t.normal_c * b.y);
 }
@@ -52,7 +75,7 @@ fn uniform_barycentrics(u: f32, v: f32) -> vec2<f32> {
 // The material of a camera G-buffer texel (w: ±(triangle + 1)) `footprint` metres wide.
 fn gbuffer_material(position: vec4<f32>, footprint: f32) -> Material {
     let triangle = u32(abs(position.w)) - 1u;
-    let m = material_at(triangle, barycentrics(triangles[triangle], position.xyz), footprint);
+    let m = material_at(triangle, barycentrics(triangle_at(triangle), position.xyz), footprint);
     return as_seen_from(m, position.w > 0.0);
 }
 
@@ -78,7 +101,7 @@ fn uv_transform(m: Material) -> mat2x2<f32> {
 // Texture coordinates at barycentrics b (xy) and the uv units one metre spans there (z).
 fn surface_uv(m: Material, triangle: u32, b: vec2<f32>) -> vec3<f32> {
     let a = attributes[triangle];
-    let t = triangles[triangle];
+    let t = triangle_at(triangle);
     let xf = uv_transform(m);
     let ua = xf * a.uv_a;
     let ub = xf * a.uv_b;
@@ -207,7 +230,7 @@ fn normal_at(triangle: u32, b: vec2<f32>, n: vec3<f32>, footprint: f32) -> vec3<
     if (m.flags & MATERIAL_FLIP_NORMAL_Y) != 0u {
         c.y = -c.y;
     }
-    let t = triangles[triangle];
+    let t = triangle_at(triangle);
     let a = attributes[triangle];
     let e1 = t.position_b - t.position_a;
     let e2 = t.position_c - t.position_a;
@@ -240,7 +263,7 @@ fn normal_at(triangle: u32, b: vec2<f32>, n: vec3<f32>, footprint: f32) -> vec3<
 fn kernel_normal(position: vec4<f32>, shading: vec3<f32>) -> vec3<f32> {
 #ifdef TEXTURED
     let triangle = u32(abs(position.w)) - 1u;
-    let t = triangles[triangle];
+    let t = triangle_at(triangle);
     let m = materials[t.material];
     if (m.flags & MATERIAL_TEXTURED) == 0u || m.textures.w == NO_TEXTURE {
         return shading;

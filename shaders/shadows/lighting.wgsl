@@ -8,7 +8,7 @@
 
 #import bevy_rppm::common::{Material, Light, IterationParams, PI, LIGHT_SPOT, LIGHT_DIRECTIONAL, face_of, random, basis_around}
 #import bevy_rppm::bsdf::bsdf_eval
-#import bevy_rppm::scene::{shadow_views, lights, triangles, material_at, emitters, light_cdf, find_source, triangle_point, uniform_barycentrics}
+#import bevy_rppm::scene::{shadow_views, lights, triangles, triangle_at, material_at, emitters, light_cdf, find_source, triangle_point, uniform_barycentrics}
 #ifdef TRACED_SHADOWS
 #import bevy_rppm::cubemap::{trace_cubemap, NO_HIT}
 #endif
@@ -183,7 +183,7 @@ fn emitter_light(m: Material, x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, origin_
     let previous = select(0.0, light_cdf[index - 1u], index > 0u);
     let p = max(light_cdf[index] - previous, 1e-12) / share;
     let e = emitters[index - params.light_count];
-    let t = triangles[e.triangle];
+    let t = triangle_at(e.triangle);
     let u = random(rng);
     let b = uniform_barycentrics(u, random(rng));
     let y = triangle_point(t, b);

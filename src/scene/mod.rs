@@ -8,6 +8,7 @@ mod deform;
 mod extract;
 mod lights;
 mod mesh;
+mod packed;
 pub mod prepare;
 pub mod textures;
 
@@ -23,6 +24,7 @@ use bytemuck::{Pod, Zeroable};
 use crate::bsdf::{DELTA_ROUGHNESS, GLOSSY_STORE_ROUGHNESS, specular_energy_average};
 
 pub use lights::{LightKind, spot_cone_fraction};
+pub use packed::PackedTriangle;
 pub use prepare::{SceneBuffers, SceneRefused};
 pub use textures::{GpuTexture, NO_TEXTURE, PackedTexture};
 
@@ -54,7 +56,7 @@ impl ScatterPaths {
     }
 }
 
-/// One world-space triangle as the GPU reads it (96 bytes).
+/// One world-space triangle (stored on the GPU packed: [`PackedTriangle`]).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuTriangle {

@@ -10,7 +10,7 @@ use bevy::render::render_resource::{
 use bevy::render::renderer::RenderDevice;
 use bytemuck::Pod;
 
-use super::{RppmScene, ScatterPaths, SceneData};
+use super::{GpuTriangle, PackedTriangle, RppmScene, ScatterPaths, SceneData};
 use crate::bsdf::ggx_albedo_table;
 
 /// Why the scene's tables were refused (too big for the GPU), while they are; every view
@@ -140,7 +140,7 @@ pub(crate) fn prepare_scene(
     let data = &scene.data;
     let limit = device.limits().max_storage_buffer_binding_size;
     let bytes = [
-        std::mem::size_of_val(data.triangles.as_slice()),
+        data.triangles.len() * std::mem::size_of::<PackedTriangle>(),
         std::mem::size_of_val(data.attributes.as_slice()),
         std::mem::size_of_val(data.texels.as_slice()),
     ]
@@ -167,7 +167,11 @@ pub(crate) fn prepare_scene(
         data: data.clone(),
         paths: data.scatter_paths(),
         max_scatter: data.max_scatter_probability(),
-        triangles: storage_buffer(&device, "rppm_triangles", &data.triangles),
+        triangles: storage_buffer(
+            &device,
+            "rppm_triangles",
+            &packed_triangles(&data.triangles),
+        ),
         materials: storage_buffer(&device, "rppm_materials", &data.materials),
         lights: storage_buffer(&device, "rppm_lights", &data.lights),
         emitters: storage_buffer(&device, "rppm_emitters", &data.emitters),
@@ -181,4 +185,9 @@ pub(crate) fn prepare_scene(
             _ => storage_buffer(&device, "rppm_texels", &data.texels),
         },
     });
+}
+
+/// The triangles as the GPU stores them.
+fn packed_triangles(triangles: &[GpuTriangle]) -> Vec<PackedTriangle> {
+    triangles.iter().map(PackedTriangle::from).collect()
 }

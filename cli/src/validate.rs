@@ -61,7 +61,9 @@ fn check_bytes(bytes: &[u8], path: &Path, access: Access) -> Result<(), String> 
     primitives(&root, &buffers)?;
     for (i, image) in list(&root, "images").iter().enumerate() {
         if let Some(uri) = image["uri"].as_str().filter(|u| !u.starts_with("data:")) {
-            local_file(uri, folder, access).map_err(|e| format!("images[{i}].uri: {e}"))?;
+            let at = format!("images[{i}]");
+            local_file(&decoded(uri, &at)?, folder, access)
+                .map_err(|e| format!("{at}.uri: {e}"))?;
         }
     }
     cameras(&root)
@@ -187,9 +189,7 @@ fn buffers(
                 ))?
                 .to_vec(),
             Some(uri) => {
-                let uri = percent_encoding::percent_decode_str(uri)
-                    .decode_utf8()
-                    .map_err(|_| format!("{at}.uri is not UTF-8 once percent-decoded"))?;
+                let uri = decoded(uri, &at)?;
                 match uri.strip_prefix("data:") {
                     Some(data) => data_uri(data).map_err(|e| format!("{at}.uri: {e}"))?,
                     None => {
@@ -214,6 +214,14 @@ fn buffers(
         out.push(data);
     }
     Ok(out)
+}
+
+/// A URI percent-decoded, as Bevy's loader reads it.
+fn decoded(uri: &str, at: &str) -> Result<String, String> {
+    percent_encoding::percent_decode_str(uri)
+        .decode_utf8()
+        .map(|u| u.into_owned())
+        .map_err(|_| format!("{at}.uri is not UTF-8 once percent-decoded"))
 }
 
 fn data_uri(data: &str) -> Result<Vec<u8>, String> {

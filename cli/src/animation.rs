@@ -6,6 +6,7 @@ use bevy::animation::graph::{AnimationGraph, AnimationGraphHandle, AnimationNode
 use bevy::animation::{AnimationClip, AnimationPlayer};
 use bevy::gltf::Gltf;
 use bevy::prelude::*;
+use bevy_rppm::RppmScene;
 
 /// A glTF animation set on a scene's animation players.
 pub struct Posed {
@@ -98,9 +99,16 @@ pub fn pose(app: &mut App, scene: &Path, index: usize, seconds: f32) -> Result<P
         node,
         duration,
     };
+    let epoch = app.world().resource::<RppmScene>().epoch;
     posed.seek(app, seconds);
-    // The pose reaches the transforms, and extraction sees it, on the next updates.
-    app.update();
+    // The pose reaches the transforms, and extraction sees it, within a few updates; more
+    // where the clip's asset comes a little after the glTF's (a busy machine).
+    for _ in 0..60 {
+        app.update();
+        if app.world().resource::<RppmScene>().epoch != epoch {
+            break;
+        }
+    }
     app.update();
     Ok(posed)
 }

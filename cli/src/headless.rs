@@ -353,6 +353,22 @@ pub fn attach_camera(app: &mut App, request: &RenderRequest) -> Result<bool, Str
     Ok(false)
 }
 
+/// Where the GPU time of the last reported frame went, for a stall's message.
+fn stalled_stage(stats: Option<&ViewStats>) -> String {
+    let slowest = stats.and_then(|s| {
+        s.stage_ms
+            .iter()
+            .max_by(|a, b| a.1.total_cmp(b.1))
+            .map(|(stage, ms)| (stage, ms, s.stage_ms.values().sum::<f64>()))
+    });
+    match slowest {
+        Some((stage, ms, all)) if all > 0.0 => {
+            format!(" (its last frame spent {ms:.0} of {all:.0} GPU ms in {stage})")
+        }
+        _ => " (no GPU time came back: pipelines compiling, or the GPU hung)".into(),
+    }
+}
+
 fn run_until_done(
     app: &mut App,
     camera: Entity,
@@ -384,7 +400,11 @@ fn run_until_done(
             .cloned()
         else {
             if last_progress.1.elapsed() > STALL {
-                return Err("rendering stalled: no image came back from the GPU".into());
+                let stats = world.resource::<RppmStats>().views.get(&camera);
+                return Err(format!(
+                    "rendering stalled: no image came back from the GPU{}",
+                    stalled_stage(stats)
+                ));
             }
             continue;
         };
@@ -408,8 +428,9 @@ fn run_until_done(
             });
         } else if last_progress.1.elapsed() > STALL {
             return Err(format!(
-                "rendering stalled at iteration {}",
-                image.iteration
+                "rendering stalled at iteration {}{}",
+                image.iteration,
+                stalled_stage(Some(&stats))
             ));
         }
         let done = match request.budget {
@@ -419,5 +440,23 @@ fn run_until_done(
         if done {
             return Ok((image, stats, seconds));
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_stall_names_the_slowest_stage() {
+        let mut stats = ViewStats::default();
+        assert!(stalled_stage(Some(&stats)).contains("no GPU time"));
+        stats.stage_ms.insert("photon_trace".into(), 900.0);
+        stats.stage_ms.insert("gbuffer".into(), 2.0);
+        let message = stalled_stage(Some(&stats));
+        assert!(
+            message.contains("900 of 902 GPU ms in photon_trace"),
+            "{message}"
+        );
     }
 }

@@ -354,8 +354,8 @@ fn prepare_view(
     state.view_epoch = frame.rppm.view_epoch;
     state.view_moves = frame.rppm.view_moves;
     // A radius past a quarter of the image blurs it all and makes every splat cover it.
-    let widest = (key.size.x.max(key.size.y) as f32 / 4.0).max(0.25);
-    let initial = (settings.initial_radius_pixels.min(widest) as f64).powi(2);
+    let largest = (key.size.x.max(key.size.y) as f32 / 4.0).max(0.25);
+    let initial = (settings.initial_radius_pixels.min(largest) as f64).powi(2);
     // A new start, or a change under `Reuse` (its index is back at 0).
     if state.clock.begin_frame(changes, window) || changes.moved || changes.scene {
         state.radius2 = initial;

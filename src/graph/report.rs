@@ -86,12 +86,14 @@ pub(crate) fn report_views(
         })
         .unwrap_or_default();
     // A view whose state was never made (the first scene was refused) still hears why.
-    for camera in refused.iter().flat_map(|_| &stateless) {
-        let error = refused.as_ref().map(|r| r.0.clone());
-        let _ = sender.send(RenderMessage::Stats(
-            camera.id(),
-            ViewStats { error, ..default() },
-        ));
+    if let Some(refused) = &refused {
+        for camera in &stateless {
+            let error = Some(refused.0.clone());
+            let _ = sender.send(RenderMessage::Stats(
+                camera.id(),
+                ViewStats { error, ..default() },
+            ));
+        }
     }
     for (camera, mut state, mut timer, rppm) in &mut views {
         let camera = camera.id();

@@ -52,12 +52,9 @@ fn unpack_normal(v: u32) -> Vec3 {
     Vec3::new(xy.x, xy.y, z).normalize()
 }
 
-/// ±1 by sign, +1 at zero (WGSL's `sign` gives 0 there).
+/// ±1 by sign, +1 at zero as in the shader (glam's `signum` gives −1 at −0).
 fn sign(v: Vec2) -> Vec2 {
-    Vec2::new(
-        if v.x >= 0.0 { 1.0 } else { -1.0 },
-        if v.y >= 0.0 { 1.0 } else { -1.0 },
-    )
+    Vec2::select(v.cmpge(Vec2::ZERO), Vec2::ONE, Vec2::NEG_ONE)
 }
 
 #[cfg(test)]

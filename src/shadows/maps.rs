@@ -128,7 +128,7 @@ impl ShadowMaps {
         iteration_slots: u32,
         mapped: bool,
     ) -> Self {
-        let mut light_layers: u32 = scene
+        let wanted: u32 = scene
             .lights
             .iter()
             .map(|l| LightKind::from_u32(l.kind).shadow_views())
@@ -137,17 +137,14 @@ impl ShadowMaps {
         let area_layers = if has_area { 6 } else { 0 };
         // Past the device's array layers, the last lights go unshadowed (a warning says so).
         let most = device.limits().max_texture_array_layers;
-        if mapped && light_layers + area_layers > most {
+        if mapped && wanted + area_layers > most {
             warn_once!(
-                "bevy_rppm: {light_layers} shadow-map layers are more than this GPU's {most}; \
+                "bevy_rppm: {wanted} shadow-map layers are more than this GPU's {most}; \
                  the last lights cast no shadow"
             );
         }
-        let light_views = if mapped { light_layers } else { 0 };
-        light_layers = light_layers.min(most.saturating_sub(area_layers));
-        if !mapped {
-            light_layers = 0;
-        }
+        let light_views = if mapped { wanted } else { 0 };
+        let light_layers = light_views.min(most.saturating_sub(area_layers));
         let resolution = if mapped { resolution } else { 1 };
         let layers = (light_layers + area_layers).clamp(1, most);
         let texture = device.create_texture(&TextureDescriptor {

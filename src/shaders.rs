@@ -19,6 +19,7 @@ pub struct RppmShaders {
     /// Import-only libraries (`bevy_rppm::common`, `scene`, `bsdf`, `cubemap`, `lighting`),
     /// held so they stay loaded.
     _libraries: Vec<Handle<Shader>>,
+    pub place: Handle<Shader>,
     pub shadow_map: Handle<Shader>,
     pub gbuffer: Handle<Shader>,
     pub cubemap_build: Handle<Shader>,
@@ -46,6 +47,7 @@ impl RppmShaders {
                 wgsl!(shaders, "cubemap/trace.wgsl"),
                 wgsl!(shaders, "shadows/lighting.wgsl"),
             ],
+            place: wgsl!(shaders, "scene/place.wgsl"),
             shadow_map: wgsl!(shaders, "shadows/shadow_map.wgsl"),
             gbuffer: wgsl!(shaders, "gbuffer/gbuffer.wgsl"),
             cubemap_build: wgsl!(shaders, "cubemap/build.wgsl"),

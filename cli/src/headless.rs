@@ -250,7 +250,7 @@ pub fn render_loaded(
             seconds,
             stats,
             camera_from_scene,
-            triangles: data.triangles.len(),
+            triangles: data.triangle_count(),
             lights: data.lights.len(),
             emitters: data.emitters.len(),
         }
@@ -267,7 +267,7 @@ pub fn bench_dirt(
 ) -> Result<(Vec<CubemapBenchRow>, Vec3), String> {
     let mut app = load_gltf(scene)?;
     let data = app.world().resource::<RppmScene>().data.clone();
-    if data.triangles.is_empty() {
+    if data.instances.is_empty() {
         return Err(format!("{} has no triangles to trace", scene.display()));
     }
     let mut cameras = app

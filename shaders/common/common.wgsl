@@ -18,6 +18,27 @@ struct PackedTriangle {
     normal_c: u32,
 }
 
+// Octahedral unit normals in two snorm16 (src/scene/packed.rs).
+fn unpack_normal(v: u32) -> vec3<f32> {
+    let e = unpack2x16snorm(v);
+    let z = 1.0 - abs(e.x) - abs(e.y);
+    var xy = e;
+    if z < 0.0 {
+        xy = (1.0 - abs(e.yx)) * select(vec2<f32>(-1.0), vec2<f32>(1.0), e >= vec2<f32>(0.0));
+    }
+    return normalize(vec3<f32>(xy, z));
+}
+
+// As `pack_normal` in src/scene/packed.rs.
+fn pack_normal(n: vec3<f32>) -> u32 {
+    let o = n / max(abs(n.x) + abs(n.y) + abs(n.z), 1e-20);
+    var e = o.xy;
+    if o.z < 0.0 {
+        e = (1.0 - abs(e.yx)) * select(vec2<f32>(-1.0), vec2<f32>(1.0), e >= vec2<f32>(0.0));
+    }
+    return pack2x16snorm(e);
+}
+
 struct Triangle {
     position_a: vec3<f32>,
     material: u32,

@@ -2,7 +2,7 @@
 // and the material lookups that apply textures and vertex colours (src/scene/textures.rs).
 #define_import_path bevy_rppm::scene
 
-#import bevy_rppm::common::{Triangle, PackedTriangle, Material, Light, Emitter, ShadowView, TriangleAttributes, Texture, DELTA_ROUGHNESS, MATERIAL_TEXTURED, MATERIAL_ALPHA_MASK, MATERIAL_ALPHA_HASHED, MATERIAL_DOUBLE_SIDED, MATERIAL_UNLIT, MATERIAL_FLIP_NORMAL_Y, NO_TEXTURE, pcg_hash}
+#import bevy_rppm::common::{Triangle, PackedTriangle, unpack_normal, Material, Light, Emitter, ShadowView, TriangleAttributes, Texture, DELTA_ROUGHNESS, MATERIAL_TEXTURED, MATERIAL_ALPHA_MASK, MATERIAL_ALPHA_HASHED, MATERIAL_DOUBLE_SIDED, MATERIAL_UNLIT, MATERIAL_FLIP_NORMAL_Y, NO_TEXTURE, pcg_hash}
 
 @group(0) @binding(0) var<storage, read> triangles: array<PackedTriangle>;
 @group(0) @binding(1) var<storage, read> shadow_views: array<ShadowView>;
@@ -50,16 +50,6 @@ fn triangle_at(i: u32) -> Triangle {
         unpack_normal(p.normal_b), 0u,
         unpack_normal(p.normal_c), 0u,
     );
-}
-
-fn unpack_normal(v: u32) -> vec3<f32> {
-    let e = unpack2x16snorm(v);
-    let z = 1.0 - abs(e.x) - abs(e.y);
-    var xy = e;
-    if z < 0.0 {
-        xy = (1.0 - abs(e.yx)) * select(vec2<f32>(-1.0), vec2<f32>(1.0), e >= vec2<f32>(0.0));
-    }
-    return normalize(vec3<f32>(xy, z));
 }
 
 fn interpolated_normal(t: Triangle, b: vec2<f32>) -> vec3<f32> {

@@ -64,11 +64,12 @@ pub fn bench_rays(data: &SceneData, centre: Vec3, count: u32) -> Vec<BenchRay> {
     let (lo, hi) = data.bounds;
     let (_, radius) = data.bounding_sphere();
     let t_min = radius * 1e-5;
-    let areas: Vec<f32> = data.triangles.iter().map(|t| t.area()).collect();
+    let triangles = data.world_triangles();
+    let areas: Vec<f32> = triangles.iter().map(|t| t.area()).collect();
     let total: f32 = areas.iter().sum();
     let mut rays = Vec::with_capacity(count as usize);
     for i in 0..count {
-        if i % 2 == 0 || data.triangles.is_empty() {
+        if i % 2 == 0 || triangles.is_empty() {
             let u = Vec3::new(rng.next(), rng.next(), rng.next());
             let origin = lo + (hi - lo) * (0.01 + 0.98 * u);
             rays.push(BenchRay {
@@ -83,7 +84,7 @@ pub fn bench_rays(data: &SceneData, centre: Vec3, count: u32) -> Vec<BenchRay> {
             pick <= 0.0
         });
         let index = index.unwrap_or(areas.len() - 1);
-        let [a, b, c] = data.triangles[index].positions();
+        let [a, b, c] = triangles[index].positions();
         let (r1, r2) = (rng.next().sqrt(), rng.next());
         let point = a * (1.0 - r1) + b * (r1 * (1.0 - r2)) + c * (r1 * r2);
         let mut normal = (b - a).cross(c - a).normalize();
@@ -348,7 +349,7 @@ pub(super) fn run_cubemap_bench(
     let ready = cubemap.ready(&cache)
         && cache.get_compute_pipeline(bench.trace).is_some()
         && cache.get_compute_pipeline(bench.brute_force).is_some();
-    if *done || !ready || scene.data.triangles.is_empty() {
+    if *done || !ready || scene.data.instances.is_empty() {
         return;
     }
     *done = true;

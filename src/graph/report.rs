@@ -8,7 +8,7 @@ use bevy::render::sync_world::MainEntity;
 
 use super::state::{RppmViewState, ViewTimer};
 use crate::photons::FrameCost;
-use crate::scene::{SceneBuffers, SceneRefused};
+use crate::scene::{RppmScene, SceneBuffers, SceneRefused};
 use crate::settings::PhotonCount;
 use crate::settings::RppmDebugView;
 use crate::stats::readback::read_back;
@@ -50,6 +50,13 @@ fn passes(state: &RppmViewState) -> Vec<String> {
     .collect()
 }
 
+/// The scene on the GPU, why it was refused, and its extraction.
+type SceneResources<'w> = (
+    Option<Res<'w, SceneBuffers>>,
+    Option<Res<'w, SceneRefused>>,
+    Option<Res<'w, RppmScene>>,
+);
+
 pub(crate) fn report_views(
     mut views: Query<(
         &MainEntity,
@@ -57,7 +64,7 @@ pub(crate) fn report_views(
         &mut ViewTimer,
         Option<&ExtractedRppm>,
     )>,
-    (scene, refused): (Option<Res<SceneBuffers>>, Option<Res<SceneRefused>>),
+    (scene, refused, extracted): SceneResources,
     stateless: Query<&MainEntity, (With<ExtractedRppm>, Without<RppmViewState>)>,
     device: Res<RenderDevice>,
     queue: Res<RenderQueue>,
@@ -184,6 +191,9 @@ pub(crate) fn report_views(
                 splat_radius_pixels: state.radius2.sqrt(),
                 shader_paths: scene_paths.clone(),
                 cubemap_overflow: state.cubemap.nodes.1,
+                scene_upload_bytes: scene.as_ref().map_or(0, |s| s.upload_bytes),
+                scene_geometry_bytes: scene.as_ref().map_or(0, |s| s.geometry_bytes()),
+                scene_extract_ms: extracted.as_ref().map_or(0.0, |s| s.extract_ms),
             },
         ));
     }

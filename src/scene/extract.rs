@@ -9,9 +9,10 @@ use bevy::prelude::*;
 
 use super::textures::{GpuTexture, MAX_TEXTURE_SIZE, NO_TEXTURE, PackedTexture, TEXEL_BUDGET};
 use super::{
-    GpuEmitter, GpuMaterial, GpuTriangle, MaterialFlags, RppmScene, SceneData, deform, lights,
-    luminance, mesh,
+    GpuEmitter, GpuInstance, GpuMaterial, MaterialFlags, RppmScene, SceneData, SceneMesh, deform,
+    lights, luminance, mesh,
 };
+use bevy::math::Affine3A;
 
 /// Warnings already given, so each is logged once.
 #[derive(Resource, Default)]
@@ -84,7 +85,7 @@ pub(super) fn extract_scene(
     mut deformers: deform::Deformers,
     assets: SceneAssets,
     mut warnings: ResMut<ExtractionWarnings>,
-    mut cache: ResMut<TextureCache>,
+    (mut cache, mut meshes_cache): (ResMut<TextureCache>, ResMut<mesh::MeshCache>),
     mut scene: ResMut<RppmScene>,
 ) {
     let (mesh_assets, material_assets, image_assets) = assets;
@@ -103,21 +104,38 @@ pub(super) fn extract_scene(
             image_changed = true;
         }
     }
+    let mut mesh_changed = false;
+    for event in mesh_events.read() {
+        match *event {
+            AssetEvent::Unused { .. } => {}
+            AssetEvent::Added { id }
+            | AssetEvent::Modified { id }
+            | AssetEvent::Removed { id }
+            | AssetEvent::LoadedWithDependencies { id } => {
+                meshes_cache.forget(id);
+                mesh_changed = true;
+            }
+        }
+    }
     let dirty = !changed_meshes.is_empty()
         || !changed_lights.is_empty()
         || removed_meshes.read().count() > 0
         || removed_point.read().count() + removed_spot.read().count() + removed_dir.read().count()
             > 0
-        || mesh_events.read().count() > 0
+        || mesh_changed
         || material_events.read().count() > 0
         || image_changed
         || deformers.changed();
     if !dirty {
         return;
     }
+    let started = std::time::Instant::now();
     let mut data = SceneData::default();
     let mut material_index: HashMap<AssetId<StandardMaterial>, u32> = HashMap::default();
+    let mut mesh_index: HashMap<*const SceneMesh, u32> = HashMap::default();
     let mut textures = TextureTable::default();
+    let mut seen = EntityHashSet::default();
+    let mut bounds: Option<(Vec3, Vec3)> = None;
     cache.referenced.clear();
     for (entity, mesh3d, material3d, transform, visibility) in &meshes_q {
         if visibility.is_some_and(|v| !v.get()) {
@@ -132,7 +150,7 @@ pub(super) fn extract_scene(
         let affine = transform.affine();
         let joints = match deformers.skin(entity) {
             deform::Skin::Posed(joints) => Some(joints),
-            deform::Skin::None if affine.is_finite() => None,
+            deform::Skin::None => None,
             deform::Skin::Loading => continue,
             deform::Skin::Broken(reason) => {
                 if warnings.entities.insert(entity) {
@@ -140,17 +158,39 @@ pub(super) fn extract_scene(
                 }
                 continue;
             }
-            deform::Skin::None => {
-                if warnings.entities.insert(entity) {
-                    warn!("bevy_rppm: entity {entity} has a non-finite transform; it is left out");
+        };
+        // A skin is posed in world space; anything else is placed by its transform.
+        let place = if joints.is_some() {
+            Affine3A::IDENTITY
+        } else {
+            affine
+        };
+        let Some(mut instance) = GpuInstance::new(place, 0, 0) else {
+            if warnings.entities.insert(entity) {
+                warn!(
+                    "bevy_rppm: entity {entity} has a non-finite or flattening transform; it is \
+                     left out"
+                );
+            }
+            continue;
+        };
+        let weights = deformers.morph_weights(entity);
+        let local = match meshes_cache.mesh(entity, &mesh3d.0, mesh, joints.as_deref(), weights) {
+            Ok(local) => local,
+            Err(reason) => {
+                if warnings.meshes.insert(mesh3d.0.id()) {
+                    warn!(
+                        "bevy_rppm: mesh {:?} of entity {entity} is left out: {reason}",
+                        mesh3d.0.id()
+                    );
                 }
                 continue;
             }
         };
-        let pose = match &joints {
-            Some(joints) => mesh::Pose::Skinned(joints),
-            None => mesh::Pose::Rigid(affine),
-        };
+        if local.triangles.is_empty() {
+            continue;
+        }
+        seen.insert(entity);
         let next = data.materials.len() as u32;
         let index = *material_index.entry(material3d.0.id()).or_insert(next);
         if index == next {
@@ -165,31 +205,33 @@ pub(super) fn extract_scene(
             ];
             data.materials.push(material_to_gpu(material, slots));
         }
-        match mesh::append_triangles(
-            mesh,
-            &pose,
-            deformers.morph_weights(entity),
-            index,
-            &mut data.triangles,
-            &mut data.attributes,
-        ) {
-            Ok(true) => data.materials[index as usize].flags |= MaterialFlags::TEXTURED.bits(),
-            Ok(false) => {}
-            Err(reason) => {
-                if warnings.meshes.insert(mesh3d.0.id()) {
-                    warn!(
-                        "bevy_rppm: mesh {:?} of entity {entity} is left out: {reason}",
-                        mesh3d.0.id()
-                    );
-                }
-            }
+        if local.colored {
+            data.materials[index as usize].flags |= MaterialFlags::TEXTURED.bits();
         }
+        let next = data.meshes.len() as u32;
+        instance.mesh = *mesh_index.entry(Arc::as_ptr(&local)).or_insert(next);
+        if instance.mesh == next {
+            data.meshes.push(local.clone());
+        }
+        instance.material = index;
+        instance.first_world = data.triangle_count() as u32;
+        instance.triangle_count = local.triangles.len() as u32;
+        if let Some((lo, hi)) = meshes_cache.bounds(entity, &instance, &local) {
+            bounds = Some(bounds.map_or((lo, hi), |(a, b)| (a.min(lo), b.max(hi))));
+        }
+        data.instances.push(instance);
     }
-    let textured = MaterialFlags::TEXTURED.bits();
-    if !data.materials.iter().any(|m| m.flags & textured != 0) {
-        data.attributes = Vec::new();
+    meshes_cache.keep(&seen);
+    let mut first_local = Vec::with_capacity(data.meshes.len());
+    let mut sum = 0u32;
+    for m in &data.meshes {
+        first_local.push(sum);
+        sum += m.triangles.len() as u32;
     }
-    data.bounds = bounds(&data.triangles);
+    for i in &mut data.instances {
+        i.first_local = first_local[i.mesh as usize];
+    }
+    data.bounds = bounds.unwrap_or((Vec3::ZERO, Vec3::ZERO));
     lights::collect_lights(&lights_q, &mut data);
     collect_emitters(&mut data, &textures.packed);
     textures.write(&mut data, &mut cache);
@@ -198,6 +240,7 @@ pub(super) fn extract_scene(
         .iter()
         .map(|l| l.radiance[3])
         .chain(data.emitters.iter().map(|e| e.power)));
+    scene.extract_ms = started.elapsed().as_secs_f64() * 1e3;
     if !scene.data.same_as(&data) {
         scene.data = Arc::new(data);
         scene.epoch += 1;
@@ -357,53 +400,51 @@ impl TextureTable {
     }
 }
 
-fn bounds(triangles: &[GpuTriangle]) -> (Vec3, Vec3) {
-    let mut points = triangles.iter().flat_map(GpuTriangle::positions);
-    let Some(first) = points.next() else {
-        return (Vec3::ZERO, Vec3::ZERO);
-    };
-    points.fold((first, first), |(lo, hi), p| (lo.min(p), hi.max(p)))
-}
-
 fn collect_emitters(data: &mut SceneData, textures: &[Arc<PackedTexture>]) {
-    for (i, t) in data.triangles.iter().enumerate() {
-        let m = &data.materials[t.material as usize];
-        let mut radiance = luminance([m.emissive[0], m.emissive[1], m.emissive[2]]);
-        let texture = m.textures[2];
-        if radiance > 0.0
-            && let Some(packed) = textures.get(texture as usize)
-            && let Some(attributes) = data.attributes.get(i)
-        {
-            // The texture's mean over the triangle, from a few points: photons leave it in
-            // proportion (the shaders weight each by the texel it leaves from, so a rough mean
-            // costs noise, never bias; a floor keeps every texel reachable).
-            let uv = |b: [f32; 3]| {
-                let [a, bb, c] = attributes.uv.map(Vec2::from);
-                let local = a * b[0] + bb * b[1] + c * b[2];
-                Mat2::from_cols_array(&m.uv_transform) * local + Vec2::from_slice(&m.uv_offset)
-            };
-            let points = [
-                [1.0 / 3.0; 3],
-                [2.0 / 3.0, 1.0 / 6.0, 1.0 / 6.0],
-                [1.0 / 6.0, 2.0 / 3.0, 1.0 / 6.0],
-                [1.0 / 6.0, 1.0 / 6.0, 2.0 / 3.0],
-            ];
-            let mean = points
-                .iter()
-                .map(|&b| luminance(packed.sample(uv(b)).truncate().to_array()))
-                .sum::<f32>()
-                / points.len() as f32;
-            radiance *= mean.max(0.01);
+    for instance in &data.instances {
+        let m = &data.materials[instance.material as usize];
+        let radiance = luminance([m.emissive[0], m.emissive[1], m.emissive[2]]);
+        if radiance <= 0.0 {
+            continue;
         }
-        let area = t.area();
-        let power = std::f32::consts::PI * radiance * area;
-        if power > 0.0 && power.is_finite() {
-            data.emitters.push(GpuEmitter {
-                triangle: i as u32,
-                area,
-                power,
-                cdf: 0.0,
-            });
+        let mesh = &data.meshes[instance.mesh as usize];
+        let texture = textures.get(m.textures[2] as usize);
+        for (k, local) in mesh.triangles.iter().enumerate() {
+            let mut radiance = radiance;
+            if let Some(packed) = texture
+                && let Some(attributes) = mesh.attributes.get(k)
+            {
+                // The texture's mean over the triangle, from a few points: photons leave it in
+                // proportion (the shaders weight each by the texel it leaves from, so a rough
+                // mean costs noise, never bias; a floor keeps every texel reachable).
+                let uv = |b: [f32; 3]| {
+                    let [a, bb, c] = attributes.uv.map(Vec2::from);
+                    let local = a * b[0] + bb * b[1] + c * b[2];
+                    Mat2::from_cols_array(&m.uv_transform) * local + Vec2::from_slice(&m.uv_offset)
+                };
+                let points = [
+                    [1.0 / 3.0; 3],
+                    [2.0 / 3.0, 1.0 / 6.0, 1.0 / 6.0],
+                    [1.0 / 6.0, 2.0 / 3.0, 1.0 / 6.0],
+                    [1.0 / 6.0, 1.0 / 6.0, 2.0 / 3.0],
+                ];
+                let mean = points
+                    .iter()
+                    .map(|&b| luminance(packed.sample(uv(b)).truncate().to_array()))
+                    .sum::<f32>()
+                    / points.len() as f32;
+                radiance *= mean.max(0.01);
+            }
+            let area = instance.place(local).area();
+            let power = std::f32::consts::PI * radiance * area;
+            if power > 0.0 && power.is_finite() {
+                data.emitters.push(GpuEmitter {
+                    triangle: instance.first_world + k as u32,
+                    area,
+                    power,
+                    cdf: 0.0,
+                });
+            }
         }
     }
     let cdf = cdf(data.emitters.iter().map(|e| e.power));

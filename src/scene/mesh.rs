@@ -1,12 +1,120 @@
-//! A Bevy `Mesh` to world-space triangles.
+//! A Bevy `Mesh` to triangles: in its own space once per asset, or posed by its skin and
+//! morph targets once per pose ([`MeshCache`]).
 
 use std::borrow::Cow;
+use std::sync::Arc;
 
+use bevy::ecs::entity::EntityHashSet;
 use bevy::math::Affine3A;
 use bevy::mesh::{Indices, PrimitiveTopology, VertexAttributeValues};
+use bevy::platform::collections::HashMap;
 use bevy::prelude::*;
 
-use super::{GpuTriangle, GpuTriangleAttributes};
+use super::{GpuInstance, GpuTriangle, GpuTriangleAttributes, SceneMesh};
+
+/// What posed a skinned or morphed mesh: its asset, then the weights and joint matrices.
+type PoseKey = (AssetId<Mesh>, Vec<f32>);
+
+/// World bounds, with the mesh and placement they were made for.
+type PlacedBounds = (Arc<SceneMesh>, GpuInstance, (Vec3, Vec3));
+
+/// Meshes made into [`SceneMesh`]es, kept across extractions: a moved entity reuses its mesh,
+/// a new pose remakes only that entity's.
+#[derive(Resource, Default)]
+pub(super) struct MeshCache {
+    /// Meshes placed by their entity's transform alone, by asset.
+    rigid: HashMap<AssetId<Mesh>, Result<Arc<SceneMesh>, String>>,
+    /// Skinned or morphed meshes, by entity, with what posed them.
+    posed: HashMap<Entity, (PoseKey, Arc<SceneMesh>)>,
+    /// World bounds by entity.
+    bounds: HashMap<Entity, PlacedBounds>,
+}
+
+impl MeshCache {
+    /// Drops what was made from `id` (it changed).
+    pub(super) fn forget(&mut self, id: AssetId<Mesh>) {
+        self.rigid.remove(&id);
+        self.posed.retain(|_, ((mesh, _), _)| *mesh != id);
+    }
+
+    /// Drops the entities not in `seen` (gone or hidden).
+    pub(super) fn keep(&mut self, seen: &EntityHashSet) {
+        self.posed.retain(|e, _| seen.contains(e));
+        self.bounds.retain(|e, _| seen.contains(e));
+    }
+
+    /// `entity`'s mesh as triangles: shared by every entity of the asset, or posed by
+    /// `joints` (world space) and morph `weights` (remade only when they change).
+    pub(super) fn mesh(
+        &mut self,
+        entity: Entity,
+        handle: &Handle<Mesh>,
+        mesh: &Mesh,
+        joints: Option<&[Affine3A]>,
+        weights: &[f32],
+    ) -> Result<Arc<SceneMesh>, String> {
+        let id = handle.id();
+        if joints.is_none() && weights.iter().all(|&w| w == 0.0) {
+            self.posed.remove(&entity);
+            return self
+                .rigid
+                .entry(id)
+                .or_insert_with(|| make(mesh, &Pose::Rigid(Affine3A::IDENTITY), &[]).map(Arc::new))
+                .clone();
+        }
+        let mut key = weights.to_vec();
+        for j in joints.unwrap_or_default() {
+            key.extend_from_slice(&j.to_cols_array());
+        }
+        let key = (id, key);
+        if let Some((seen, made)) = self.posed.get(&entity)
+            && *seen == key
+        {
+            return Ok(made.clone());
+        }
+        let pose = joints.map_or(Pose::Rigid(Affine3A::IDENTITY), Pose::Skinned);
+        let mut made = make(mesh, &pose, weights)?;
+        // A new pose keeps the attributes of the last.
+        if let Some((_, last)) = self.posed.get(&entity)
+            && last.attributes == made.attributes
+        {
+            made.attributes = last.attributes.clone();
+        }
+        let made = Arc::new(made);
+        self.posed.insert(entity, (key, made.clone()));
+        Ok(made)
+    }
+
+    /// The world bounds of `mesh` placed by `instance`, remade only when either changed.
+    pub(super) fn bounds(
+        &mut self,
+        entity: Entity,
+        instance: &GpuInstance,
+        mesh: &Arc<SceneMesh>,
+    ) -> Option<(Vec3, Vec3)> {
+        if let Some((seen, placed, bounds)) = self.bounds.get(&entity)
+            && Arc::ptr_eq(seen, mesh)
+            && placed.rows == instance.rows
+        {
+            return Some(*bounds);
+        }
+        let bounds = instance.bounds(mesh)?;
+        self.bounds
+            .insert(entity, (mesh.clone(), *instance, bounds));
+        Some(bounds)
+    }
+}
+
+/// A mesh's triangles posed by `pose` after its morph targets at `weights`.
+fn make(mesh: &Mesh, pose: &Pose, weights: &[f32]) -> Result<SceneMesh, String> {
+    let (mut triangles, mut attributes) = (Vec::new(), Vec::new());
+    let colored = append_triangles(mesh, pose, weights, 0, &mut triangles, &mut attributes)?;
+    Ok(SceneMesh {
+        triangles,
+        attributes: Arc::new(attributes),
+        colored,
+    })
+}
 
 /// Where a mesh's vertices go in world space.
 pub(super) enum Pose<'a> {

@@ -6,11 +6,14 @@
 
 mod deform;
 mod extract;
+mod instances;
 mod lights;
 mod mesh;
 mod packed;
+pub mod place;
 pub mod prepare;
 pub mod textures;
+mod upload;
 
 use std::sync::Arc;
 
@@ -23,6 +26,7 @@ use bytemuck::{Pod, Zeroable};
 
 use crate::bsdf::{DELTA_ROUGHNESS, GLOSSY_STORE_ROUGHNESS, specular_energy_average};
 
+pub use instances::{GpuInstance, SceneMesh};
 pub use lights::{LightKind, spot_cone_fraction};
 pub use packed::PackedTriangle;
 pub use prepare::{SceneBuffers, SceneRefused};
@@ -128,7 +132,7 @@ bitflags::bitflags! {
         /// Lit and seen from both sides.
         const DOUBLE_SIDED = 1 << 0;
         /// Textures or vertex colours vary it over its surfaces, or alpha or `unlit` change
-        /// it: lookups read [`SceneData::attributes`].
+        /// it: lookups read per-triangle attributes ([`SceneMesh::attributes`]).
         const TEXTURED = 1 << 1;
         /// `AlphaMode::Mask`: texels under `alpha_cutoff` are holes for every ray.
         const ALPHA_MASK = 1 << 2;
@@ -183,14 +187,15 @@ pub struct GpuEmitter {
     pub cdf: f32,
 }
 
-/// The scene as flat tables, in world space.
+/// The scene as flat tables: meshes placed by instances, materials, textures and lights.
 #[derive(Clone, Debug, Default)]
 pub struct SceneData {
-    pub triangles: Vec<GpuTriangle>,
+    /// Each mesh once, in its own space, shared with the previous extraction while it is the
+    /// same (kept on the GPU then too).
+    pub meshes: Vec<Arc<SceneMesh>>,
+    /// The world-space triangles are the instances' meshes placed, in this order.
+    pub instances: Vec<GpuInstance>,
     pub materials: Vec<GpuMaterial>,
-    /// Per-triangle texture coordinates and colours, parallel to `triangles`; empty when no
-    /// material is [`MaterialFlags::TEXTURED`].
-    pub attributes: Vec<GpuTriangleAttributes>,
     /// The packed textures the materials use, and their texels (RGBA8 in u32), shared with
     /// the previous extraction while its textures are the same (kept on the GPU then too).
     pub textures: Vec<GpuTexture>,
@@ -199,7 +204,7 @@ pub struct SceneData {
     pub emitters: Vec<GpuEmitter>,
     /// Photon-emission CDF over `lights` then `emitters`, by power (inclusive, last = 1).
     pub light_cdf: Vec<f32>,
-    /// Axis-aligned bounds of all triangles (min, max); zero-sized when empty.
+    /// Axis-aligned bounds of all world-space triangles (min, max); zero-sized when empty.
     pub bounds: (Vec3, Vec3),
 }
 
@@ -224,9 +229,10 @@ impl SceneData {
         fn same<T: bytemuck::Pod>(a: &[T], b: &[T]) -> bool {
             bytemuck::cast_slice::<T, u8>(a) == bytemuck::cast_slice::<T, u8>(b)
         }
-        same(&self.triangles, &other.triangles)
+        same(&self.instances, &other.instances)
+            && self.meshes.len() == other.meshes.len()
+            && (self.meshes.iter().zip(&other.meshes)).all(|(a, b)| Arc::ptr_eq(a, b) || a == b)
             && same(&self.materials, &other.materials)
-            && same(&self.attributes, &other.attributes)
             && same(&self.textures, &other.textures)
             && same(&self.lights, &other.lights)
             && same(&self.emitters, &other.emitters)
@@ -237,7 +243,7 @@ impl SceneData {
     /// Counts of triangles, materials, lights and emitters: what a moving scene keeps.
     pub fn shape(&self) -> [usize; 4] {
         [
-            self.triangles.len(),
+            self.triangle_count(),
             self.materials.len(),
             self.lights.len(),
             self.emitters.len(),
@@ -247,7 +253,8 @@ impl SceneData {
     /// Whether some material varies over its surfaces (textures, vertex colours), has alpha
     /// or is unlit: the stages then compile the texture lookups ([`TEXTURED_DEF`]).
     pub fn is_textured(&self) -> bool {
-        !self.attributes.is_empty()
+        let textured = MaterialFlags::TEXTURED.bits();
+        self.materials.iter().any(|m| m.flags & textured != 0)
     }
 
     /// Total emitted power (luminance-weighted W) of every light and emitter.
@@ -358,6 +365,8 @@ pub(crate) fn luminance(rgb: [f32; 3]) -> f32 {
 pub struct RppmScene {
     pub data: Arc<SceneData>,
     pub epoch: u64,
+    /// CPU time of the latest extraction (ms): it follows what changed, not the scene's size.
+    pub extract_ms: f64,
 }
 
 /// Scene extraction in the main world, and its upload in the render world.
@@ -368,6 +377,7 @@ impl Plugin for ScenePlugin {
         app.init_resource::<RppmScene>()
             .init_resource::<extract::ExtractionWarnings>()
             .init_resource::<extract::TextureCache>()
+            .init_resource::<mesh::MeshCache>()
             .add_plugins(ExtractResourcePlugin::<RppmScene>::default())
             .add_systems(
                 PostUpdate,
@@ -378,7 +388,10 @@ impl Plugin for ScenePlugin {
             );
         if let Some(render_app) = app.get_sub_app_mut(RenderApp) {
             render_app
-                .add_systems(RenderStartup, prepare::init_ggx_albedo)
+                .add_systems(
+                    RenderStartup,
+                    (prepare::init_ggx_albedo, place::init_place_pipeline),
+                )
                 .add_systems(
                     Render,
                     prepare::prepare_scene.in_set(RenderSystems::PrepareResources),

@@ -1,16 +1,19 @@
-//! The extracted scene on the GPU: storage buffers re-uploaded only when the scene epoch moves.
+//! The extracted scene on the GPU: storage buffers written, when the scene epoch moves, with
+//! only what changed ([`super::upload`]), and the world-space triangles placed from them.
 
 use std::sync::Arc;
 
 use bevy::prelude::*;
 use bevy::render::render_resource::{
-    BindGroup, BindGroupEntries, BindGroupLayoutDescriptor, Buffer, BufferInitDescriptor,
-    BufferUsages, PipelineCache,
+    BindGroup, BindGroupEntries, BindGroupLayoutDescriptor, Buffer, BufferDescriptor,
+    BufferInitDescriptor, BufferUsages, PipelineCache,
 };
-use bevy::render::renderer::RenderDevice;
+use bevy::render::renderer::{RenderDevice, RenderQueue};
 use bytemuck::Pod;
 
-use super::{GpuTriangle, PackedTriangle, RppmScene, ScatterPaths, SceneData};
+use super::place::PlacePipeline;
+use super::upload::Upload;
+use super::{GpuTriangleAttributes, PackedTriangle, RppmScene, ScatterPaths, SceneData};
 use crate::bsdf::ggx_albedo_table;
 
 /// Why the scene's tables were refused (too big for the GPU), while they are; every view
@@ -23,7 +26,11 @@ pub struct SceneRefused(pub String);
 pub struct SceneBuffers {
     pub epoch: u64,
     pub data: Arc<SceneData>,
+    /// World-space triangles, made by the GPU from `meshes` and `instances` ([`super::place`]).
     pub triangles: Buffer,
+    /// Every mesh's triangles in its own space, in [`SceneData::meshes`] order.
+    pub meshes: Buffer,
+    pub instances: Buffer,
     pub materials: Buffer,
     pub lights: Buffer,
     pub emitters: Buffer,
@@ -39,17 +46,26 @@ pub struct SceneBuffers {
     pub paths: ScatterPaths,
     /// The largest probability a photon goes on after a hit (sizes the photon store).
     pub max_scatter: f32,
+    /// Bytes written to the GPU by the latest scene change: what changed, not the scene.
+    pub upload_bytes: u64,
 }
 
 impl SceneBuffers {
     pub fn triangle_count(&self) -> u32 {
-        self.data.triangles.len() as u32
+        self.data.triangle_count() as u32
+    }
+
+    /// Bytes of the world-space triangles (what a whole upload of the geometry would send).
+    pub fn geometry_bytes(&self) -> u64 {
+        self.data.triangle_count() as u64 * std::mem::size_of::<PackedTriangle>() as u64
     }
 
     /// (name, bytes) of every buffer held.
-    pub fn memory(&self) -> [(&'static str, u64); 9] {
+    pub fn memory(&self) -> [(&'static str, u64); 11] {
         [
             ("scene_triangles", self.triangles.size()),
+            ("scene_meshes", self.meshes.size()),
+            ("scene_instances", self.instances.size()),
             ("scene_materials", self.materials.size()),
             ("scene_lights", self.lights.size()),
             ("scene_emitters", self.emitters.size()),
@@ -121,27 +137,37 @@ pub(crate) fn init_ggx_albedo(mut commands: Commands, device: Res<RenderDevice>)
     )));
 }
 
-/// Uploads the scene when its epoch changed. A scene too large for one storage binding is
-/// refused with one error instead of failing inside wgpu.
+/// Uploads what changed of the scene when its epoch moved, and places its triangles. A scene
+/// too large for one storage binding is refused with one error instead of failing inside wgpu.
+#[expect(
+    clippy::too_many_arguments,
+    reason = "the GPU's handles and the scene's"
+)]
 pub(crate) fn prepare_scene(
     mut commands: Commands,
     scene: Option<Res<RppmScene>>,
     buffers: Option<Res<SceneBuffers>>,
     device: Res<RenderDevice>,
-    ggx_albedo: Res<GgxAlbedoBuffer>,
+    queue: Res<RenderQueue>,
+    cache: Res<PipelineCache>,
+    (ggx_albedo, place): (Res<GgxAlbedoBuffer>, Res<PlacePipeline>),
     mut refused_epoch: Local<Option<u64>>,
 ) {
     let Some(scene) = scene else { return };
     if buffers.as_ref().is_some_and(|b| b.epoch == scene.epoch)
         || *refused_epoch == Some(scene.epoch)
+        || !place.ready(&cache)
     {
         return;
     }
     let data = &scene.data;
     let limit = device.limits().max_storage_buffer_binding_size;
+    let local: usize = data.meshes.iter().map(|m| m.triangles.len()).sum();
     let bytes = [
-        data.triangles.len() * std::mem::size_of::<PackedTriangle>(),
-        std::mem::size_of_val(data.attributes.as_slice()),
+        data.triangle_count().max(local) * std::mem::size_of::<PackedTriangle>(),
+        data.triangle_count()
+            * std::mem::size_of::<GpuTriangleAttributes>()
+            * data.is_textured() as usize,
         std::mem::size_of_val(data.texels.as_slice()),
     ]
     .into_iter()
@@ -152,7 +178,7 @@ pub(crate) fn prepare_scene(
             "the scene has {} triangles and {} texels (up to {bytes} bytes in one table), over \
              this GPU's storage binding limit of {limit} bytes; photon mapping is paused until \
              the scene is smaller",
-            data.triangles.len(),
+            data.triangle_count(),
             data.texels.len()
         );
         error!("bevy_rppm: {why}");
@@ -162,32 +188,82 @@ pub(crate) fn prepare_scene(
         return;
     }
     commands.remove_resource::<SceneRefused>();
+    let last = buffers.as_deref();
+    let mut upload = Upload {
+        device: &device,
+        queue: &queue,
+        bytes: 0,
+    };
+    let (meshes, meshes_changed) = upload.meshes(last, data);
+    let (instances, instances_changed) = upload.diff(
+        last.map(|l| (&l.instances, l.data.instances.as_slice())),
+        &data.instances,
+        "rppm_instances",
+    );
+    let count = data.triangle_count();
+    let triangles = match last {
+        Some(l) if l.data.triangle_count() == count => l.triangles.clone(),
+        _ => device.create_buffer(&BufferDescriptor {
+            label: Some("rppm_triangles"),
+            size: (count.max(1) * std::mem::size_of::<PackedTriangle>()) as u64,
+            usage: BufferUsages::STORAGE,
+            mapped_at_creation: false,
+        }),
+    };
+    let placed = last.is_some_and(|l| l.triangles.id() == triangles.id());
+    if count > 0 && (meshes_changed || instances_changed || !placed) {
+        let max_groups = device.limits().max_compute_workgroups_per_dimension;
+        let buffers = [&meshes, &instances, &triangles];
+        place.place(&device, &queue, &cache, buffers, count as u32, max_groups);
+    }
+    let attributes = upload.attributes(last, data);
+    let materials = upload.same_or_new(
+        last.map(|l| (l.data.materials.as_slice(), &l.materials)),
+        &data.materials,
+        "rppm_materials",
+    );
+    let lights = upload.same_or_new(
+        last.map(|l| (l.data.lights.as_slice(), &l.lights)),
+        &data.lights,
+        "rppm_lights",
+    );
+    let emitters = upload.same_or_new(
+        last.map(|l| (l.data.emitters.as_slice(), &l.emitters)),
+        &data.emitters,
+        "rppm_emitters",
+    );
+    let light_cdf = upload.same_or_new(
+        last.map(|l| (l.data.light_cdf.as_slice(), &l.light_cdf)),
+        &data.light_cdf,
+        "rppm_light_cdf",
+    );
+    let textures = upload.same_or_new(
+        last.map(|l| (l.data.textures.as_slice(), &l.textures)),
+        &data.textures,
+        "rppm_textures",
+    );
+    // A change that kept the textures (a moved object) keeps their upload.
+    let texels = match last {
+        Some(b) if Arc::ptr_eq(&b.data.texels, &data.texels) => b.texels.clone(),
+        _ => upload.new_buffer("rppm_texels", data.texels.as_slice()),
+    };
+    let upload_bytes = upload.bytes;
     commands.insert_resource(SceneBuffers {
         epoch: scene.epoch,
         data: data.clone(),
         paths: data.scatter_paths(),
         max_scatter: data.max_scatter_probability(),
-        triangles: storage_buffer(
-            &device,
-            "rppm_triangles",
-            &packed_triangles(&data.triangles),
-        ),
-        materials: storage_buffer(&device, "rppm_materials", &data.materials),
-        lights: storage_buffer(&device, "rppm_lights", &data.lights),
-        emitters: storage_buffer(&device, "rppm_emitters", &data.emitters),
-        light_cdf: storage_buffer(&device, "rppm_light_cdf", &data.light_cdf),
+        triangles,
+        meshes,
+        instances,
+        materials,
+        lights,
+        emitters,
+        light_cdf,
         ggx_albedo: ggx_albedo.0.clone(),
-        attributes: storage_buffer(&device, "rppm_triangle_attributes", &data.attributes),
-        textures: storage_buffer(&device, "rppm_textures", &data.textures),
-        // A change that kept the textures (a moved object) keeps their upload.
-        texels: match &buffers {
-            Some(b) if Arc::ptr_eq(&b.data.texels, &data.texels) => b.texels.clone(),
-            _ => storage_buffer(&device, "rppm_texels", &data.texels),
-        },
+        attributes,
+        textures,
+        texels,
+        upload_bytes,
     });
-}
-
-/// The triangles as the GPU stores them.
-fn packed_triangles(triangles: &[GpuTriangle]) -> Vec<PackedTriangle> {
-    triangles.iter().map(PackedTriangle::from).collect()
 }

@@ -88,6 +88,14 @@ pub struct ViewStats {
     /// Scattering code paths compiled into the tracing stages, from the scene's materials
     /// (`GLOSSY`, `MIRRORS`, `REFRACTION`).
     pub shader_paths: Vec<String>,
+    /// Bytes the scene's latest change sent to the GPU: what changed (a moved object: its
+    /// instance, 128 bytes), not the scene.
+    pub scene_upload_bytes: u64,
+    /// Bytes of the scene's world-space triangles, made on the GPU (what re-uploading the
+    /// geometry would send).
+    pub scene_geometry_bytes: u64,
+    /// CPU milliseconds of the scene's latest extraction in the main world.
+    pub scene_extract_ms: f64,
 }
 
 /// Stats of every photon-mapping camera, by camera entity.

@@ -77,7 +77,7 @@ pub fn area_sample(data: &SceneData, iteration: u32) -> Option<(Vec3, Vec3, Vec3
         data.emitters[index - 1].cdf
     };
     let probability = (emitter.cdf - previous).max(1e-12);
-    let triangle: &GpuTriangle = &data.triangles[emitter.triangle as usize];
+    let triangle: GpuTriangle = data.triangle(emitter.triangle as usize)?;
     let [a, b, c] = triangle.positions();
     let (r1, r2) = (unit_random(&mut seed).sqrt(), unit_random(&mut seed));
     let point = a * (1.0 - r1) + b * (r1 * (1.0 - r2)) + c * (r1 * r2);

@@ -95,7 +95,7 @@ fn hinge_pose(hinge: Vec3, angle: f32) -> [Affine3A; 2] {
 }
 
 fn has_triangle_near(scene: &bevy_rppm::SceneData, corners: [Vec3; 3]) -> bool {
-    scene.triangles.iter().any(|t| {
+    scene.world_triangles().iter().any(|t| {
         t.positions()
             .iter()
             .zip(&corners)
@@ -145,7 +145,7 @@ fn skinned_and_morphed_meshes_follow_their_joints_and_weights() {
         .id();
     frames(&mut app, 3);
     let scene = app.world().resource::<RppmScene>().data.clone();
-    assert_eq!(scene.triangles.len(), 6 + 2);
+    assert_eq!(scene.triangle_count(), 6 + 2);
     let indices = mesh.indices().unwrap().iter().collect::<Vec<_>>();
     for tri in indices.chunks(3) {
         let corners = [0, 1, 2].map(|k| expected[tri[k]]);
@@ -156,7 +156,7 @@ fn skinned_and_morphed_meshes_follow_their_joints_and_weights() {
     }
     let morph_heights = |scene: &bevy_rppm::SceneData| -> Vec<f32> {
         scene
-            .triangles
+            .world_triangles()
             .iter()
             .flat_map(|t| t.positions())
             .filter(|p| p.y < 0.0)
@@ -179,7 +179,7 @@ fn skinned_and_morphed_meshes_follow_their_joints_and_weights() {
     assert!(scene.epoch > epoch, "a moved joint extracts again");
     let plate_ys: Vec<f32> = scene
         .data
-        .triangles
+        .world_triangles()
         .iter()
         .flat_map(|t| t.positions())
         .filter(|p| p.y > 0.0)
@@ -287,7 +287,7 @@ fn the_fox_follows_its_animation_inside_bevys_skinned_bounds() {
         let points: Vec<Vec3> = world
             .resource::<RppmScene>()
             .data
-            .triangles
+            .world_triangles()
             .iter()
             .flat_map(|t| t.positions())
             .collect();

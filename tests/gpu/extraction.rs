@@ -40,7 +40,7 @@ fn extraction_gives_world_space_triangles() {
     frames(&mut app, 3);
     let scene = app.world().resource::<RppmScene>().data.clone();
     assert_eq!(
-        scene.triangles.len(),
+        scene.triangle_count(),
         12 + 2 + 2,
         "cuboid 12, u16 quad 2, unindexed quad 2"
     );
@@ -51,7 +51,7 @@ fn extraction_gives_world_space_triangles() {
     for tri in cuboid_indices.chunks(3) {
         let expected =
             [0, 1, 2].map(|k| affine.transform_point3(Vec3::from(cuboid_positions[tri[k]])));
-        let found = scene.triangles.iter().any(|t| {
+        let found = scene.world_triangles().iter().any(|t| {
             t.positions()
                 .iter()
                 .zip(&expected)
@@ -61,8 +61,8 @@ fn extraction_gives_world_space_triangles() {
     }
     // The quad without normals gets flat normals, pointing up for its winding.
     let flat: Vec<_> = scene
-        .triangles
-        .iter()
+        .world_triangles()
+        .into_iter()
         .filter(|t| t.position_a[1] == -5.0)
         .collect();
     assert_eq!(flat.len(), 2);
@@ -178,7 +178,7 @@ fn bad_input_is_left_out_without_a_panic() {
     }
     let scene = app.world().resource::<RppmScene>().data.clone();
     assert_eq!(
-        scene.triangles.len(),
+        scene.triangle_count(),
         2,
         "only the plane's triangles remain"
     );

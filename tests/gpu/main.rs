@@ -16,6 +16,7 @@ mod cubemap;
 mod deform;
 mod examples;
 mod extraction;
+mod instances;
 mod lighting;
 mod modes;
 mod motion;

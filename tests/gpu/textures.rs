@@ -61,8 +61,8 @@ fn textures_and_vertex_colours_are_extracted_and_follow_their_image() {
     assert_eq!(m.textures[0], NO_TEXTURE, "the image has not loaded yet");
     let flags = MaterialFlags::from_bits_truncate(m.flags);
     assert!(flags.contains(MaterialFlags::TEXTURED | MaterialFlags::ALPHA_MASK));
-    assert_eq!(scene.data.attributes.len(), 2);
-    let a = scene.data.attributes[0];
+    assert_eq!(scene.data.world_attributes().len(), 2);
+    let a = scene.data.world_attributes()[0];
     assert_eq!(a.uv, [[0.0, 0.0], [0.0, 1.0], [1.0, 1.0]]);
     assert_eq!(
         a.color[0],
@@ -103,8 +103,10 @@ fn untextured_scenes_hold_no_texture_data() {
     lit_plane(&mut app, 1000.0, 2.0, 16);
     frames(&mut app, 2);
     let scene = app.world().resource::<RppmScene>().data.clone();
-    assert!(!scene.triangles.is_empty());
-    assert!(scene.attributes.is_empty() && scene.textures.is_empty() && scene.texels.is_empty());
+    assert!(scene.triangle_count() > 0);
+    assert!(
+        scene.world_attributes().is_empty() && scene.textures.is_empty() && scene.texels.is_empty()
+    );
 }
 
 /// The textured scenes against their references at 64², 16 iterations: the box (checker

@@ -1,0 +1,183 @@
+//! The scene as meshes and instances: each mesh's triangles in its own space, made once per
+//! mesh asset (once per pose for skins and morph targets), and instances that place them with
+//! a transform and a material. The GPU makes the world-space triangles from both
+//! (shaders/scene/place.wgsl), so a moved entity costs one instance, not its triangles.
+
+use std::sync::Arc;
+
+use bevy::math::Affine3A;
+use bevy::prelude::*;
+use bytemuck::{Pod, Zeroable};
+
+use super::{GpuTriangle, GpuTriangleAttributes, SceneData};
+
+/// One mesh's triangles in its own space (a skinned mesh's: posed, in world space).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct SceneMesh {
+    /// Material 0: an instance gives it.
+    pub triangles: Vec<GpuTriangle>,
+    /// Per triangle, parallel to `triangles` (shared by the poses of one skin).
+    pub attributes: Arc<Vec<GpuTriangleAttributes>>,
+    /// Whether the mesh has vertex colours.
+    pub colored: bool,
+}
+
+/// One placed mesh (128 bytes), mirrored by `Instance` in shaders/scene/place.wgsl.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuInstance {
+    /// World from local, by rows: xyz the 3×3 part, w the translation.
+    pub rows: [[f32; 4]; 3],
+    /// The inverse transpose of the 3×3 part, by rows (w unused), for normals.
+    pub normal_rows: [[f32; 4]; 3],
+    /// The mesh's first triangle in the table of all meshes' triangles.
+    pub first_local: u32,
+    /// Its first triangle in the world-space table.
+    pub first_world: u32,
+    pub triangle_count: u32,
+    /// Index into [`SceneData::materials`].
+    pub material: u32,
+    /// 1 when the transform mirrors (the winding is swapped to keep the front in front).
+    pub mirrored: u32,
+    /// Index into [`SceneData::meshes`].
+    pub mesh: u32,
+    pub _pad: [u32; 2],
+}
+
+impl GpuInstance {
+    /// `None` when the transform is not finite or flattens the mesh (nothing could be hit).
+    pub fn new(world_from_local: Affine3A, mesh: u32, material: u32) -> Option<Self> {
+        let m = Mat3::from(world_from_local.matrix3);
+        let det = m.determinant();
+        if !world_from_local.is_finite() || !det.is_normal() {
+            return None;
+        }
+        let n = m.inverse().transpose();
+        let t = world_from_local.translation;
+        let rows = |m: Mat3, w: Vec3| [0, 1, 2].map(|r| m.row(r).extend(w[r]).to_array());
+        Some(Self {
+            rows: rows(m, t.into()),
+            normal_rows: rows(n, Vec3::ZERO),
+            mesh,
+            material,
+            mirrored: u32::from(det < 0.0),
+            ..default()
+        })
+    }
+
+    fn point(&self, p: [f32; 3]) -> Vec3 {
+        let p = Vec3::from(p).extend(1.0);
+        Vec3::from(self.rows.map(|r| Vec4::from(r).dot(p)))
+    }
+
+    fn normal(&self, n: [f32; 3]) -> Vec3 {
+        let n = Vec3::from(n);
+        Vec3::from(self.normal_rows.map(|r| Vec4::from(r).truncate().dot(n))).normalize_or_zero()
+    }
+
+    /// A local triangle in world space, as the GPU places it.
+    pub fn place(&self, t: &GpuTriangle) -> GpuTriangle {
+        let (b, c) = if self.mirrored != 0 { (2, 1) } else { (1, 2) };
+        let p = [t.position_a, t.position_b, t.position_c].map(|p| self.point(p).to_array());
+        let n = [t.normal_a, t.normal_b, t.normal_c].map(|n| self.normal(n).to_array());
+        GpuTriangle {
+            position_a: p[0],
+            position_b: p[b],
+            position_c: p[c],
+            normal_a: n[0],
+            normal_b: n[b],
+            normal_c: n[c],
+            material: self.material,
+            ..default()
+        }
+    }
+
+    /// Axis-aligned bounds of `mesh` placed by this instance.
+    pub fn bounds(&self, mesh: &SceneMesh) -> Option<(Vec3, Vec3)> {
+        let mut points = mesh
+            .triangles
+            .iter()
+            .flat_map(|t| [t.position_a, t.position_b, t.position_c])
+            .map(|p| self.point(p));
+        let first = points.next()?;
+        Some(points.fold((first, first), |(lo, hi), p| (lo.min(p), hi.max(p))))
+    }
+}
+
+impl SceneData {
+    /// How many world-space triangles the scene has.
+    pub fn triangle_count(&self) -> usize {
+        self.instances
+            .last()
+            .map_or(0, |i| (i.first_world + i.triangle_count) as usize)
+    }
+
+    /// World-space triangle `index`, as the GPU places it.
+    pub fn triangle(&self, index: usize) -> Option<GpuTriangle> {
+        let at = self
+            .instances
+            .partition_point(|i| (i.first_world + i.triangle_count) as usize <= index);
+        let instance = self.instances.get(at)?;
+        let mesh = self.meshes.get(instance.mesh as usize)?;
+        let local = mesh.triangles.get(index - instance.first_world as usize)?;
+        Some(instance.place(local))
+    }
+
+    /// Every world-space triangle (made on the CPU: for tests and benches).
+    pub fn world_triangles(&self) -> Vec<GpuTriangle> {
+        self.instances
+            .iter()
+            .flat_map(|i| {
+                self.meshes[i.mesh as usize]
+                    .triangles
+                    .iter()
+                    .map(move |t| i.place(t))
+            })
+            .collect()
+    }
+
+    /// Per world-space triangle UVs and colours (empty when untextured).
+    pub fn world_attributes(&self) -> Vec<GpuTriangleAttributes> {
+        if !self.is_textured() {
+            return Vec::new();
+        }
+        self.instances
+            .iter()
+            .flat_map(|i| self.meshes[i.mesh as usize].attributes.iter().copied())
+            .collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn mirrored_instances_keep_the_front_and_normals_follow_the_inverse_transpose() {
+        let local = GpuTriangle {
+            position_a: [0.0, 0.0, 0.0],
+            position_b: [1.0, 0.0, 0.0],
+            position_c: [0.0, 1.0, 0.0],
+            normal_a: [0.0, 0.0, 1.0],
+            normal_b: [1.0, 0.0, 1.0],
+            normal_c: [0.0, 0.0, 1.0],
+            ..default()
+        };
+        let front = |t: &GpuTriangle| {
+            let [a, b, c] = t.positions();
+            (b - a).cross(c - a).normalize()
+        };
+        // Mirrored in x and stretched in y: the geometric normal still agrees with the shading one.
+        let m = Affine3A::from_scale(Vec3::new(-1.0, 3.0, 1.0));
+        let i = GpuInstance::new(m, 0, 7).unwrap();
+        let t = i.place(&local);
+        assert_eq!(t.material, 7);
+        assert!(front(&t).dot(Vec3::from(t.normal_a)) > 0.99);
+        let slanted = Vec3::from(t.normal_c);
+        let expected = Vec3::new(-1.0, 0.0, 1.0).normalize();
+        assert!(slanted.distance(expected) < 1e-6, "{slanted}");
+        assert!(GpuInstance::new(Affine3A::from_scale(Vec3::new(1.0, 0.0, 1.0)), 0, 0).is_none());
+        let nan = Affine3A::from_translation(Vec3::splat(f32::NAN));
+        assert!(GpuInstance::new(nan, 0, 0).is_none());
+    }
+}

@@ -52,7 +52,7 @@ use bevy::shader::Shader;
 pub struct ReadmeDoctests;
 
 pub use ppm::{next_radius2, radius2_after};
-pub use scene::{RppmScene, SceneData};
+pub use scene::{RppmScene, RppmSky, SceneData};
 pub use settings::{
     PhotonCount, PhotonMapping, RppmDebugView, RppmFastForward, RppmHistory, RppmMode, RppmPreset,
     RppmReadback, ViewEpoch,

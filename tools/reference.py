@@ -343,6 +343,11 @@ def build_scene(path, width, height, tmp, max_depth=16):
                     "beam_width": outer,
                 }
             mapping.append(f"{node.get('name', 'light')}: {kind} {l.get('intensity', 1.0)} x {l.get('color', [1, 1, 1])}")
+    sky = (gltf.get("scenes") or [{}])[0].get("extras", {}).get("rppm_sky")
+    if sky is not None:
+        # A uniform sky (bevy_rppm::RppmSky): linear radiance from every direction.
+        scene["sky"] = {"type": "constant", "radiance": {"type": "rgb", "value": sky}}
+        mapping.append(f"sky: constant radiance {sky}")
     if camera is None:
         sys.exit("reference.py: error: the scene has no perspective camera")
     origin, target, up, fov = camera

@@ -6,7 +6,9 @@ of failure:
   a directional sun through a window in one wall, the camera inside;
 - `glass_slab`: a flat-faced glass block (ior 1.5, one-sided faces) on a floor in an open box,
   under a small bright emissive panel: its caustic and total internal reflection;
-- `water_pool`: a static water height field (ior 1.33) in a tiled pool under a large sky quad.
+- `water_pool`: a static water height field (ior 1.33) in a tiled pool under a large sky quad;
+- `sky_court`: a yard open to a uniform blue sky (`scenes[0].extras.rppm_sky`), red walls in a
+  corner, a glass block and a white box.
 
     python3 tools/suite_scenes.py assets/suite
     python3 tools/reference.py assets/suite/sun_room.gltf --out assets/suite/sun_room.ref.exr \
@@ -112,12 +114,17 @@ class Gltf:
         self.cameras = [{"type": "perspective", "perspective": {"yfov": yfov, "znear": 0.05, "zfar": 100.0}}]
         self.nodes.append({"camera": 0, "translation": position, "rotation": look(sub(target, position))})
 
-    def write(self, path, generator):
+    def write(self, path, generator, sky=None):
+        scene = {"nodes": list(range(len(self.nodes)))}
+        if sky:
+            # A uniform sky of this linear radiance (bevy_rppm::RppmSky; reference.py's
+            # `constant` emitter).
+            scene["extras"] = {"rppm_sky": sky}
         doc = {
             "asset": {"version": "2.0", "generator": generator},
             "extensionsUsed": sorted(self.extensions),
             "extensions": {"KHR_lights_punctual": {"lights": self.lights}},
-            "scene": 0, "scenes": [{"nodes": list(range(len(self.nodes)))}], "nodes": self.nodes,
+            "scene": 0, "scenes": [scene], "nodes": self.nodes,
             "meshes": self.meshes, "materials": self.materials, "cameras": self.cameras,
             "buffers": [{"byteLength": len(self.buf),
                          "uri": "data:application/octet-stream;base64," + base64.b64encode(bytes(self.buf)).decode()}],
@@ -230,12 +237,28 @@ def water_pool(path):
     g.write(path, "bevy_rppm tools/suite_scenes.py water_pool")
 
 
+def sky_court(path):
+    g = Gltf()
+    # A grey yard open to a blue sky, two red walls meeting in a corner (one-sided, facing
+    # the yard), a glass block and a white box; the camera sees the sky over the walls.
+    half = 3.0
+    floor, _ceiling, back, _front, left, _right = box([-half, 0, -half], [half, 1.6, half], inward=True)
+    g.quads([floor], g.material([0.45, 0.45, 0.42]))
+    g.quads([back, left], g.material([0.6, 0.15, 0.1]))
+    g.quads([rotate_y(f, 0.5, [0.3, 0, 0.2]) for f in box([-0.2, 0, -0.3], [0.8, 0.5, 0.7], inward=False)],
+            g.glass(1.5))
+    g.quads([rotate_y(f, -0.3, [-1.5, 0, -1.2]) for f in box([-2.1, 0, -1.8], [-0.9, 0.9, -0.6], inward=False)],
+            g.material([0.75, 0.75, 0.75]))
+    g.camera([2.4, 2.2, 3.4], [-0.6, 0.5, -1.2], yfov=0.9)
+    g.write(path, "bevy_rppm tools/suite_scenes.py sky_court", sky=[0.5, 0.65, 0.9])
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("out", help="folder for the .gltf files")
     args = parser.parse_args()
     os.makedirs(args.out, exist_ok=True)
-    for make in (sun_room, glass_slab, water_pool):
+    for make in (sun_room, glass_slab, water_pool, sky_court):
         path = os.path.join(args.out, f"{make.__name__}.gltf")
         make(path)
         print(f"wrote {path}")

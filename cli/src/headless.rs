@@ -157,7 +157,7 @@ pub fn load_gltf_with(scene: &Path, access: Access) -> Result<App, String> {
     if !meta.is_file() {
         return Err(format!("{} is not a file", scene.display()));
     }
-    check_gltf(scene, access)?;
+    let extras = check_gltf(scene, access)?;
     check_gpu_adapter()?;
     let absolute = std::fs::canonicalize(scene)
         .map_err(|e| format!("cannot read {}: {e}", scene.display()))?;
@@ -167,6 +167,12 @@ pub fn load_gltf_with(scene: &Path, access: Access) -> Result<App, String> {
         .map(|f| f.to_string_lossy().to_string())
         .unwrap_or_default();
     let mut app = headless_app(root);
+    if let Some([r, g, b]) = extras.sky {
+        app.insert_resource(bevy_rppm::RppmSky {
+            color: Color::linear_rgb(r, g, b),
+            radiance: 1.0,
+        });
+    }
     let handle = app
         .world()
         .resource::<AssetServer>()

@@ -22,13 +22,39 @@ pub struct Access {
 }
 
 /// Checks `path`; `Err` is one line naming the file and, where there is one, the JSON path.
-pub fn check_gltf(path: &Path, access: Access) -> Result<(), String> {
+pub fn check_gltf(path: &Path, access: Access) -> Result<SceneExtras, String> {
     let bytes = std::fs::read(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
     check_bytes(&bytes, path, access)
         .map_err(|e| format!("{} is not valid glTF: {e}", path.display()))
 }
 
-fn check_bytes(bytes: &[u8], path: &Path, access: Access) -> Result<(), String> {
+/// What a scene file says of itself beyond glTF: `scenes[0].extras.rppm_sky`, the linear RGB
+/// radiance of a uniform sky (W·sr⁻¹·m⁻²; `bevy_rppm::RppmSky`), which `tools/reference.py`
+/// reads too.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct SceneExtras {
+    pub sky: Option<[f32; 3]>,
+}
+
+fn scene_extras(root: &Value) -> Result<SceneExtras, String> {
+    let sky = &root["scenes"][0]["extras"]["rppm_sky"];
+    if sky.is_null() {
+        return Ok(SceneExtras::default());
+    }
+    let rgb: Option<Vec<f32>> = sky.as_array().and_then(|a| {
+        a.iter()
+            .map(|v| v.as_f64().map(|v| v as f32).filter(|v| *v >= 0.0))
+            .collect()
+    });
+    match rgb.as_deref() {
+        Some(&[r, g, b]) => Ok(SceneExtras {
+            sky: Some([r, g, b]),
+        }),
+        _ => Err("scenes[0].extras.rppm_sky: expected three non-negative numbers".into()),
+    }
+}
+
+fn check_bytes(bytes: &[u8], path: &Path, access: Access) -> Result<SceneExtras, String> {
     let (json, bin): (Cow<[u8]>, Option<Cow<[u8]>>) = if bytes.starts_with(b"glTF") {
         let glb = gltf::Glb::from_slice(bytes).map_err(|e| format!("GLB: {e}"))?;
         (glb.json, glb.bin)
@@ -66,7 +92,8 @@ fn check_bytes(bytes: &[u8], path: &Path, access: Access) -> Result<(), String> 
                 .map_err(|e| format!("{at}.uri: {e}"))?;
         }
     }
-    cameras(&root)
+    cameras(&root)?;
+    scene_extras(&root)
 }
 
 /// A primitive's attributes, indices and morph targets name accessors that exist.

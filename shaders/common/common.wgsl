@@ -190,6 +190,8 @@ struct IterationParams {
     history_flags: u32,
     // Last frame's unjittered clip_from_world, for reprojecting history.
     previous_clip_from_world: mat4x4<f32>,
+    // The sky's radiance (linear RGB), w 1 when there is one (the last photon source; SKY).
+    sky: vec4<f32>,
 }
 
 // A stored photon (64 bytes, the RPPM budget).

@@ -81,7 +81,13 @@ fn follow_camera_path(pixel: u32, x0: vec3<f32>, n0: vec3<f32>, m0: Material, tr
     let t_min = params.scene_sphere.w * 1e-6;
     for (var depth = 2u; depth <= params.max_eye_depth; depth += 1u) {
         let hit = trace_cubemap(o, d, t_min, 1.0e30, ignore);
-        if hit.triangle == NO_HIT || all(throughput <= vec3<f32>(0.0)) {
+        if all(throughput <= vec3<f32>(0.0)) {
+            return found;
+        }
+        if hit.triangle == NO_HIT {
+#ifdef SKY
+            found += throughput * params.sky.rgb;
+#endif
             return found;
         }
         let t = triangle_at(hit.triangle);
@@ -162,5 +168,11 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
         }
 #endif
     }
+#ifdef SKY
+    else if params.indirect_only == 0u {
+        // Nothing in this pixel: the sky.
+        sample = params.sky.rgb;
+    }
+#endif
     samples[pixel] = vec4<f32>(sample, 1.0);
 }

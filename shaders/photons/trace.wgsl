@@ -35,6 +35,21 @@ fn emit(rng: ptr<function, u32>) -> Ray {
     let share = 1.0 / (max(light_cdf[index] - previous, 1e-12) * f32(params.photons));
     var ray: Ray;
     ray.ignore = NO_HIT;
+#ifdef SKY
+    if index == params.source_count - 1u {
+        // The sky (the last source): a direction uniform on the sphere, from a disc across
+        // the scene's bounding sphere upstream of it; 4π directions × πR² carry its power.
+        let direction = uniform_sphere(vec2<f32>(random(rng), random(rng)));
+        let radius = params.scene_sphere.w;
+        let b = basis_around(direction);
+        let r = radius * sqrt(random(rng));
+        let phi = 2.0 * PI * random(rng);
+        ray.origin = params.scene_sphere.xyz - direction * (2.0 * radius) + b * vec3<f32>(r * cos(phi), r * sin(phi), 0.0);
+        ray.direction = direction;
+        ray.flux = params.sky.rgb * (4.0 * PI * PI * radius * radius * share);
+        return ray;
+    }
+#endif
     if index >= params.light_count {
         let e = emitters[index - params.light_count];
         let t = triangle_at(e.triangle);

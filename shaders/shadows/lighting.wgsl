@@ -6,7 +6,7 @@
 // reached through specular surfaces.
 #define_import_path bevy_rppm::lighting
 
-#import bevy_rppm::common::{Material, Light, IterationParams, PI, LIGHT_SPOT, LIGHT_DIRECTIONAL, face_of, random, basis_around}
+#import bevy_rppm::common::{Material, Light, IterationParams, PI, LIGHT_SPOT, LIGHT_DIRECTIONAL, face_of, random, basis_around, cosine_direction}
 #import bevy_rppm::bsdf::bsdf_eval
 #import bevy_rppm::scene::{shadow_views, lights, triangles, triangle_at, material_at, emitters, light_cdf, find_source, triangle_point, uniform_barycentrics}
 #ifdef TRACED_SHADOWS
@@ -171,15 +171,17 @@ fn area_light(m: Material, x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>) -> vec3<f3
 // Light from the emissive triangles: one triangle drawn by power, one point on it by area,
 // a shadow ray to it.
 fn emitter_light(m: Material, x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, origin_triangle: u32, rng: ptr<function, u32>) -> vec3<f32> {
-    if params.source_count <= params.light_count {
+    // The emitters' entries of the source CDF: past the lights, before the sky.
+    let end = params.source_count - u32(params.sky.w > 0.5);
+    if end <= params.light_count {
         return vec3<f32>(0.0);
     }
     let first = select(0.0, light_cdf[params.light_count - 1u], params.light_count > 0u);
-    let share = 1.0 - first;
+    let share = light_cdf[end - 1u] - first;
     if share <= 0.0 {
         return vec3<f32>(0.0);
     }
-    let index = find_source(first + random(rng) * share, params.light_count, params.source_count - 1u);
+    let index = find_source(first + random(rng) * share, params.light_count, end - 1u);
     let previous = select(0.0, light_cdf[index - 1u], index > 0u);
     let p = max(light_cdf[index] - previous, 1e-12) / share;
     let e = emitters[index - params.light_count];
@@ -204,6 +206,20 @@ fn emitter_light(m: Material, x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, origin_
 }
 #endif
 
+#ifdef SKY
+// Light from the sky: one direction drawn by cosine around n (pdf cos/π), a shadow ray to
+// infinity.
+fn sky_light(m: Material, x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, origin_triangle: u32, rng: ptr<function, u32>) -> vec3<f32> {
+    let u = vec2<f32>(random(rng), random(rng));
+    let wi = cosine_direction(n, u);
+    let lit = bsdf_eval(m, n, wo, wi) * params.sky.rgb * PI;
+    if all(lit <= vec3<f32>(0.0)) || dot(n, wi) <= 0.0 {
+        return vec3<f32>(0.0);
+    }
+    return lit * visibility(x, wi, 1.0e30, origin_triangle);
+}
+#endif
+
 // Radiance leaving x (on triangle `origin_triangle`) towards wo by emission (front faces only)
 // and direct light, from the emitters too when `emitters` (camera paths that go on past x find
 // them themselves); `rng` draws the emitter sample.
@@ -217,7 +233,11 @@ fn surface_light(m: Material, x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, front: 
         return punctual;
     }
 #ifdef TRACED_SHADOWS
-    return punctual + emitter_light(m, x, n, wo, origin_triangle, rng);
+    var sky = vec3<f32>(0.0);
+#ifdef SKY
+    sky = sky_light(m, x, n, wo, origin_triangle, rng);
+#endif
+    return punctual + emitter_light(m, x, n, wo, origin_triangle, rng) + sky;
 #else
     return punctual + area_light(m, x, n, wo);
 #endif

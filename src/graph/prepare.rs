@@ -18,7 +18,7 @@ use crate::indirect_splat::IndirectSplatPipeline;
 use crate::output::{OutputPipeline, output_key};
 use crate::photons::{PhotonKey, PhotonPipeline, device_photon_count, store_capacity};
 use crate::ppm::{next_radius2, radius2_after};
-use crate::scene::{SceneBuffers, SceneData};
+use crate::scene::{ScatterPaths, SceneBuffers, SceneData};
 use crate::settings::{PhotonMapping, RppmDebugView, RppmMode};
 use crate::shadows::{ShadowPipeline, cube_views};
 use crate::splat::{SplatKey, SplatPipeline};
@@ -148,6 +148,7 @@ fn select_stages(
                 importons: state.importons.then_some(scene.paths),
                 traced_shadows: state.traced_shadows,
                 textured,
+                sky: scene.paths.contains(ScatterPaths::SKY),
             },
         ),
         trace: traced.then(|| {

@@ -59,6 +59,8 @@ pub struct EyePathKey {
     pub traced_shadows: bool,
     /// The scene's texture lookups (`TEXTURED`).
     pub textured: bool,
+    /// The scene has a sky (`SKY`): direct light samples it, escaping paths see it.
+    pub sky: bool,
 }
 
 impl SpecializedComputePipeline for EyePathPipeline {
@@ -76,7 +78,11 @@ impl SpecializedComputePipeline for EyePathPipeline {
         }
         if let Some(paths) = key.importons {
             shader_defs.push("IMPORTONS".into());
+            let paths = paths - ScatterPaths::SKY;
             shader_defs.extend(paths.shader_defs().into_iter().map(Into::into));
+        }
+        if key.sky {
+            shader_defs.push("SKY".into());
         }
         if key.traced_shadows {
             shader_defs.push("TRACED_SHADOWS".into());

@@ -81,7 +81,7 @@ pub(super) fn extract_scene(
     mut mesh_events: MessageReader<AssetEvent<Mesh>>,
     mut material_events: MessageReader<AssetEvent<StandardMaterial>>,
     mut image_events: MessageReader<AssetEvent<Image>>,
-    lights_q: lights::LightQueries,
+    mut lights_q: lights::LightQueries,
     mut deformers: deform::Deformers,
     assets: SceneAssets,
     mut warnings: ResMut<ExtractionWarnings>,
@@ -125,6 +125,7 @@ pub(super) fn extract_scene(
         || mesh_changed
         || material_events.read().count() > 0
         || image_changed
+        || lights_q.sky_changed()
         || deformers.changed();
     if !dirty {
         return;
@@ -239,7 +240,8 @@ pub(super) fn extract_scene(
         .lights
         .iter()
         .map(|l| l.radiance[3])
-        .chain(data.emitters.iter().map(|e| e.power)));
+        .chain(data.emitters.iter().map(|e| e.power))
+        .chain((data.sky[3] > 0.0).then_some(data.sky[3])));
     scene.extract_ms = started.elapsed().as_secs_f64() * 1e3;
     if !scene.data.same_as(&data) {
         scene.data = Arc::new(data);

@@ -1,4 +1,4 @@
-//! Bevy's punctual lights to the radiometric light table.
+//! Bevy's punctual lights to the radiometric light table, and our sky ([`RppmSky`]).
 
 use std::f32::consts::PI;
 
@@ -34,8 +34,47 @@ impl LightKind {
     }
 }
 
+/// A uniform sky around the whole scene: every direction that no triangle covers shows
+/// `color` × `radiance`. Photons leave it toward the scene, direct light samples it (traced
+/// shadows: views with a deep cubemap), and camera paths that escape the scene see it, so an
+/// outdoor scene gets its sky light and GI. Insert it as a resource; without one there is no
+/// sky (the default) and no sky code runs.
+#[derive(Resource, Clone, Copy, Debug, PartialEq, Reflect)]
+#[reflect(Resource, Debug)]
+pub struct RppmSky {
+    /// Linear colour, multiplied by `radiance`.
+    pub color: Color,
+    /// Radiance, W·sr⁻¹·m⁻² (photometric numbers taken as radiometric, as for the lights), at
+    /// least 0; a non-finite value is no sky. Default 1.
+    pub radiance: f32,
+}
+
+impl Default for RppmSky {
+    fn default() -> Self {
+        Self {
+            color: Color::WHITE,
+            radiance: 1.0,
+        }
+    }
+}
+
+impl RppmSky {
+    /// Linear RGB radiance; zero when unset, negative or not finite.
+    pub fn rgb(&self) -> [f32; 3] {
+        let c = rgb(self.color).map(|v| v * self.radiance);
+        if c.iter().all(|v| v.is_finite()) {
+            c.map(|v| v.max(0.0))
+        } else {
+            [0.0; 3]
+        }
+    }
+}
+
 #[derive(SystemParam)]
 pub(crate) struct LightQueries<'w, 's> {
+    sky: Option<Res<'w, RppmSky>>,
+    /// The sky last extracted, so that removing it counts as a change.
+    had_sky: Local<'s, bool>,
     points: Query<
         'w,
         's,
@@ -101,9 +140,27 @@ fn finite(l: &GpuLight) -> bool {
         .all(|v| v.is_finite())
 }
 
+impl LightQueries<'_, '_> {
+    /// Whether the sky was inserted, changed or removed.
+    pub(crate) fn sky_changed(&mut self) -> bool {
+        let has = self.sky.is_some();
+        let changed = has != *self.had_sky || self.sky.as_ref().is_some_and(|s| s.is_changed());
+        *self.had_sky = has;
+        changed
+    }
+}
+
 pub(crate) fn collect_lights(q: &LightQueries, data: &mut SceneData) {
     let mut layer = 0u32;
     let (_, radius) = data.bounding_sphere();
+    if let Some(sky) = &q.sky {
+        let c = sky.rgb();
+        // What enters the bounding sphere: 4π directions, each across a disc πR².
+        let power = luminance(c) * 4.0 * PI * PI * radius * radius;
+        if power > 0.0 && power.is_finite() {
+            data.sky = [c[0], c[1], c[2], power];
+        }
+    }
     let mut push = |mut light: GpuLight, power: f32, data: &mut SceneData| {
         light.radiance[3] = power;
         // Zero or non-finite lights emit nothing; leave them out of the table entirely.

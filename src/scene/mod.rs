@@ -27,14 +27,15 @@ use bytemuck::{Pod, Zeroable};
 use crate::bsdf::{DELTA_ROUGHNESS, GLOSSY_STORE_ROUGHNESS, specular_energy_average};
 
 pub use instances::{GpuInstance, SceneMesh};
-pub use lights::{LightKind, spot_cone_fraction};
+pub use lights::{LightKind, RppmSky, spot_cone_fraction};
 pub use packed::PackedTriangle;
 pub use prepare::{SceneBuffers, SceneRefused};
 pub use textures::{GpuTexture, NO_TEXTURE, PackedTexture};
 
 bitflags::bitflags! {
-    /// The scattering lobes a scene's materials have: the variants of the tracing stages, so
-    /// that a scene compiles and runs only its own code paths (no glass: no refraction).
+    /// The scattering lobes a scene's materials have, and its sky: the variants of the tracing
+    /// stages, so that a scene compiles and runs only its own code paths (no glass: no
+    /// refraction; no sky: none of its code).
     #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
     pub struct ScatterPaths: u8 {
         /// A rough specular layer (GGX).
@@ -43,6 +44,8 @@ bitflags::bitflags! {
         const MIRRORS = 1 << 1;
         /// Smooth glass.
         const REFRACTION = 1 << 2;
+        /// A sky ([`RppmSky`]): photons leave it, paths that escape see it.
+        const SKY = 1 << 3;
     }
 }
 
@@ -53,6 +56,7 @@ impl ScatterPaths {
             (Self::GLOSSY, "GLOSSY"),
             (Self::MIRRORS, "MIRRORS"),
             (Self::REFRACTION, "REFRACTION"),
+            (Self::SKY, "SKY"),
         ]
         .into_iter()
         .filter_map(|(path, def)| self.contains(path).then_some(def))
@@ -202,7 +206,11 @@ pub struct SceneData {
     pub texels: Arc<Vec<u32>>,
     pub lights: Vec<GpuLight>,
     pub emitters: Vec<GpuEmitter>,
-    /// Photon-emission CDF over `lights` then `emitters`, by power (inclusive, last = 1).
+    /// The sky's radiance (linear RGB; [`RppmSky`]) and in w the power it sends into the
+    /// scene's bounding sphere (luminance-weighted W); all zero without one.
+    pub sky: [f32; 4],
+    /// Photon-emission CDF over `lights`, `emitters` then the sky, by power (inclusive, last
+    /// = 1).
     pub light_cdf: Vec<f32>,
     /// Axis-aligned bounds of all world-space triangles (min, max); zero-sized when empty.
     pub bounds: (Vec3, Vec3),
@@ -237,6 +245,7 @@ impl SceneData {
             && same(&self.lights, &other.lights)
             && same(&self.emitters, &other.emitters)
             && same(&self.light_cdf, &other.light_cdf)
+            && self.sky == other.sky
             && (Arc::ptr_eq(&self.texels, &other.texels) || self.texels == other.texels)
     }
 
@@ -261,6 +270,7 @@ impl SceneData {
     pub fn total_power(&self) -> f32 {
         self.lights.iter().map(|l| l.radiance[3]).sum::<f32>()
             + self.emitters.iter().map(|e| e.power).sum::<f32>()
+            + self.sky[3]
     }
 
     /// Centre and radius of a sphere around the bounds.
@@ -308,6 +318,7 @@ impl SceneData {
         paths.set(ScatterPaths::GLOSSY, glossy);
         paths.set(ScatterPaths::MIRRORS, mirrors);
         paths.set(ScatterPaths::REFRACTION, refraction);
+        paths.set(ScatterPaths::SKY, self.sky[3] > 0.0);
         paths
     }
 
@@ -374,7 +385,8 @@ pub(crate) struct ScenePlugin;
 
 impl Plugin for ScenePlugin {
     fn build(&self, app: &mut App) {
-        app.init_resource::<RppmScene>()
+        app.register_type::<RppmSky>()
+            .init_resource::<RppmScene>()
             .init_resource::<extract::ExtractionWarnings>()
             .init_resource::<extract::TextureCache>()
             .init_resource::<mesh::MeshCache>()

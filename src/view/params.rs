@@ -13,7 +13,7 @@ use crate::scene::{GpuTriangle, SceneData};
 /// Byte stride between per-iteration slots of the params buffer (dynamic-offset alignment).
 pub const PARAMS_STRIDE: u64 = 512;
 
-/// Per-iteration constants (`IterationParams` in common.wgsl, 368 bytes).
+/// Per-iteration constants (`IterationParams` in common.wgsl, 384 bytes).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
 pub struct IterationParams {
@@ -51,6 +51,8 @@ pub struct IterationParams {
     pub history_flags: u32,
     /// Last frame's (unjittered) clip_from_world, for reprojecting history.
     pub previous_clip_from_world: [[f32; 4]; 4],
+    /// The sky's radiance (linear RGB), w 1 when there is one (`ScatterPaths::SKY`).
+    pub sky: [f32; 4],
 }
 
 /// The first slot of a params buffer, as group 1 binds it.
@@ -135,6 +137,10 @@ pub fn camera_params(
         kernel_flattening: 0.1,
         indirect_subsampling: 1,
         history_cap: u32::MAX,
+        sky: {
+            let [r, g, b, power] = data.sky;
+            [r, g, b, if power > 0.0 { 1.0 } else { 0.0 }]
+        },
         ..default()
     }
 }

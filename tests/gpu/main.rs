@@ -22,6 +22,7 @@ mod modes;
 mod motion;
 mod ppm;
 mod robustness;
+mod sky;
 mod suite;
 mod textures;
 mod util;

@@ -162,6 +162,10 @@ pub struct PhotonMapping {
     /// (temporal reuse, `RppmHistory::Reuse { iterations: 8 }` is a good start). Default
     /// [`RppmHistory::Reset`].
     pub history: RppmHistory,
+    /// Profiling: every stage is submitted alone and waited for, and its CPU wall time is
+    /// reported (`ViewStats::wall_ms_per_iteration`). Trustworthy where GPU timestamps are
+    /// not (llvmpipe's overlap), and slow: it stalls the GPU between stages. Default false.
+    pub profile_stages: bool,
 }
 
 /// Settings chosen from the speed/accuracy measurements of `rppm bench trade` (see the
@@ -197,6 +201,7 @@ impl Default for PhotonMapping {
             indirect_subsampling: 1,
             debug_view: RppmDebugView::None,
             history: RppmHistory::default(),
+            profile_stages: false,
         }
     }
 }

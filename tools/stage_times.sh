@@ -1,9 +1,11 @@
 #!/usr/bin/env bash
-# GPU milliseconds per stage per iteration, and memory, for a list of glTF scenes, as a
-# markdown table: the numbers the issues ask for on a real GPU.
+# Milliseconds per stage per iteration, and memory, for a list of glTF scenes, as a markdown
+# table: the numbers the issues ask for on a real GPU.
 #   tools/stage_times.sh OUT_DIR SCENE.gltf... [-- extra rppm render flags]
-# Defaults: 1024×1024, 262 144 photons, photon and eye depth 3 (PHOTON_DEPTH, EYE_DEPTH), 32
-# iterations. RPPM names the binary (default: built with cargo).
+# Defaults: 1024×1024 (SIZE), 262 144 photons (PHOTONS), photon and eye depth 3 (PHOTON_DEPTH,
+# EYE_DEPTH), 32 iterations (ITERATIONS). GPU timestamps, or with `-- --profile` the wall
+# time of each stage submitted alone (trustworthy on llvmpipe). RPPM names the binary
+# (default: built with cargo).
 set -euo pipefail
 out=$1
 shift
@@ -21,8 +23,9 @@ if [[ -z $rppm ]]; then
 fi
 for scene in "${scenes[@]}"; do
     name=$(basename "${scene%.*}")
-    "$rppm" render "$scene" --width 1024 --height 1024 --photons 262144 \
-        --photon-depth "${PHOTON_DEPTH:-3}" --eye-depth "${EYE_DEPTH:-3}" --iterations 32 "$@" \
+    "$rppm" render "$scene" --width "${SIZE:-1024}" --height "${SIZE:-1024}" \
+        --photons "${PHOTONS:-262144}" --photon-depth "${PHOTON_DEPTH:-3}" \
+        --eye-depth "${EYE_DEPTH:-3}" --iterations "${ITERATIONS:-32}" "$@" \
         --stats "$out/$name.json" >"$out/$name.log" 2>&1 ||
         echo "$name failed: $(tail -3 "$out/$name.log")"
 done
@@ -36,12 +39,14 @@ for scene in scenes:
         rows.append((name, json.load(open(os.path.join(out, name + ".json")))))
     except (OSError, ValueError):
         pass
-stages = sorted({s for _, d in rows for s, ms in d["gpu_ms_per_iteration"].items() if ms > 0})
-print("adapter:", rows[0][1]["adapter"] if rows else "none")
+wall = any(d.get("wall_ms_per_iteration") for _, d in rows)
+clock = "wall_ms_per_iteration" if wall else "gpu_ms_per_iteration"
+stages = sorted({s for _, d in rows for s, ms in d[clock].items() if ms > 0})
+print("adapter:", rows[0][1]["adapter"] if rows else "none", "·", clock)
 print("| scene | triangles | " + " | ".join(stages) + " | total ms | MiB |")
 print("|---|---:|" + "---:|" * (len(stages) + 2))
 for name, d in rows:
-    ms = d["gpu_ms_per_iteration"]
+    ms = d[clock]
     mib = sum(d["memory_bytes"].values()) / 2**20
     cells = " | ".join(f"{ms.get(s, 0):.3f}" for s in stages)
     print(f"| {name} | {d['triangles']} | {cells} | {sum(ms.values()):.2f} | {mib:.0f} |")

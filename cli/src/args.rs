@@ -227,6 +227,10 @@ pub struct RenderArgs {
     /// A debug image instead of the estimate.
     #[arg(long, value_enum)]
     pub debug_view: Option<DebugView>,
+    /// Submit and wait for each stage alone, reporting its CPU wall time per iteration
+    /// (`wall_ms_per_iteration` in the stats; slow).
+    #[arg(long)]
+    pub profile: bool,
     /// Pose the scene by its glTF animation of this index (skins, morph weights, nodes).
     #[arg(long)]
     pub animation: Option<usize>,
@@ -370,6 +374,7 @@ impl RenderArgs {
         s.alpha = self.alpha.unwrap_or(s.alpha);
         s.kernel_flattening = self.flattening.unwrap_or(s.kernel_flattening);
         s.splat_russian_roulette |= self.splat_rr;
+        s.profile_stages |= self.profile;
         if let Some(view) = self.debug_view {
             s.debug_view = match view {
                 DebugView::GbufferNormals => RppmDebugView::GBufferNormals,

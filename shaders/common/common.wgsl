@@ -246,6 +246,19 @@ struct CubemapParams {
     level_offsets: array<vec4<u32>, 4>,
 }
 
+// Triangles that look big from the cubemap's centre are kept out of its lists and tested by
+// every ray once (src/cubemap/mod.rs): a big triangle lands in every bin of every tile it
+// covers, and a ray would meet it again in each. At most this many; past it, none is big.
+const BIG_TRIANGLES: u32 = 128u;
+
+// Whether a triangle's bounding sphere (about its centroid) is wider than a tenth of its
+// distance from `centre` (more than about 6° across), or holds the centre.
+fn looks_big(a: vec3<f32>, b: vec3<f32>, c: vec3<f32>, centre: vec3<f32>) -> bool {
+    let m = (a + b + c) / 3.0;
+    let r = sqrt(max(max(dot(a - m, a - m), dot(b - m, b - m)), dot(c - m, c - m)));
+    return r > 0.1 * length(m - centre);
+}
+
 // Axes of cube face f (order +X −X +Y −Y +Z −Z): columns U, V (screen right, up) and A (axis).
 fn face_basis(f: u32) -> mat3x3<f32> {
     switch f {

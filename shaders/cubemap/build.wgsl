@@ -4,8 +4,10 @@
 // rasterisation hardware). The six faces sit side by side in a 3×2 atlas.
 //   fragment_bounds: each tile's [min, max] depth of covering geometry (atomic min/max).
 //   fragment_insert: the triangle id into every depth bin its span in the tile overlaps.
-// Then `reduce` builds the min/max hierarchy, level 0 from the tile bounds.
-#import bevy_rppm::common::{CubemapParams, face_basis, level_offset}
+// Then `reduce` builds the min/max hierarchy, level 0 from the tile bounds. Before all,
+// `classify` lists the triangles that look big from the centre (`looks_big`): they stay out
+// of the tiles, and every ray tests them once.
+#import bevy_rppm::common::{CubemapParams, face_basis, level_offset, looks_big, BIG_TRIANGLES}
 #import bevy_rppm::scene::{triangles, triangle_at}
 
 @group(1) @binding(0) var<uniform> cubemap: CubemapParams;
@@ -14,6 +16,10 @@
 @group(1) @binding(3) var<storage, read_write> nodes: array<vec2<u32>>;
 @group(1) @binding(4) var<storage, read_write> counters: array<atomic<u32>>;
 @group(1) @binding(5) var<storage, read_write> hierarchy: array<vec2<f32>>;
+// [count, ids…] of the big triangles, as `classify` left it.
+@group(1) @binding(6) var<storage, read> big: array<u32>;
+// The same, written by `classify` (bound alone with the params).
+@group(1) @binding(7) var<storage, read_write> big_list: array<atomic<u32>>;
 
 const BIG: f32 = 3.0e38;
 
@@ -63,6 +69,8 @@ fn vertex(@builtin(vertex_index) vertex: u32, @builtin(instance_index) face: u32
     let l = array<vec3<f32>, 3>(basis * (t.position_a - c), basis * (t.position_b - c), basis * (t.position_c - c));
     var depth: vec2<f32>;
     let bounds = clipped_bounds(l, cubemap.near, &depth);
+    // A big triangle is in the big list (unless there were too many to list any).
+    let listed = big[0] <= BIG_TRIANGLES && looks_big(t.position_a, t.position_b, t.position_c, c);
     var out: VertexOut;
     out.triangle = id;
     out.face = face;
@@ -73,7 +81,7 @@ fn vertex(@builtin(vertex_index) vertex: u32, @builtin(instance_index) face: u32
     let pad = 0.5 + 1e-3;
     let gmin = clamp(vec2<f32>((bounds.x + 1.0) * 0.5 * g, (1.0 - bounds.w) * 0.5 * g) - pad, vec2(0.0), vec2(g));
     let gmax = clamp(vec2<f32>((bounds.z + 1.0) * 0.5 * g, (1.0 - bounds.y) * 0.5 * g) + pad, vec2(0.0), vec2(g));
-    let empty = depth.x > depth.y || any(gmin >= gmax);
+    let empty = depth.x > depth.y || any(gmin >= gmax) || listed;
     // Quad corners: two triangles (0,1,2), (2,1,3) of the rectangle.
     let k = array<u32, 6>(0u, 1u, 2u, 2u, 1u, 3u)[corner];
     var grid_pos = vec2<f32>(select(gmin.x, gmax.x, (k & 1u) != 0u), select(gmin.y, gmax.y, (k & 2u) != 0u));
@@ -166,6 +174,21 @@ fn fragment_insert(in: VertexOut) {
         // Lists are linked through node + 1, so that 0 ends a list.
         let next = atomicExchange(&heads[tile.z * cubemap.bins + b], node + 1u);
         nodes[node] = vec2<u32>(in.triangle, next);
+    }
+}
+
+@compute @workgroup_size(64, 1, 1)
+fn classify(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let index = id.y * groups.x * 64u + id.x;
+    if index >= cubemap.triangle_count {
+        return;
+    }
+    let t = triangle_at(index);
+    if looks_big(t.position_a, t.position_b, t.position_c, cubemap.centre.xyz) {
+        let slot = atomicAdd(&big_list[0], 1u);
+        if slot < BIG_TRIANGLES {
+            atomicStore(&big_list[1u + slot], index);
+        }
     }
 }
 

@@ -5,13 +5,15 @@
 // that the ray's depth interval crosses are tested, exactly and watertight.
 #define_import_path bevy_rppm::cubemap
 
-#import bevy_rppm::common::{CubemapParams, face_basis, level_offset, face_of}
+#import bevy_rppm::common::{CubemapParams, face_basis, level_offset, face_of, BIG_TRIANGLES}
 #import bevy_rppm::scene::{triangles, triangle_at, opaque_at}
 
 @group(3) @binding(0) var<uniform> cubemap: CubemapParams;
 @group(3) @binding(1) var<storage, read> hierarchy: array<vec2<f32>>;
 @group(3) @binding(2) var<storage, read> heads: array<u32>;
 @group(3) @binding(3) var<storage, read> nodes: array<vec2<u32>>;
+// [count, ids…] of the triangles kept out of the lists (build.wgsl's `classify`).
+@group(3) @binding(4) var<storage, read> big: array<u32>;
 
 const NO_HIT: u32 = 0xffffffffu;
 const FAR: f32 = 1.0e30;
@@ -238,6 +240,16 @@ fn test_tile(o: vec3<f32>, d: vec3<f32>, f: u32, cell: vec2<i32>, zr: vec2<f32>,
 // a bounce ray leaves; NO_HIT for none). `d` need not be normalised; t is in its units.
 fn trace_cubemap(o: vec3<f32>, d: vec3<f32>, t_min: f32, t_max: f32, ignore: u32) -> Hit {
     var best = Hit(min(t_max, FAR), NO_HIT, vec2<f32>(0.0));
+    // The big triangles first: a near hit among them ends the march early.
+    let bigs = big[0];
+    if bigs <= BIG_TRIANGLES {
+        for (var i = 0u; i < bigs; i += 1u) {
+            let id = big[1u + i];
+            if id != ignore {
+                consider(o, d, id, t_min, &best);
+            }
+        }
+    }
     let oc = o - cubemap.centre.xyz;
     // Parameters where the ray crosses the planes between faces (|x|=|y|, |x|=|z|, |y|=|z|).
     var cuts: array<f32, 8>;

@@ -51,6 +51,11 @@ impl CubemapConfig {
     }
 }
 
+/// Triangles that look big from the centre are kept out of the lists and tested by every ray
+/// once, at most this many (past it, none is): `BIG_TRIANGLES` and `looks_big` in
+/// shaders/common/common.wgsl.
+pub const BIG_TRIANGLES: u32 = 128;
+
 /// `CubemapParams` in common.wgsl (112 bytes).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]

@@ -5,7 +5,7 @@ use bevy::prelude::*;
 use bevy::render::render_resource::*;
 use bevy::render::renderer::{RenderDevice, RenderQueue};
 
-use super::{BuildContext, CubemapConfig, CubemapParams, CubemapPipelines};
+use super::{BIG_TRIANGLES, BuildContext, CubemapConfig, CubemapParams, CubemapPipelines};
 use crate::scene::SceneBuffers;
 use crate::stats::readback::{AsyncReadback, read_back};
 use crate::stats::timing::{FrameWork, Stage, StageTimer};
@@ -27,9 +27,12 @@ pub struct DeepCubemap {
     /// The counters on their way back without a stall, so lists grow in every app.
     counter_probe: AsyncReadback,
     hierarchy: Buffer,
+    /// [count, ids…] of the triangles kept out of the lists (`BIG_TRIANGLES`).
+    big: Buffer,
     levels: Buffer,
     atlas: TextureView,
     build_group: BindGroup,
+    classify_group: BindGroup,
     level_group: BindGroup,
     /// Group 1 of a tracing shader.
     pub trace_group: BindGroup,
@@ -107,6 +110,12 @@ impl DeepCubemap {
         );
         let counters = buffer(device, "rppm_cubemap_counters", 16, storage);
         let hierarchy = buffer(device, "rppm_cubemap_hierarchy", cells as u64 * 8, storage);
+        let big = buffer(
+            device,
+            "rppm_cubemap_big",
+            (1 + BIG_TRIANGLES as u64) * 4,
+            storage,
+        );
         let levels = buffer(
             device,
             "rppm_cubemap_levels",
@@ -142,6 +151,15 @@ impl DeepCubemap {
                 nodes.as_entire_binding(),
                 counters.as_entire_binding(),
                 hierarchy.as_entire_binding(),
+                big.as_entire_binding(),
+            )),
+        );
+        let classify_group = device.create_bind_group(
+            "rppm_cubemap_classify_group",
+            &cache.get_bind_group_layout(&pipelines.classify_layout),
+            &BindGroupEntries::with_indices((
+                (0, params_buffer.as_entire_binding()),
+                (7, big.as_entire_binding()),
             )),
         );
         let level_group = device.create_bind_group(
@@ -161,6 +179,7 @@ impl DeepCubemap {
                 hierarchy.as_entire_binding(),
                 heads.as_entire_binding(),
                 nodes.as_entire_binding(),
+                big.as_entire_binding(),
             )),
         );
         Ok(Self {
@@ -173,9 +192,11 @@ impl DeepCubemap {
             counters,
             counter_probe: AsyncReadback::new(device, 16),
             hierarchy,
+            big,
             levels,
             atlas,
             build_group,
+            classify_group,
             level_group,
             trace_group,
         })
@@ -208,6 +229,7 @@ impl DeepCubemap {
             ("cubemap_heads", self.heads.size()),
             ("cubemap_nodes", self.nodes.size()),
             ("cubemap_hierarchy", self.hierarchy.size()),
+            ("cubemap_big_triangles", self.big.size()),
             ("cubemap_atlas", 6 * grid * grid * 4),
             (
                 "cubemap_params",
@@ -218,7 +240,7 @@ impl DeepCubemap {
 
     /// A cubemap whose lists hold every entry of its first build: built now (the GPU waited
     /// for), and made again with room for what the build asked for while entries were lost
-    /// (at most 4 times). Without compiled build pipelines it is returned unbuilt.
+    /// (at most 4 times), or once smaller when it used under half its room. Without compiled build pipelines it is returned unbuilt.
     pub fn fitted(
         ctx: &BuildContext,
         config: CubemapConfig,
@@ -234,7 +256,19 @@ impl DeepCubemap {
             let ([used, lost], ms) = cubemap.build_now(ctx);
             fit.used = used.min(capacity);
             fit.build_ms = ms;
-            if lost == 0 || fit.overflows >= 4 {
+            if lost == 0 {
+                // A first guess far above what the build used is given back once (room for
+                // a quarter more, and at least one entry a tile for what the scene gains).
+                let tiles = 6 * config.grid() * config.grid();
+                let snug = grown_capacity(used).max(tiles);
+                if fit.overflows == 0 && !fit.shrunk && capacity > 2 * snug {
+                    fit.shrunk = true;
+                    capacity = snug;
+                    continue;
+                }
+                return Ok((cubemap, fit));
+            }
+            if fit.overflows >= 4 {
                 return Ok((cubemap, fit));
             }
             // No more room than one buffer binding holds: past it, entries stay lost (counted).
@@ -301,7 +335,8 @@ impl DeepCubemap {
         scene_group: &BindGroup,
         timer: &mut StageTimer,
     ) {
-        let (Some(bounds), Some(insert), Some(base), Some(reduce)) = (
+        let (Some(classify), Some(bounds), Some(insert), Some(base), Some(reduce)) = (
+            cache.get_compute_pipeline(pipelines.classify),
             cache.get_render_pipeline(pipelines.bounds),
             cache.get_render_pipeline(pipelines.insert),
             cache.get_compute_pipeline(pipelines.hierarchy_base),
@@ -309,8 +344,20 @@ impl DeepCubemap {
         ) else {
             return;
         };
-        for b in [&self.tile_bounds, &self.heads, &self.counters] {
+        for b in [&self.tile_bounds, &self.heads, &self.counters, &self.big] {
             encoder.clear_buffer(b, 0, None);
+        }
+        {
+            let mut pass = encoder.begin_compute_pass(&ComputePassDescriptor {
+                label: Some("rppm_cubemap_classify"),
+                timestamp_writes: timer.compute_pass(Stage::CubemapBuild),
+            });
+            pass.set_pipeline(classify);
+            pass.set_bind_group(0, scene_group, &[]);
+            pass.set_bind_group(1, &self.classify_group, &[]);
+            let groups = self.params.triangle_count.div_ceil(64).max(1);
+            let x = groups.min(65_535);
+            pass.dispatch_workgroups(x, groups.div_ceil(x), 1);
         }
         let vertices = self.params.triangle_count * 6;
         for pipeline in [bounds, insert] {
@@ -359,6 +406,8 @@ impl DeepCubemap {
 pub struct Fit {
     /// Builds that lost entries and were made again with more room.
     pub overflows: u32,
+    /// Whether a first guess far above what the build used was made again smaller.
+    pub shrunk: bool,
     /// List entries the last build used.
     pub used: u32,
     /// GPU ms of the last build.

@@ -21,7 +21,7 @@ use bevy::shader::Shader;
 
 use bevy::render::renderer::{RenderDevice, RenderQueue};
 
-pub use config::{CubemapConfig, CubemapParams};
+pub use config::{BIG_TRIANGLES, CubemapConfig, CubemapParams};
 pub use deep::{DeepCubemap, Fit};
 pub use view::ViewCubemap;
 
@@ -39,7 +39,8 @@ impl Plugin for CubemapPlugin {
     }
 }
 
-/// Group 3 of any shader that traces rays: 0 params, 1 hierarchy, 2 heads, 3 nodes.
+/// Group 3 of any shader that traces rays: 0 params, 1 hierarchy, 2 heads, 3 nodes, 4 the big
+/// triangles ([`BIG_TRIANGLES`]).
 pub fn trace_layout() -> BindGroupLayoutDescriptor {
     let read = || storage_buffer_read_only_sized(false, None);
     BindGroupLayoutDescriptor::new(
@@ -48,6 +49,7 @@ pub fn trace_layout() -> BindGroupLayoutDescriptor {
             ShaderStages::COMPUTE | ShaderStages::FRAGMENT,
             (
                 uniform_buffer_sized(false, NonZeroU64::new(size_of::<CubemapParams>() as u64)),
+                read(),
                 read(),
                 read(),
                 read(),
@@ -60,9 +62,12 @@ pub fn trace_layout() -> BindGroupLayoutDescriptor {
 #[derive(Resource)]
 pub struct CubemapPipelines {
     pub build_layout: BindGroupLayoutDescriptor,
+    /// `classify`'s group 1: 0 params, 7 the big-triangle list it writes.
+    pub classify_layout: BindGroupLayoutDescriptor,
     pub level_layout: BindGroupLayoutDescriptor,
     /// [`trace_layout`].
     pub trace_layout: BindGroupLayoutDescriptor,
+    pub(crate) classify: CachedComputePipelineId,
     pub(crate) bounds: CachedRenderPipelineId,
     pub(crate) insert: CachedRenderPipelineId,
     pub(crate) hierarchy_base: CachedComputePipelineId,
@@ -93,7 +98,15 @@ impl CubemapPipelines {
                     storage_rw(),
                     storage_rw(),
                     storage_rw(),
+                    storage_buffer_read_only_sized(false, None),
                 ),
+            ),
+        );
+        let classify_layout = BindGroupLayoutDescriptor::new(
+            "rppm_cubemap_classify_layout",
+            &BindGroupLayoutEntries::with_indices(
+                ShaderStages::COMPUTE,
+                ((0, params), (7, storage_rw())),
             ),
         );
         let level_layout = BindGroupLayoutDescriptor::new(
@@ -138,6 +151,10 @@ impl CubemapPipelines {
             })
         };
         Self {
+            classify: compute(
+                "classify",
+                vec![scene_layout.clone(), classify_layout.clone()],
+            ),
             bounds: cache.queue_render_pipeline(raster("fragment_bounds")),
             insert: cache.queue_render_pipeline(raster("fragment_insert")),
             hierarchy_base: compute(
@@ -153,6 +170,7 @@ impl CubemapPipelines {
                 ],
             ),
             build_layout,
+            classify_layout,
             level_layout,
             trace_layout,
         }
@@ -160,7 +178,8 @@ impl CubemapPipelines {
 
     /// Whether every build pipeline is compiled.
     pub fn ready(&self, cache: &PipelineCache) -> bool {
-        cache.get_render_pipeline(self.bounds).is_some()
+        cache.get_compute_pipeline(self.classify).is_some()
+            && cache.get_render_pipeline(self.bounds).is_some()
             && cache.get_render_pipeline(self.insert).is_some()
             && cache.get_compute_pipeline(self.hierarchy_base).is_some()
             && cache.get_compute_pipeline(self.hierarchy_reduce).is_some()

@@ -53,27 +53,25 @@ impl ViewCubemap {
             );
         }
         let config = fitted;
-        let capacity = self
-            .capacity
-            .max(DeepCubemap::initial_capacity(
-                config,
-                scene.triangle_count(),
-            ))
-            .min((limit / 8) as u32);
+        let most = (limit / 8) as u32;
+        let wanted = self.capacity.min(most);
         let stale = self
             .cubemap
             .as_ref()
-            .is_none_or(|c| c.config != config || c.params.node_capacity < capacity);
+            .is_none_or(|c| c.config != config || c.params.node_capacity < wanted);
         if stale {
             // Lists grown after an overflow are made without a build (no stall in a game).
             let grown = self.cubemap.as_ref().is_some_and(|c| c.config == config);
             self.cubemap = None;
             let cubemap = if grown {
-                DeepCubemap::new(ctx, config, centre, capacity)?
+                DeepCubemap::new(ctx, config, centre, wanted)?
             } else {
-                DeepCubemap::fitted(ctx, config, centre, capacity)?.0
+                // A new cubemap starts from a guess, fitted by its first build (which also
+                // gives back most of a guess far too large).
+                let guess = DeepCubemap::initial_capacity(config, scene.triangle_count());
+                DeepCubemap::fitted(ctx, config, centre, wanted.max(guess).min(most))?.0
             };
-            self.capacity = self.capacity.max(cubemap.params.node_capacity);
+            self.capacity = cubemap.params.node_capacity;
             self.cubemap = Some(cubemap);
         }
         if let Some(cubemap) = &mut self.cubemap {

@@ -3,7 +3,7 @@
 
 use bevy::prelude::*;
 use bevy::render::render_resource::*;
-use bevy::render::renderer::{RenderContext, ViewQuery};
+use bevy::render::renderer::{RenderContext, RenderDevice, RenderQueue, ViewQuery};
 use bevy::render::view::ViewTarget;
 
 use super::state::{RppmViewState, ViewTimer};
@@ -11,7 +11,8 @@ use crate::cubemap::{CubemapPipelines, TracingGroups};
 use crate::scene::SceneBuffers;
 use crate::settings::RppmDebugView;
 use crate::shadows::{ShadowPipeline, render_layers};
-use crate::stats::timing::{FrameWork, StageTimer};
+use crate::stats::profile::{Checkpoints, mark};
+use crate::stats::timing::{FrameWork, Stage, StageTimer};
 use crate::view::PARAMS_STRIDE;
 
 /// Pipelines the node records with, all compiled.
@@ -34,7 +35,7 @@ pub(crate) fn rppm_node(
     shadow: Res<ShadowPipeline>,
     cubemap_pipelines: Res<CubemapPipelines>,
     #[cfg(feature = "debug")] debug_pipelines: Res<crate::debug::DebugViewPipelines>,
-    cache: Res<PipelineCache>,
+    (cache, device, queue): (Res<PipelineCache>, Res<RenderDevice>, Res<RenderQueue>),
     mut ctx: RenderContext,
 ) {
     let (view_target, state, mut timer) = view.into_inner();
@@ -62,8 +63,13 @@ pub(crate) fn rppm_node(
             .and_then(|id| cache.get_compute_pipeline(id)),
         accumulate,
     };
-    let timer = &mut timer.0;
+    let ViewTimer(timer, wall) = &mut *timer;
     let encoder = ctx.command_encoder();
+    // Profiling submits each stage itself: only ours, which need nothing Bevy recorded
+    // earlier this frame (the output, which draws into Bevy's view, stays in the frame).
+    let mut checkpoints = state
+        .profile
+        .then(|| Checkpoints::start(&device, &queue, wall, encoder));
     timer.begin_frame(FrameWork {
         iterations: state.frame.1,
         photons: state.photons,
@@ -78,7 +84,16 @@ pub(crate) fn rppm_node(
             state.debug_view,
             RppmDebugView::None | RppmDebugView::DirectPhotons
         ) {
-            encode_iteration(encoder, &node, state, &scene, slot, offset, timer);
+            encode_iteration(
+                encoder,
+                &node,
+                state,
+                &scene,
+                slot,
+                offset,
+                timer,
+                &mut checkpoints,
+            );
         } else {
             #[cfg(feature = "debug")]
             crate::debug::encode_debug_iteration(
@@ -100,7 +115,10 @@ pub(crate) fn rppm_node(
                 timer,
             );
         }
-        encode_estimate(encoder, &node, state, offset, timer);
+        encode_estimate(encoder, &node, state, offset, timer, &mut checkpoints);
+    }
+    if let Some(c) = &mut checkpoints {
+        c.iterations(count);
     }
     let output = stages.output.and_then(|id| cache.get_render_pipeline(id));
     if let Some(output) = output {
@@ -112,6 +130,10 @@ pub(crate) fn rppm_node(
 /// One PPM iteration up to its photons: shadow maps when shadows are not traced (light maps
 /// once per scene change, the area-light cube every iteration), the G-buffer, the cubemap,
 /// eye paths, photon tracing.
+#[expect(
+    clippy::too_many_arguments,
+    reason = "the view's state, its slot and its clocks"
+)]
 fn encode_iteration(
     encoder: &mut CommandEncoder,
     node: &NodePipelines,
@@ -120,6 +142,7 @@ fn encode_iteration(
     slot: u32,
     offset: u32,
     timer: &mut StageTimer,
+    checkpoints: &mut Option<Checkpoints>,
 ) {
     let triangles = scene.triangle_count();
     if !state.traced_shadows {
@@ -132,14 +155,17 @@ fn encode_iteration(
             state.shadows.layers(slot).into_iter(),
             timer,
         );
+        mark(checkpoints, encoder, Stage::ShadowMaps);
     }
     let groups = [&state.scene_group, &state.params_group];
     state
         .gbuffer
         .encode(encoder, node.gbuffer, groups, triangles, offset, timer);
+    mark(checkpoints, encoder, Stage::GBuffer);
     let cubemap = state.cubemap.cubemap.as_ref();
     if let Some(cubemap) = cubemap {
         cubemap.encode_build(encoder, node.cache, node.cubemap, &state.scene_group, timer);
+        mark(checkpoints, encoder, Stage::CubemapBuild);
     }
     if state.importons {
         state.eye_paths.encode_clear(encoder);
@@ -156,6 +182,7 @@ fn encode_iteration(
         state.key.size,
         timer,
     );
+    mark(checkpoints, encoder, Stage::LocalIllumination);
     if let (true, Some(cubemap), Some(trace), Some(store)) =
         (state.photons > 0, cubemap, node.photon, &state.store)
     {
@@ -166,6 +193,7 @@ fn encode_iteration(
             cubemap: &cubemap.trace_group,
         };
         store.encode_trace(encoder, trace, &groups, state.photons, timer);
+        mark(checkpoints, encoder, Stage::PhotonTrace);
     }
 }
 
@@ -176,6 +204,7 @@ fn encode_estimate(
     state: &RppmViewState,
     offset: u32,
     timer: &mut StageTimer,
+    checkpoints: &mut Option<Checkpoints>,
 ) {
     let cubemap = state.cubemap.cubemap.as_ref();
     let traced = state.photons > 0 && cubemap.is_some() && node.photon.is_some();
@@ -189,6 +218,7 @@ fn encode_estimate(
         state.key.size,
         timer,
     );
+    mark(checkpoints, encoder, Stage::Splat);
     if let (true, true, Some(cubemap), Some(indirect), Some(group)) = (
         traced,
         state.importons,
@@ -203,6 +233,7 @@ fn encode_estimate(
             cubemap: &cubemap.trace_group,
         };
         crate::indirect_splat::encode(encoder, indirect, &groups, group, &state.eye_paths, timer);
+        mark(checkpoints, encoder, Stage::IndirectSplat);
     }
     state.estimate.encode(
         encoder,
@@ -212,4 +243,5 @@ fn encode_estimate(
         offset,
         timer,
     );
+    mark(checkpoints, encoder, Stage::Accumulate);
 }

@@ -320,7 +320,9 @@ pub(crate) fn prepare_views(
         prepare_view(state, frame, scene, &device, &queue, &mut pipelines);
         if let Some(state) = made {
             let timer = StageTimer::new(&device, &queue, 4096);
-            commands.entity(entity).insert((state, ViewTimer(timer)));
+            commands
+                .entity(entity)
+                .insert((state, ViewTimer(timer, default())));
         }
     }
 }
@@ -381,6 +383,7 @@ fn prepare_view(
     };
     state.mode = settings.mode;
     state.debug_view = settings.debug_view;
+    state.profile = settings.profile_stages;
     state.error = frame.error;
     state.importons = key.importon_tiles > 0 && settings.debug_view == RppmDebugView::None;
     // Shadow rays need the cubemap too: it is built whenever something lights the scene.

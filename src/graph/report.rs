@@ -98,12 +98,18 @@ pub(crate) fn report_views(
             let error = Some(refused.0.clone());
             let _ = sender.send(RenderMessage::Stats(
                 camera.id(),
-                ViewStats { error, ..default() },
+                Box::new(ViewStats { error, ..default() }),
             ));
         }
     }
     for (camera, mut state, mut timer, rppm) in &mut views {
         let camera = camera.id();
+        let wall_ms_per_iteration = timer
+            .1
+            .per_iteration()
+            .into_iter()
+            .map(|(s, ms)| (s.to_string(), ms))
+            .collect();
         let timer = &mut timer.0;
         timer.start_readback();
         // A read-back frame waits for the GPU anyway; others only look.
@@ -161,7 +167,7 @@ pub(crate) fn report_views(
         state.cubemap.read_counters(&device, &queue, waiting);
         let _ = sender.send(RenderMessage::Stats(
             camera,
-            ViewStats {
+            Box::new(ViewStats {
                 epoch: changes_seen(scene_epoch, &state),
                 iteration: state.clock.iteration,
                 iterations_this_frame: state.frame.1,
@@ -177,6 +183,7 @@ pub(crate) fn report_views(
                     .zip(timer.total_ms)
                     .collect(),
                 timed_iterations: timer.timed_iterations,
+                wall_ms_per_iteration,
                 memory: memory.into_iter().collect(),
                 adapter: adapter.name.clone(),
                 error: refused
@@ -194,7 +201,7 @@ pub(crate) fn report_views(
                 scene_upload_bytes: scene.as_ref().map_or(0, |s| s.upload_bytes),
                 scene_geometry_bytes: scene.as_ref().map_or(0, |s| s.geometry_bytes()),
                 scene_extract_ms: extracted.as_ref().map_or(0.0, |s| s.extract_ms),
-            },
+            }),
         ));
     }
 }

@@ -17,6 +17,7 @@ use crate::scene::SceneBuffers;
 use crate::settings::{RppmDebugView, RppmMode};
 use crate::shadows::ShadowMaps;
 use crate::splat::{SplatPipeline, SplatTarget};
+use crate::stats::profile::WallProfile;
 use crate::stats::timing::StageTimer;
 use crate::view::params::params_binding;
 use crate::view::{PARAMS_STRIDE, ViewLayouts};
@@ -90,6 +91,8 @@ pub struct RppmViewState {
     pub importons_made: u32,
     pub mode: RppmMode,
     pub debug_view: RppmDebugView,
+    /// Each stage submitted alone and timed by the wall clock (`profile_stages`).
+    pub profile: bool,
     pub stages: Option<StageIds>,
     pub cubemap: ViewCubemap,
     pub shadows: ShadowMaps,
@@ -112,7 +115,7 @@ pub struct RppmViewState {
 /// GPU time per stage of a view: the one thing the render-graph system writes while
 /// recording.
 #[derive(Component)]
-pub struct ViewTimer(pub StageTimer);
+pub struct ViewTimer(pub StageTimer, pub WallProfile);
 
 /// The pipelines whose layouts a view's resources are bound with.
 pub struct StagePipelines<'a> {
@@ -185,6 +188,7 @@ impl RppmViewState {
             importons_made: 0,
             mode: RppmMode::Full,
             debug_view: RppmDebugView::None,
+            profile: false,
             stages: None,
             cubemap: ViewCubemap::default(),
             shadows,

@@ -3,6 +3,7 @@
 //! read-backs and Bevy diagnostics.
 
 pub mod diagnostics;
+pub mod profile;
 pub(crate) mod readback;
 pub mod timing;
 
@@ -67,6 +68,10 @@ pub struct ViewStats {
     /// resources, and the iterations those frames ran.
     pub stage_ms_total: BTreeMap<String, f64>,
     pub timed_iterations: u64,
+    /// CPU wall milliseconds per iteration and stage, each stage submitted alone and waited
+    /// for (`PhotonMapping::profile_stages`; empty otherwise), since the last reset of
+    /// resources.
+    pub wall_ms_per_iteration: BTreeMap<String, f64>,
     /// Bytes held per buffer or texture.
     #[serde(rename = "memory_bytes")]
     pub memory: BTreeMap<String, u64>,
@@ -111,7 +116,7 @@ pub struct RppmRadiance {
 }
 
 pub(crate) enum RenderMessage {
-    Stats(Entity, ViewStats),
+    Stats(Entity, Box<ViewStats>),
     Radiance(RadianceImage),
 }
 
@@ -130,7 +135,7 @@ fn receive_reports(
     while let Ok(message) = receiver.try_recv() {
         match message {
             RenderMessage::Stats(entity, s) => {
-                stats.views.insert(entity, s);
+                stats.views.insert(entity, *s);
             }
             RenderMessage::Radiance(image) => {
                 radiance.images.insert(image.camera, image);

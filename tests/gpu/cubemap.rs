@@ -80,6 +80,17 @@ fn cubemap_lists_hold_every_entry_and_grow_without_a_blocking_read_back() {
     let mut app = gpu_app();
     let (camera, _) = lit_plane(&mut app, 1000.0, 2.0, 32);
     app.world_mut().entity_mut(camera).remove::<RppmReadback>();
+    // A ball on the floor: the floor's two big triangles are listed apart, the ball's fill lists.
+    let world = app.world_mut();
+    let ball = world
+        .resource_mut::<Assets<Mesh>>()
+        .add(Sphere::new(0.5).mesh().uv(32, 16));
+    let grey = matte(&mut world.resource_mut::<Assets<StandardMaterial>>(), 0.5);
+    world.spawn((
+        Mesh3d(ball),
+        MeshMaterial3d(grey),
+        Transform::from_xyz(1.0, 0.5, 1.0),
+    ));
     let mut seen = Vec::new();
     let stats = |app: &mut App, seen: &mut Vec<(u32, u32)>| {
         app.update();
@@ -95,14 +106,15 @@ fn cubemap_lists_hold_every_entry_and_grow_without_a_blocking_read_back() {
         }
     }
     assert!(built, "no build was read back");
-    // Nested boxes around everything: few triangles, but their big faces add entries to tiles
-    // all over every face, more than the lists have room for.
+    // Nested spheres around everything, of triangles small as seen from the camera (big ones
+    // are listed apart): they add entries to tiles all over every face, more than the lists
+    // have room for.
     let world = app.world_mut();
     let material = matte(&mut world.resource_mut::<Assets<StandardMaterial>>(), 0.5);
-    for size in [12.0, 13.0, 14.0, 15.0] {
+    for radius in [12.0, 13.0, 14.0, 15.0, 16.0, 17.0] {
         let mesh = world
             .resource_mut::<Assets<Mesh>>()
-            .add(Cuboid::new(size, size, size));
+            .add(Sphere::new(radius).mesh().uv(64, 32));
         world.spawn((Mesh3d(mesh), MeshMaterial3d(material.clone())));
     }
     let mut overflowed = false;

@@ -220,3 +220,35 @@ fn only_the_passes_and_code_paths_the_scene_needs_run() {
         "{no_eye:?}"
     );
 }
+
+/// Profiling (`profile_stages`) submits and waits for each stage alone and reports its wall
+/// time per iteration, for every stage that ran; the image is the one an unprofiled render
+/// gives.
+#[test]
+fn profiling_times_every_stage_and_leaves_the_image_alone() {
+    let settings = |profile_stages| PhotonMapping {
+        photons_per_iteration: PhotonCount::Fixed(16_384),
+        profile_stages,
+        ..default()
+    };
+    let plain = render_asset(settings(false), 32, 32, 4);
+    let profiled = render_asset(settings(true), 32, 32, 4);
+    let wall = &profiled.stats.wall_ms_per_iteration;
+    println!("wall ms per iteration: {wall:?}");
+    assert!(plain.stats.wall_ms_per_iteration.is_empty());
+    for stage in [
+        "gbuffer",
+        "cubemap_build",
+        "local_illumination",
+        "photon_trace",
+        "splat",
+        "accumulate",
+    ] {
+        assert!(
+            wall.get(stage).is_some_and(|&ms| ms > 0.0),
+            "{stage}: {wall:?}"
+        );
+    }
+    let error = bevy_rppm_cli::image_io::relmse(&profiled.image, &plain.image).unwrap();
+    assert!(error < 1e-4, "profiled against plain: relMSE {error}");
+}

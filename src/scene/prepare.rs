@@ -217,29 +217,33 @@ pub(crate) fn prepare_scene(
         place.place(&device, &queue, &cache, buffers, count as u32, max_groups);
     }
     let attributes = upload.attributes(last, data);
-    let materials = upload.same_or_new(
-        last.map(|l| (l.data.materials.as_slice(), &l.materials)),
-        &data.materials,
+    let materials = upload.table(
+        last,
+        data,
+        |d| &d.materials,
+        |b| &b.materials,
         "rppm_materials",
     );
-    let lights = upload.same_or_new(
-        last.map(|l| (l.data.lights.as_slice(), &l.lights)),
-        &data.lights,
-        "rppm_lights",
-    );
-    let emitters = upload.same_or_new(
-        last.map(|l| (l.data.emitters.as_slice(), &l.emitters)),
-        &data.emitters,
+    let lights = upload.table(last, data, |d| &d.lights, |b| &b.lights, "rppm_lights");
+    let emitters = upload.table(
+        last,
+        data,
+        |d| &d.emitters,
+        |b| &b.emitters,
         "rppm_emitters",
     );
-    let light_cdf = upload.same_or_new(
-        last.map(|l| (l.data.light_cdf.as_slice(), &l.light_cdf)),
-        &data.light_cdf,
+    let light_cdf = upload.table(
+        last,
+        data,
+        |d| &d.light_cdf,
+        |b| &b.light_cdf,
         "rppm_light_cdf",
     );
-    let textures = upload.same_or_new(
-        last.map(|l| (l.data.textures.as_slice(), &l.textures)),
-        &data.textures,
+    let textures = upload.table(
+        last,
+        data,
+        |d| &d.textures,
+        |b| &b.textures,
         "rppm_textures",
     );
     // A change that kept the textures (a moved object) keeps their upload.

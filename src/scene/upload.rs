@@ -42,6 +42,20 @@ impl Upload<'_> {
         }
     }
 
+    /// The scene table `items` picks, with the last buffer `buffer` picks when it holds the
+    /// same items.
+    pub fn table<T: Pod + Default>(
+        &mut self,
+        last: Option<&SceneBuffers>,
+        data: &SceneData,
+        items: fn(&SceneData) -> &[T],
+        buffer: fn(&SceneBuffers) -> &Buffer,
+        label: &'static str,
+    ) -> Buffer {
+        let last = last.map(|l| (items(&l.data), buffer(l)));
+        self.same_or_new(last, items(data), label)
+    }
+
     /// The last buffer with the items that changed written into it (runs of them) when the
     /// count is the same, else a new one; and whether anything was written.
     pub fn diff<T: Pod + Default>(

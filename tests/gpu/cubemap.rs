@@ -82,15 +82,9 @@ fn cubemap_lists_hold_every_entry_and_grow_without_a_blocking_read_back() {
     app.world_mut().entity_mut(camera).remove::<RppmReadback>();
     // A ball on the floor: the floor's two big triangles are listed apart, the ball's fill lists.
     let world = app.world_mut();
-    let ball = world
-        .resource_mut::<Assets<Mesh>>()
-        .add(Sphere::new(0.5).mesh().uv(32, 16));
     let grey = matte(&mut world.resource_mut::<Assets<StandardMaterial>>(), 0.5);
-    world.spawn((
-        Mesh3d(ball),
-        MeshMaterial3d(grey),
-        Transform::from_xyz(1.0, 0.5, 1.0),
-    ));
+    let ball = Sphere::new(0.5).mesh().uv(32, 16);
+    spawn_mesh(world, ball, grey, Transform::from_xyz(1.0, 0.5, 1.0));
     let mut seen = Vec::new();
     let stats = |app: &mut App, seen: &mut Vec<(u32, u32)>| {
         app.update();
@@ -112,10 +106,8 @@ fn cubemap_lists_hold_every_entry_and_grow_without_a_blocking_read_back() {
     let world = app.world_mut();
     let material = matte(&mut world.resource_mut::<Assets<StandardMaterial>>(), 0.5);
     for radius in [12.0, 13.0, 14.0, 15.0, 16.0, 17.0] {
-        let mesh = world
-            .resource_mut::<Assets<Mesh>>()
-            .add(Sphere::new(radius).mesh().uv(64, 32));
-        world.spawn((Mesh3d(mesh), MeshMaterial3d(material.clone())));
+        let sphere = Sphere::new(radius).mesh().uv(64, 32);
+        spawn_mesh(world, sphere, material.clone(), Transform::default());
     }
     let mut overflowed = false;
     for _ in 0..60 {

@@ -16,23 +16,12 @@ fn scene(x: f32) -> (App, Entity, Entity) {
         reflectance: 0.0,
         ..default()
     };
-    spawn_occluder(&mut app, 0.5, 1.0, grey);
+    let square = spawn_occluder(&mut app, 0.5, 1.0, grey);
     let world = app.world_mut();
-    let square = world
-        .query_filtered::<Entity, (With<Mesh3d>, Without<Camera>)>()
-        .iter(world)
-        .last()
-        .unwrap();
     world.get_mut::<Transform>(square).unwrap().translation.x = x;
-    let sphere = world
-        .resource_mut::<Assets<Mesh>>()
-        .add(Sphere::new(0.3).mesh().uv(320, 160));
     let material = matte(&mut world.resource_mut::<Assets<StandardMaterial>>(), 0.6);
-    world.spawn((
-        Mesh3d(sphere),
-        MeshMaterial3d(material),
-        Transform::from_xyz(-1.2, 0.3, 1.2),
-    ));
+    let sphere = Sphere::new(0.3).mesh().uv(320, 160);
+    spawn_mesh(world, sphere, material, Transform::from_xyz(-1.2, 0.3, 1.2));
     (app, camera, square)
 }
 

@@ -37,13 +37,8 @@ fn shadow_scene(history: RppmHistory, x: f32, camera_x: f32) -> (App, Entity, En
         perceptual_roughness: 1.0,
         ..default()
     };
-    spawn_occluder(&mut app, 0.5, 1.0, black);
+    let occluder = spawn_occluder(&mut app, 0.5, 1.0, black);
     let world = app.world_mut();
-    let occluder = world
-        .query_filtered::<Entity, (With<Mesh3d>, Without<Camera>)>()
-        .iter(world)
-        .last()
-        .unwrap();
     world.get_mut::<Transform>(occluder).unwrap().translation.x = x;
     (app, camera, occluder)
 }

@@ -210,14 +210,8 @@ fn camera_inside_geometry_and_grazing_coplanar_triangles_stay_finite() {
         world.resource_mut::<Assets<Mesh>>().add(mesh)
     };
     world.spawn((Mesh3d(sliver), MeshMaterial3d(material.clone())));
-    let cube = world
-        .resource_mut::<Assets<Mesh>>()
-        .add(Cuboid::new(1.0, 1.0, 1.0));
-    world.spawn((
-        Mesh3d(cube),
-        MeshMaterial3d(material),
-        Transform::from_xyz(0.0, 0.6, 0.0),
-    ));
+    let cube = Cuboid::new(1.0, 1.0, 1.0);
+    spawn_mesh(world, cube, material, Transform::from_xyz(0.0, 0.6, 0.0));
     // Inside the cube, then level with the plane looking along it.
     let poses = [
         Transform::from_xyz(0.0, 0.6, 0.0).looking_at(Vec3::new(0.3, 0.6, 0.2), Vec3::Y),

@@ -28,14 +28,8 @@ fn sky_scene(albedo: f32, size: u32) -> (App, Entity) {
     world
         .entity_mut(plane)
         .insert(MeshMaterial3d(material.clone()));
-    let cube = world
-        .resource_mut::<Assets<Mesh>>()
-        .add(Cuboid::new(1.0, 1.0, 1.0));
-    world.spawn((
-        Mesh3d(cube),
-        MeshMaterial3d(material),
-        Transform::from_xyz(0.5, 0.5, 0.0),
-    ));
+    let cube = Cuboid::new(1.0, 1.0, 1.0);
+    spawn_mesh(world, cube, material, Transform::from_xyz(0.5, 0.5, 0.0));
     world.insert_resource(RppmSky {
         color: Color::WHITE,
         radiance: 2.0,

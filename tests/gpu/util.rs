@@ -460,21 +460,26 @@ pub fn scaled(image: &RgbImage, k: f32) -> RgbImage {
 
 /// A horizontal square of half-size `half` at height `y`, facing up (an occluder between
 /// `plane_scene`'s light and plane).
-pub fn spawn_occluder(app: &mut App, half: f32, y: f32, material: StandardMaterial) {
+pub fn spawn_occluder(app: &mut App, half: f32, y: f32, material: StandardMaterial) -> Entity {
     let world = app.world_mut();
-    let mesh = world.resource_mut::<Assets<Mesh>>().add(quad(
-        half,
-        Some(Indices::U32(vec![0, 1, 2, 0, 2, 3])),
-        true,
-    ));
+    let mesh = quad(half, Some(Indices::U32(vec![0, 1, 2, 0, 2, 3])), true);
     let material = world
         .resource_mut::<Assets<StandardMaterial>>()
         .add(material);
-    world.spawn((
-        Mesh3d(mesh),
-        MeshMaterial3d(material),
-        Transform::from_xyz(0.0, y, 0.0),
-    ));
+    spawn_mesh(world, mesh, material, Transform::from_xyz(0.0, y, 0.0))
+}
+
+/// `mesh` with `material` at `transform`.
+pub fn spawn_mesh(
+    world: &mut World,
+    mesh: impl Into<Mesh>,
+    material: Handle<StandardMaterial>,
+    transform: Transform,
+) -> Entity {
+    let mesh = world.resource_mut::<Assets<Mesh>>().add(mesh.into());
+    world
+        .spawn((Mesh3d(mesh), MeshMaterial3d(material), transform))
+        .id()
 }
 
 /// The camera's estimate after `n` iterations, checked finite.

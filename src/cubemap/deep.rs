@@ -7,6 +7,7 @@ use bevy::render::renderer::{RenderDevice, RenderQueue};
 
 use super::{BIG_TRIANGLES, BuildContext, CubemapConfig, CubemapParams, CubemapPipelines};
 use crate::scene::SceneBuffers;
+use crate::scene::place::dispatch_size;
 use crate::stats::readback::{AsyncReadback, read_back};
 use crate::stats::timing::{FrameWork, Stage, StageTimer};
 
@@ -355,9 +356,9 @@ impl DeepCubemap {
             pass.set_pipeline(classify);
             pass.set_bind_group(0, scene_group, &[]);
             pass.set_bind_group(1, &self.classify_group, &[]);
-            let groups = self.params.triangle_count.div_ceil(64).max(1);
-            let x = groups.min(65_535);
-            pass.dispatch_workgroups(x, groups.div_ceil(x), 1);
+            // 65 535 groups a dimension: the least any device allows.
+            let [x, y] = dispatch_size(self.params.triangle_count, 65_535);
+            pass.dispatch_workgroups(x, y, 1);
         }
         let vertices = self.params.triangle_count * 6;
         for pipeline in [bounds, insert] {

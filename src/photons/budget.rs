@@ -219,14 +219,8 @@ mod tests {
 
     fn cost(photon: f64, other: f64, photons: u32) -> FrameCost {
         let mut ms = [0.0; STAGES];
-        ms[Stage::ALL
-            .iter()
-            .position(|s| *s == Stage::PhotonTrace)
-            .unwrap()] = photon;
-        ms[Stage::ALL
-            .iter()
-            .position(|s| *s == Stage::CubemapBuild)
-            .unwrap()] = other;
+        ms[Stage::PhotonTrace.index()] = photon;
+        ms[Stage::CubemapBuild.index()] = other;
         FrameCost {
             ms,
             work: FrameWork {

@@ -92,9 +92,9 @@ impl PlacePipeline {
     }
 }
 
-/// Workgroups (x, y) covering `count` threads, x at most `max_groups` (the device's limit
-/// per dimension).
-fn dispatch_size(count: u32, max_groups: u32) -> [u32; 2] {
+/// Workgroups (x, y) of 64 threads covering `count` threads, x at most `max_groups` (the
+/// device's limit per dimension): for a pass over every triangle.
+pub(crate) fn dispatch_size(count: u32, max_groups: u32) -> [u32; 2] {
     let groups = count.div_ceil(WORKGROUP).max(1);
     let x = groups.min(max_groups.max(1));
     [x, groups.div_ceil(x)]

@@ -29,19 +29,6 @@ impl Upload<'_> {
         buffer
     }
 
-    /// The last buffer when it holds the same items, else a new one.
-    pub fn same_or_new<T: Pod + Default>(
-        &mut self,
-        last: Option<(&[T], &Buffer)>,
-        items: &[T],
-        label: &'static str,
-    ) -> Buffer {
-        match last {
-            Some((old, buffer)) if same(old, items) => buffer.clone(),
-            _ => self.new_buffer(label, items),
-        }
-    }
-
     /// The scene table `items` picks, with the last buffer `buffer` picks when it holds the
     /// same items.
     pub fn table<T: Pod + Default>(
@@ -52,8 +39,10 @@ impl Upload<'_> {
         buffer: fn(&SceneBuffers) -> &Buffer,
         label: &'static str,
     ) -> Buffer {
-        let last = last.map(|l| (items(&l.data), buffer(l)));
-        self.same_or_new(last, items(data), label)
+        match last {
+            Some(l) if same(items(&l.data), items(data)) => buffer(l).clone(),
+            _ => self.new_buffer(label, items(data)),
+        }
     }
 
     /// The last buffer with the items that changed written into it (runs of them) when the

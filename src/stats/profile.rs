@@ -76,9 +76,8 @@ impl<'a> Checkpoints<'a> {
     pub fn stage(&mut self, encoder: &mut CommandEncoder, stage: Stage) {
         self.submit(encoder);
         let now = Instant::now();
-        let index = Stage::ALL.iter().position(|&s| s == stage).unwrap_or(0);
         if self.profile.warmed_up {
-            self.profile.total_ms[index] += (now - self.last).as_secs_f64() * 1e3;
+            self.profile.total_ms[stage.index()] += (now - self.last).as_secs_f64() * 1e3;
         }
         self.last = now;
     }

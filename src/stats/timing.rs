@@ -40,6 +40,11 @@ impl Stage {
         Stage::Accumulate,
     ];
 
+    /// Its place in [`Stage::ALL`] and in per-stage arrays.
+    pub fn index(self) -> usize {
+        self as usize
+    }
+
     pub fn name(self) -> &'static str {
         match self {
             Stage::ShadowMaps => "shadow_maps",
@@ -246,8 +251,7 @@ impl StageTimer {
             let ticks: &[u64] = bytemuck::cast_slice(&view);
             for (i, stage) in spans.iter().enumerate() {
                 let dt = ticks[2 * i + 1].saturating_sub(ticks[2 * i]);
-                let slot = Stage::ALL.iter().position(|s| s == stage).unwrap_or(0);
-                ms[slot] += dt as f64 * self.period_ns as f64 * 1e-6;
+                ms[stage.index()] += dt as f64 * self.period_ns as f64 * 1e-6;
             }
         }
         readback.unmap();
@@ -259,5 +263,17 @@ impl StageTimer {
         self.last_frame = *frame;
         self.in_flight = None;
         true
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_stage_index_is_its_place_in_all() {
+        for (i, stage) in Stage::ALL.iter().enumerate() {
+            assert_eq!(stage.index(), i, "{stage:?}");
+        }
     }
 }

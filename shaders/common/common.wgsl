@@ -348,14 +348,13 @@ struct Importon {
     // Triangle it lies on; NO_IMPORTON when the pixel has none this iteration.
     triangle: u32,
     normal: vec3<f32>,
-    // Next importon in its cubemap tile's list, as index + 1 (0 ends the list).
-    next: u32,
+    pad_a: u32,
     // Product of the specular bounces' weights from the camera.
     throughput: vec3<f32>,
     radius: f32,
     // Direction towards the previous path vertex.
     outgoing: vec3<f32>,
-    pad: u32,
+    pad_b: u32,
 }
 
 const NO_IMPORTON: u32 = 0xffffffffu;

@@ -3,7 +3,7 @@
 // With IMPORTONS, a pixel that sees a specular surface (mirror, glass) follows the camera path
 // through the deep cubemap to the first non-specular surface, lights it the same way, and
 // leaves an importon there for indirect splatting.
-#import bevy_rppm::common::{Material, IterationParams, Importon, NO_IMPORTON, cubemap_tile, gather_radius, random, pcg_hash}
+#import bevy_rppm::common::{Material, IterationParams, Importon, NO_IMPORTON, gather_radius, random, pcg_hash}
 #import bevy_rppm::scene::{triangle_at, gbuffer_material, material_at, as_seen_from, normal_at, interpolated_normal}
 #import bevy_rppm::lighting::{params, surface_light}
 #ifdef IMPORTONS
@@ -17,10 +17,9 @@
 @group(2) @binding(3) var<storage, read_write> samples: array<vec4<f32>>;
 #ifdef IMPORTONS
 @group(2) @binding(4) var<storage, read_write> importons: array<Importon>;
-@group(2) @binding(5) var<storage, read_write> importon_heads: array<atomic<u32>>;
-// [0]: largest importon radius (f32 bits), [1]: importons made, [4..7]: the indirect
-// splat's dispatch (x set here, once an importon exists).
-@group(2) @binding(6) var<storage, read_write> importon_stats: array<atomic<u32>, 8>;
+// [0]: importons made; the indirect splat's dispatches, their x set here once an importon
+// exists: [4..7] binning photons, [8..11] gathering them per pixel.
+@group(2) @binding(5) var<storage, read_write> importon_stats: array<atomic<u32>, 12>;
 
 // Camera-path vertex from which Russian roulette may end a path.
 const EYE_ROULETTE_DEPTH: u32 = 3u;
@@ -106,11 +105,9 @@ fn follow_camera_path(pixel: u32, x0: vec3<f32>, n0: vec3<f32>, m0: Material, tr
             let footprint = params.pixel_spread * select(length, 1.0, params.orthographic != 0u);
             let radius = gather_radius(params, params.splat_radius, footprint);
             importons[pixel] = Importon(x, hit.triangle, interpolated, 0u, throughput, radius, -d, 0u);
-            let tile = cubemap_tile(cubemap, x);
-            importons[pixel].next = atomicExchange(&importon_heads[tile.index], pixel + 1u);
-            atomicMax(&importon_stats[0], bitcast<u32>(radius));
-            atomicAdd(&importon_stats[1], 1u);
+            atomicAdd(&importon_stats[0], 1u);
             atomicMax(&importon_stats[4], (params.photon_capacity + 63u) / 64u);
+            atomicMax(&importon_stats[8], (params.size.x * params.size.y + 63u) / 64u);
             return found + throughput * surface_light(m, x, n, -d, front, hit.triangle, true, rng);
         }
         // Emitters are found by the path itself past a glossy vertex, so only punctual

@@ -1,54 +1,32 @@
-// Indirect splatting: every stored photon is splatted onto each deep cubemap tile its gather
-// sphere reaches, on every face (a splat near a face's edge reaches the next face, or the
-// importons there would miss its photons); each tile's importon list is tested,
-// and a photon inside an importon's radius, on its surface, adds
-// throughput · f(wo, wi) · Φ / (π r²) to the importon's pixel.
-#import bevy_rppm::common::{Photon, Importon, IterationParams, PI, face_basis, splat_survives, splat_weight}
+// Indirect splatting, as a gather: `bin` lists every stored photon in the deep cubemap tile
+// that holds it; `gather` has each importon visit the tiles its own gather sphere reaches, on
+// every face (a sphere near a face's edge reaches the next face), and add the photons inside
+// its radius, on its surface: throughput · f(wo, wi) · Φ / (π r²). The work is the photons
+// near importons, each importon's sum stays in registers (no atomics), and a large radius
+// elsewhere costs no one else.
+#import bevy_rppm::common::{Material, Photon, Importon, IterationParams, PI, NO_IMPORTON, face_basis, cubemap_tile, splat_survives, splat_weight}
 #import bevy_rppm::scene::{triangle_at, barycentrics, material_at}
 #import bevy_rppm::bsdf::bsdf_eval
 #import bevy_rppm::cubemap::cubemap
 
 @group(1) @binding(0) var<uniform> params: IterationParams;
 
-@group(2) @binding(0) var<storage, read> photons: array<Photon>;
+// `pad_a` of a binned photon: the next photon in its tile's list, as index + 1 (0 ends it).
+@group(2) @binding(0) var<storage, read_write> photons: array<Photon>;
 @group(2) @binding(1) var<storage, read> photon_count: array<u32, 4>;
 @group(2) @binding(2) var<storage, read> importons: array<Importon>;
-@group(2) @binding(3) var<storage, read> importon_heads: array<u32>;
-@group(2) @binding(4) var<storage, read> importon_stats: array<u32, 8>;
-// Per pixel rgb (+ pad) as f32 bits, summed with compare-exchange.
-@group(2) @binding(5) var<storage, read_write> importon_radiance: array<atomic<u32>>;
+// Per cubemap tile, the head of its photon list (index + 1).
+@group(2) @binding(3) var<storage, read_write> photon_heads: array<atomic<u32>>;
+// Per pixel, the photons its importon gathered (rgb).
+@group(2) @binding(4) var<storage, read_write> importon_radiance: array<vec4<f32>>;
 
-fn add_f32(index: u32, value: f32) {
-    var old = atomicLoad(&importon_radiance[index]);
-    loop {
-        let swapped = atomicCompareExchangeWeak(&importon_radiance[index], old, bitcast<u32>(bitcast<f32>(old) + value));
-        if swapped.exchanged {
-            return;
-        }
-        old = swapped.old_value;
+@compute @workgroup_size(64, 1, 1)
+fn bin(@builtin(global_invocation_id) id: vec3<u32>) {
+    if id.x >= min(photon_count[1], params.photon_capacity) {
+        return;
     }
-}
-
-fn gather(p: Photon, photon: u32, list: u32) {
-    var node = list;
-    for (var guard = 0u; node != 0u && guard < arrayLength(&importons); guard += 1u) {
-        let pixel = node - 1u;
-        let imp = importons[pixel];
-        node = imp.next;
-        let offset = p.position - imp.position;
-        let r = imp.radius;
-        if dot(offset, offset) > r * r || abs(dot(offset, imp.normal)) > params.kernel_flattening * r || dot(p.normal, imp.normal) < 0.5 {
-            continue;
-        }
-        if !splat_survives(params, photon, pixel) {
-            continue;
-        }
-        let f = bsdf_eval(material_at(imp.triangle, barycentrics(triangle_at(imp.triangle), imp.position), 0.0), imp.normal, imp.outgoing, p.incoming);
-        let c = imp.throughput * f * p.flux * (splat_weight(params) / (PI * r * r));
-        add_f32(4u * pixel, c.x);
-        add_f32(4u * pixel + 1u, c.y);
-        add_f32(4u * pixel + 2u, c.z);
-    }
+    let tile = cubemap_tile(cubemap, photons[id.x].position);
+    photons[id.x].pad_a = atomicExchange(&photon_heads[tile.index], id.x + 1u);
 }
 
 // The range of s = a / z a face's coordinate takes over a sphere of radius r centred at
@@ -69,20 +47,43 @@ fn face_span(a: f32, z: f32, r: f32) -> vec2<f32> {
     return vec2<f32>(tan(lo), tan(hi));
 }
 
+// The photons of one tile's list that importon `imp` (of `pixel`, on material `m`) gathers.
+fn gather_list(imp: Importon, m: Material, pixel: u32, head: u32) -> vec3<f32> {
+    var sum = vec3<f32>(0.0);
+    var node = head;
+    let r = imp.radius;
+    for (var guard = 0u; node != 0u && guard < arrayLength(&photons); guard += 1u) {
+        let photon = node - 1u;
+        let p = photons[photon];
+        node = p.pad_a;
+        let offset = p.position - imp.position;
+        if dot(offset, offset) > r * r || abs(dot(offset, imp.normal)) > params.kernel_flattening * r || dot(p.normal, imp.normal) < 0.5 {
+            continue;
+        }
+        if !splat_survives(params, photon, pixel) {
+            continue;
+        }
+        sum += bsdf_eval(m, imp.normal, imp.outgoing, p.incoming) * p.flux;
+    }
+    return sum;
+}
+
 @compute @workgroup_size(64, 1, 1)
-fn main(@builtin(global_invocation_id) id: vec3<u32>) {
-    if id.x >= min(photon_count[1], params.photon_capacity) || importon_stats[1] == 0u {
+fn gather(@builtin(global_invocation_id) id: vec3<u32>) {
+    let pixel = id.x;
+    if pixel >= params.size.x * params.size.y || importons[pixel].triangle == NO_IMPORTON {
         return;
     }
-    let p = photons[id.x];
-    let radius = bitcast<f32>(importon_stats[0]);
-    let v = p.position - cubemap.centre.xyz;
+    let imp = importons[pixel];
+    let m = material_at(imp.triangle, barycentrics(triangle_at(imp.triangle), imp.position), 0.0);
+    let v = imp.position - cubemap.centre.xyz;
     let g = f32(cubemap.grid);
     let last = i32(cubemap.grid) - 1;
+    var sum = vec3<f32>(0.0);
     for (var face = 0u; face < 6u; face += 1u) {
         let l = transpose(face_basis(face)) * v;
-        let sx = face_span(l.x, l.z, radius);
-        let sy = face_span(l.y, l.z, radius);
+        let sx = face_span(l.x, l.z, imp.radius);
+        let sy = face_span(l.y, l.z, imp.radius);
         if sx.x > sx.y || sy.x > sy.y {
             continue;
         }
@@ -94,8 +95,10 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
         for (var y = y0; y <= y1; y += 1) {
             for (var x = x0; x <= x1; x += 1) {
                 let index = (face * cubemap.grid + u32(y)) * cubemap.grid + u32(x);
-                gather(p, id.x, importon_heads[index]);
+                sum += gather_list(imp, m, pixel, atomicLoad(&photon_heads[index]));
             }
         }
     }
+    let r = imp.radius;
+    importon_radiance[pixel] = vec4<f32>(imp.throughput * sum * (splat_weight(params) / (PI * r * r)), 0.0);
 }

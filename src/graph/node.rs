@@ -24,7 +24,7 @@ struct NodePipelines<'a> {
     eye_paths: &'a ComputePipeline,
     photon: Option<&'a ComputePipeline>,
     splat: Option<&'a RenderPipeline>,
-    indirect_splat: Option<&'a ComputePipeline>,
+    indirect_splat: Option<[&'a ComputePipeline; 2]>,
     accumulate: &'a ComputePipeline,
 }
 
@@ -58,9 +58,12 @@ pub(crate) fn rppm_node(
         eye_paths,
         photon: stages.trace.and_then(|id| cache.get_compute_pipeline(id)),
         splat: stages.splat.and_then(|id| cache.get_render_pipeline(id)),
-        indirect_splat: stages
-            .indirect_splat
-            .and_then(|id| cache.get_compute_pipeline(id)),
+        indirect_splat: stages.indirect_splat.and_then(|[bin, gather]| {
+            Some([
+                cache.get_compute_pipeline(bin)?,
+                cache.get_compute_pipeline(gather)?,
+            ])
+        }),
         accumulate,
     };
     let ViewTimer(timer, wall) = &mut *timer;

@@ -106,11 +106,13 @@ fn stages_ready(state: &RppmViewState, cache: &PipelineCache) -> Result<bool, St
     let Some(stages) = state.stages else {
         return Ok(false);
     };
+    let [bin, gather] = stages.indirect_splat.map_or([None; 2], |ids| ids.map(Some));
     let compute = [
         Some(stages.eye_paths),
         Some(stages.accumulate),
         stages.trace,
-        stages.indirect_splat,
+        bin,
+        gather,
     ];
     let render = [Some(stages.gbuffer), stages.splat]
         .into_iter()
@@ -172,7 +174,7 @@ fn select_stages(
             )
         }),
         indirect_splat: (traced && state.importons)
-            .then(|| pipelines.indirect_splat.id(cache, textured)),
+            .then(|| pipelines.indirect_splat.ids(cache, textured)),
         accumulate: pipelines.accumulate_variants.specialize(
             cache,
             &pipelines.accumulate,

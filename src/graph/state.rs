@@ -45,7 +45,8 @@ pub struct StageIds {
     pub eye_paths: CachedComputePipelineId,
     pub trace: Option<CachedComputePipelineId>,
     pub splat: Option<CachedRenderPipelineId>,
-    pub indirect_splat: Option<CachedComputePipelineId>,
+    /// Binning and gathering.
+    pub indirect_splat: Option<[CachedComputePipelineId; 2]>,
     pub accumulate: CachedComputePipelineId,
     pub output: Option<CachedRenderPipelineId>,
 }

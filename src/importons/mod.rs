@@ -2,8 +2,7 @@
 //! emission plus direct light with shadows, this iteration's sample before photons are added.
 //! With importons, a pixel that sees a mirror or clear glass follows its camera path through
 //! the deep cubemap to the first non-specular surface, lights it the same way and leaves an
-//! importon there, in the list of the cubemap tile that holds it, for indirect splatting
-//! (`shaders/importons/eye_paths.wgsl`).
+//! importon there (one per pixel) for indirect splatting (`shaders/importons/eye_paths.wgsl`).
 
 use bevy::prelude::*;
 use bevy::render::render_resource::binding_types::{
@@ -22,8 +21,10 @@ use crate::shadows::ShadowMaps;
 use crate::stats::timing::{Stage, StageTimer};
 use crate::view::ViewLayouts;
 
-/// Byte offset of the indirect splat's dispatch arguments in the importon stats buffer.
-pub const IMPORTON_DISPATCH: u64 = 16;
+/// Byte offsets of the indirect splat's dispatch arguments in the importon stats buffer:
+/// binning photons (one thread a photon), gathering them (one a pixel).
+pub const BIN_DISPATCH: u64 = 16;
+pub const GATHER_DISPATCH: u64 = 32;
 
 pub(crate) struct ImportonsPlugin;
 
@@ -41,7 +42,7 @@ impl Plugin for ImportonsPlugin {
 #[derive(Resource)]
 pub struct EyePathPipeline {
     /// 0 G-buffer position, 1 G-buffer normal, 2 shadow maps, 3 this iteration's samples,
-    /// 4 importons, 5 importon lists' heads, 6 importon stats.
+    /// 4 importons, 5 importon stats.
     pub layout: BindGroupLayoutDescriptor,
     view: ViewLayouts,
     shader: Handle<Shader>,
@@ -112,7 +113,6 @@ pub fn eye_path_layout() -> BindGroupLayoutDescriptor {
                 storage_buffer_sized(false, None),
                 storage_buffer_sized(false, None),
                 storage_buffer_sized(false, None),
-                storage_buffer_sized(false, None),
             ),
         ),
     )
@@ -137,10 +137,10 @@ pub struct EyePaths {
     pub samples: Buffer,
     /// One importon per pixel.
     pub importons: Buffer,
-    /// The heads of the cubemap tiles' importon lists.
-    pub heads: Buffer,
-    /// [largest radius, importons made, -, -, dispatch x, y, z, -]: the stage sets the
-    /// indirect splat's workgroup count only when it makes an importon.
+    /// The heads of the cubemap tiles' photon lists, which indirect splatting gathers from.
+    pub photon_heads: Buffer,
+    /// [importons made, -, -, -, bin x, y, z, -, gather x, y, z, -]: the stage sets the
+    /// indirect splat's workgroup counts only when it makes an importon.
     pub stats: Buffer,
     /// Per pixel, the photons the pixel's importon gathered (indirect splatting's output).
     pub radiance: Buffer,
@@ -177,10 +177,10 @@ impl EyePaths {
                 mapped_at_creation: false,
             }),
             importons: storage(device, "rppm_importons", per_pixel(64)),
-            heads: storage(device, "rppm_importon_heads", importon_tiles as u64 * 4),
+            photon_heads: storage(device, "rppm_photon_heads", importon_tiles as u64 * 4),
             stats: device.create_buffer_with_data(&BufferInitDescriptor {
                 label: Some("rppm_importon_stats"),
-                contents: bytemuck::cast_slice(&[0u32, 0, 0, 0, 0, 1, 1, 0]),
+                contents: bytemuck::cast_slice(&[0u32, 0, 0, 0, 0, 1, 1, 0, 0, 1, 1, 0]),
                 usage: BufferUsages::STORAGE
                     | BufferUsages::COPY_DST
                     | BufferUsages::COPY_SRC
@@ -209,7 +209,6 @@ impl EyePaths {
                 &shadows.array_view,
                 self.samples.as_entire_binding(),
                 self.importons.as_entire_binding(),
-                self.heads.as_entire_binding(),
                 self.stats.as_entire_binding(),
             )),
         ));
@@ -219,18 +218,19 @@ impl EyePaths {
         [
             ("samples", self.samples.size()),
             ("importons", self.importons.size()),
-            ("importon_heads", self.heads.size()),
+            ("photon_heads", self.photon_heads.size()),
             ("importon_radiance", self.radiance.size()),
         ]
     }
 
-    /// Empties the importon lists and gathered light before an iteration's camera paths.
+    /// Empties the photon lists and gathered light before an iteration's camera paths.
     pub fn encode_clear(&self, encoder: &mut CommandEncoder) {
-        for buffer in [&self.heads, &self.radiance] {
+        for buffer in [&self.photon_heads, &self.radiance] {
             encoder.clear_buffer(buffer, 0, None);
         }
-        // The stats and the dispatch's x; its y and z stay 1.
-        encoder.clear_buffer(&self.stats, 0, Some(IMPORTON_DISPATCH + 4));
+        // The stats and the dispatches' x; their y and z stay 1.
+        encoder.clear_buffer(&self.stats, 0, Some(BIN_DISPATCH + 4));
+        encoder.clear_buffer(&self.stats, GATHER_DISPATCH, Some(4));
     }
 
     /// Lights every pixel's first hit (and, with `cubemap`, follows its camera path).

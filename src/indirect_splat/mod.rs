@@ -1,7 +1,8 @@
-//! Indirect splatting: each stored photon visits the deep-cubemap tiles its radius can reach
-//! and adds to the importons listed there (`shaders/indirect_splat/indirect_splat.wgsl`).
-//! Dispatched indirectly: the eye-path stage sets the workgroup count only when it makes an
-//! importon, so an iteration whose glass is off screen runs no workgroup.
+//! Indirect splatting: the stored photons are listed in the deep-cubemap tiles that hold them
+//! (`bin`), then each importon visits the tiles its own radius reaches and adds the photons
+//! near it (`gather`; `shaders/indirect_splat/indirect_splat.wgsl`). Both are dispatched
+//! indirectly: the eye-path stage sets their workgroup counts only when it makes an importon,
+//! so an iteration whose glass is off screen runs no workgroup.
 
 use bevy::prelude::*;
 use bevy::render::render_resource::binding_types::{
@@ -12,7 +13,7 @@ use bevy::render::renderer::RenderDevice;
 use bevy::render::{RenderApp, RenderStartup};
 
 use crate::cubemap::{TracingGroups, tracing_pipeline};
-use crate::importons::{EyePaths, IMPORTON_DISPATCH};
+use crate::importons::{BIN_DISPATCH, EyePaths, GATHER_DISPATCH};
 use crate::photons::PhotonStore;
 use crate::scene::texture_defs;
 use crate::shaders::RppmShaders;
@@ -29,28 +30,37 @@ impl Plugin for IndirectSplatPlugin {
     }
 }
 
-/// The indirect-splat stage, specialized by whether the scene is textured (`TEXTURED`).
-/// Each variant is queued the first time a view makes importons.
+/// The indirect-splat stage: binning photons, and gathering them, specialized by whether the
+/// scene is textured (`TEXTURED`). Each is queued the first time a view makes importons.
 #[derive(Resource)]
 pub struct IndirectSplatPipeline {
-    /// 0 photons, 1 photon count, 2 importons, 3 their lists' heads, 4 importon stats,
-    /// 5 gathered radiance per importon.
+    /// 0 photons, 1 photon count, 2 importons, 3 the tiles' photon lists' heads, 4 gathered
+    /// radiance per importon.
     pub layout: BindGroupLayoutDescriptor,
     descriptor: ComputePipelineDescriptor,
+    bin: Option<CachedComputePipelineId>,
     /// Untextured, textured.
-    ids: [Option<CachedComputePipelineId>; 2],
+    gather: [Option<CachedComputePipelineId>; 2],
 }
 
 impl IndirectSplatPipeline {
-    /// The pipeline, queued now if it never was.
-    pub fn id(&mut self, cache: &PipelineCache, textured: bool) -> CachedComputePipelineId {
+    /// The binning and gathering pipelines, queued now if they never were.
+    pub fn ids(&mut self, cache: &PipelineCache, textured: bool) -> [CachedComputePipelineId; 2] {
         let descriptor = &self.descriptor;
-        *self.ids[textured as usize].get_or_insert_with(|| {
+        let bin = *self.bin.get_or_insert_with(|| {
             cache.queue_compute_pipeline(ComputePipelineDescriptor {
-                shader_defs: texture_defs(textured),
+                entry_point: Some("bin".into()),
                 ..descriptor.clone()
             })
-        })
+        });
+        let gather = *self.gather[textured as usize].get_or_insert_with(|| {
+            cache.queue_compute_pipeline(ComputePipelineDescriptor {
+                shader_defs: texture_defs(textured),
+                entry_point: Some("gather".into()),
+                ..descriptor.clone()
+            })
+        });
+        [bin, gather]
     }
 }
 
@@ -60,18 +70,12 @@ fn init_indirect_splat_pipeline(
     layouts: Res<ViewLayouts>,
 ) {
     let read = || storage_buffer_read_only_sized(false, None);
+    let write = || storage_buffer_sized(false, None);
     let layout = BindGroupLayoutDescriptor::new(
         "rppm_indirect_splat_layout",
         &BindGroupLayoutEntries::sequential(
             ShaderStages::COMPUTE,
-            (
-                read(),
-                read(),
-                read(),
-                read(),
-                read(),
-                storage_buffer_sized(false, None),
-            ),
+            (write(), read(), read(), write(), write()),
         ),
     );
     let descriptor = tracing_pipeline(
@@ -83,7 +87,8 @@ fn init_indirect_splat_pipeline(
     commands.insert_resource(IndirectSplatPipeline {
         layout,
         descriptor,
-        ids: [None; 2],
+        bin: None,
+        gather: [None; 2],
     });
 }
 
@@ -102,17 +107,16 @@ pub fn bind_group(
             store.photons.as_entire_binding(),
             store.count.as_entire_binding(),
             eye_paths.importons.as_entire_binding(),
-            eye_paths.heads.as_entire_binding(),
-            eye_paths.stats.as_entire_binding(),
+            eye_paths.photon_heads.as_entire_binding(),
             eye_paths.radiance.as_entire_binding(),
         )),
     )
 }
 
-/// Stored photons against the importons in the cubemap's tiles.
+/// Bins the stored photons, then gathers them at the importons.
 pub fn encode(
     encoder: &mut CommandEncoder,
-    pipeline: &ComputePipeline,
+    [bin, gather]: [&ComputePipeline; 2],
     groups: &TracingGroups,
     own: &BindGroup,
     eye_paths: &EyePaths,
@@ -122,6 +126,8 @@ pub fn encode(
         label: Some("rppm_indirect_splat"),
         timestamp_writes: timer.compute_pass(Stage::IndirectSplat),
     });
-    groups.bind(&mut pass, pipeline, own);
-    pass.dispatch_workgroups_indirect(&eye_paths.stats, IMPORTON_DISPATCH);
+    groups.bind(&mut pass, bin, own);
+    pass.dispatch_workgroups_indirect(&eye_paths.stats, BIN_DISPATCH);
+    pass.set_pipeline(gather);
+    pass.dispatch_workgroups_indirect(&eye_paths.stats, GATHER_DISPATCH);
 }

@@ -1,7 +1,7 @@
 //! `rppm bench dirt`: the settings it sweeps and its table.
 
 use bevy_rppm::cubemap::CubemapConfig;
-use bevy_rppm::debug::bench::CubemapBenchRow;
+use bevy_rppm::debug::bench::{CubemapBenchRow, Tracer};
 
 /// `default` first, then every resolution × bins pair not equal to it.
 pub fn sweep_configs(
@@ -25,10 +25,12 @@ pub fn sweep_configs(
     configs
 }
 
-/// One row per setting: agreement with brute force, build and trace time, memory.
+/// One row per setting (and the hierarchy's): agreement with brute force, build and trace
+/// time, memory.
 pub fn print_table(rows: &[CubemapBenchRow]) {
     println!(
-        "{:>5} {:>4} {:>4} {:>9} {:>6} {:>6} {:>6} {:>10} {:>12} {:>10}",
+        "{:>12} {:>5} {:>4} {:>4} {:>9} {:>6} {:>6} {:>6} {:>10} {:>12} {:>10}",
+        "tracer",
         "res",
         "tile",
         "bins",
@@ -41,8 +43,13 @@ pub fn print_table(rows: &[CubemapBenchRow]) {
         "MiB"
     );
     for r in rows {
+        let tracer = match r.tracer {
+            Tracer::DeepCubemap => "deep cubemap",
+            Tracer::Bvh => "BVH (CPU)",
+        };
         println!(
-            "{:>5} {:>4} {:>4} {:>9.5} {:>6} {:>6} {:>6} {:>10.2} {:>12.1} {:>10.1}",
+            "{:>12} {:>5} {:>4} {:>4} {:>9.5} {:>6} {:>6} {:>6} {:>10.2} {:>12.1} {:>10.1}",
+            tracer,
             r.resolution,
             r.tile_size,
             r.bins,

@@ -80,14 +80,43 @@ fn consider(o: vec3<f32>, d: vec3<f32>, id: u32, t_min: f32, best: ptr<function,
     }
 }
 
-// The reference: every triangle, nearest hit in (t_min, t_max), skipping `ignore`.
+// Triangle `id` where it is below `count` and not `ignore`.
+fn consider_some(o: vec3<f32>, d: vec3<f32>, id: u32, count: u32, t_min: f32, ignore: u32, best: ptr<function, Hit>) {
+    if id < count && id != ignore {
+        consider(o, d, id, t_min, best);
+    }
+}
+
+// Eight consecutive triangles from `first`, written out (no loop: see trace_brute_force).
+fn consider_eight(o: vec3<f32>, d: vec3<f32>, first: u32, count: u32, t_min: f32, ignore: u32, best: ptr<function, Hit>) {
+    consider_some(o, d, first, count, t_min, ignore, best);
+    consider_some(o, d, first + 1u, count, t_min, ignore, best);
+    consider_some(o, d, first + 2u, count, t_min, ignore, best);
+    consider_some(o, d, first + 3u, count, t_min, ignore, best);
+    consider_some(o, d, first + 4u, count, t_min, ignore, best);
+    consider_some(o, d, first + 5u, count, t_min, ignore, best);
+    consider_some(o, d, first + 6u, count, t_min, ignore, best);
+    consider_some(o, d, first + 7u, count, t_min, ignore, best);
+}
+
+// The reference: every triangle, nearest hit in (t_min, t_max), skipping `ignore`. llvmpipe
+// ends a loop after 65 535 iterations in all (however often it is entered), so the triangles
+// are taken 32 at a time, in two loops: up to 4 M triangles.
 fn trace_brute_force(o: vec3<f32>, d: vec3<f32>, t_min: f32, t_max: f32, ignore: u32) -> Hit {
     var best = Hit(t_max, NO_HIT, vec2<f32>(0.0));
     let count = arrayLength(&triangles);
-    for (var i = 0u; i < count; i += 1u) {
-        if i != ignore {
-            consider(o, d, i, t_min, &best);
-        }
+    let half = (count / 64u + 1u) * 32u;
+    for (var i = 0u; i < half; i += 32u) {
+        consider_eight(o, d, i, count, t_min, ignore, &best);
+        consider_eight(o, d, i + 8u, count, t_min, ignore, &best);
+        consider_eight(o, d, i + 16u, count, t_min, ignore, &best);
+        consider_eight(o, d, i + 24u, count, t_min, ignore, &best);
+    }
+    for (var i = half; i < count; i += 32u) {
+        consider_eight(o, d, i, count, t_min, ignore, &best);
+        consider_eight(o, d, i + 8u, count, t_min, ignore, &best);
+        consider_eight(o, d, i + 16u, count, t_min, ignore, &best);
+        consider_eight(o, d, i + 24u, count, t_min, ignore, &best);
     }
     return best;
 }

@@ -1,8 +1,10 @@
 //! The deep-cubemap correctness harness (DIRT's): random rays traced through the deep cubemap
 //! and by brute force against every triangle, both on the GPU, compared; with build and trace
-//! GPU times.
+//! GPU times. The same rays go through a bounding-volume hierarchy too ([`super::bvh`]), the
+//! peer the deep cubemap is measured against.
 
 use std::sync::Arc;
+use std::time::Instant;
 
 use bevy::prelude::*;
 use bevy::render::extract_resource::ExtractResource;
@@ -14,12 +16,12 @@ use bevy::render::renderer::{RenderDevice, RenderQueue};
 use bytemuck::{Pod, Zeroable};
 use serde::Serialize;
 
+use super::bvh::BvhBuffers;
 use crate::cubemap::{BuildContext, CubemapConfig, CubemapPipelines, DeepCubemap, trace_layout};
 use crate::scene::SceneData;
 use crate::scene::prepare::{SceneBuffers, storage_buffer};
 use crate::shaders::RppmShaders;
 use crate::stats::readback::read_back;
-use crate::stats::timing::{FrameWork, Stage, StageTimer};
 use crate::view::ViewLayouts;
 
 /// A ray as the harness uploads it (`Ray` in cubemap_bench.wgsl).
@@ -110,9 +112,22 @@ pub struct CubemapBenchRequest {
     pub centre: Vec3,
 }
 
+/// What traced a row's rays.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Tracer {
+    DeepCubemap,
+    /// The CPU-built hierarchy (`resolution`, `tile_size` and `bins` are 0; `build_ms` is the
+    /// CPU's wall clock, `nodes_used` its node count).
+    Bvh,
+}
+
 /// One configuration's result.
 #[derive(Clone, Debug, Serialize)]
 pub struct CubemapBenchRow {
+    pub tracer: Tracer,
+    /// The scene's triangles.
+    pub triangles: u32,
     pub resolution: u32,
     pub tile_size: u32,
     pub bins: u32,
@@ -161,6 +176,7 @@ pub struct BenchPipelines {
     rays_layout: BindGroupLayoutDescriptor,
     trace: CachedComputePipelineId,
     brute_force: CachedComputePipelineId,
+    bvh: CachedComputePipelineId,
 }
 
 pub(super) fn init_bench_pipelines(
@@ -176,6 +192,8 @@ pub(super) fn init_bench_pipelines(
             (
                 storage_buffer_read_only_sized(false, None),
                 storage_buffer_sized(false, None),
+                storage_buffer_read_only_sized(false, None),
+                storage_buffer_read_only_sized(false, None),
             ),
         ),
     );
@@ -197,6 +215,7 @@ pub(super) fn init_bench_pipelines(
     commands.insert_resource(BenchPipelines {
         trace: pipeline("trace"),
         brute_force: pipeline("brute_force"),
+        bvh: pipeline("bvh"),
         rays_layout,
     });
 }
@@ -217,6 +236,7 @@ struct Gpu<'a> {
     scene_group: BindGroup,
     empty_group: BindGroup,
     rays: Buffer,
+    bvh: BvhBuffers,
 }
 
 impl Gpu<'_> {
@@ -225,7 +245,7 @@ impl Gpu<'_> {
     }
 
     /// Traces `count` rays (cycling through the stored ones) with `pipeline`; returns the hits
-    /// and the GPU ms of the dispatch.
+    /// and the wall-clock ms from submission to completion (llvmpipe's timestamps overlap).
     fn trace(
         &self,
         pipeline: CachedComputePipelineId,
@@ -245,20 +265,17 @@ impl Gpu<'_> {
             &BindGroupEntries::sequential((
                 self.rays.as_entire_binding(),
                 hits.as_entire_binding(),
+                self.bvh.nodes.as_entire_binding(),
+                self.bvh.indices.as_entire_binding(),
             )),
         );
-        let mut timer = StageTimer::new(self.device, self.queue, 2);
-        timer.begin_frame(FrameWork {
-            iterations: 1,
-            photons: 0,
-        });
         let mut encoder = self
             .device
             .create_command_encoder(&CommandEncoderDescriptor::default());
         if let Some(pipeline) = self.cache.get_compute_pipeline(pipeline) {
             let mut pass = encoder.begin_compute_pass(&ComputePassDescriptor {
                 label: Some("rppm_bench_trace"),
-                timestamp_writes: timer.compute_pass(Stage::CubemapTrace),
+                timestamp_writes: None,
             });
             pass.set_pipeline(pipeline);
             pass.set_bind_group(0, &self.scene_group, &[]);
@@ -267,14 +284,11 @@ impl Gpu<'_> {
             pass.set_bind_group(3, &cubemap.trace_group, &[]);
             pass.dispatch_workgroups(count.div_ceil(64), 1, 1);
         }
-        timer.end_frame(&mut encoder);
+        let _ = self.device.poll(PollType::wait_indefinitely());
+        let start = Instant::now();
         self.submit(encoder);
-        timer.start_readback();
-        timer.collect(self.device, true);
-        let ms = timer.last_ms[Stage::ALL
-            .iter()
-            .position(|s| *s == Stage::CubemapTrace)
-            .unwrap_or(0)];
+        let _ = self.device.poll(PollType::wait_indefinitely());
+        let ms = start.elapsed().as_secs_f64() * 1e3;
         let hits = if read {
             read_back(self.device, self.queue, &hits)
                 .map(|b| bytemuck::cast_slice(&b).to_vec())
@@ -297,11 +311,15 @@ impl Gpu<'_> {
         }
     }
 
-    /// Mean GPU ms of a few builds.
+    /// Mean wall-clock ms of a few builds, each waited for (with its counters' read-back).
     fn time_build(&self, cubemap: &DeepCubemap) -> f64 {
         let runs = 3;
         let ctx = self.build_context();
-        (0..runs).map(|_| cubemap.build_now(&ctx).1).sum::<f64>() / runs as f64
+        let start = Instant::now();
+        for _ in 0..runs {
+            cubemap.build_now(&ctx);
+        }
+        start.elapsed().as_secs_f64() * 1e3 / runs as f64
     }
 }
 
@@ -348,7 +366,8 @@ pub(super) fn run_cubemap_bench(
     };
     let ready = cubemap.ready(&cache)
         && cache.get_compute_pipeline(bench.trace).is_some()
-        && cache.get_compute_pipeline(bench.brute_force).is_some();
+        && cache.get_compute_pipeline(bench.brute_force).is_some()
+        && cache.get_compute_pipeline(bench.bvh).is_some();
     if *done || !ready || scene.data.instances.is_empty() {
         return;
     }
@@ -371,12 +390,20 @@ pub(super) fn run_cubemap_bench(
         scene_group,
         empty_group,
         rays,
+        bvh: BvhBuffers::build(&device, &scene.data),
     };
     let count = request.rays.len() as u32;
     let mut rows = Vec::new();
     let mut brute: Option<(Vec<[f32; 4]>, f64)> = None;
     for &config in &request.configs {
-        let capacity = DeepCubemap::initial_capacity(config, scene.triangle_count());
+        // The first guess no larger than one binding holds (as a view's cubemap starts).
+        let limits = device.limits();
+        let most = limits
+            .max_storage_buffer_binding_size
+            .min(limits.max_buffer_size)
+            / 8;
+        let capacity =
+            DeepCubemap::initial_capacity(config, scene.triangle_count()).min(most as u32);
         let fitted = DeepCubemap::fitted(&gpu.build_context(), config, request.centre, capacity);
         let (cube, fit) = match fitted {
             Ok(built) => built,
@@ -389,7 +416,12 @@ pub(super) fn run_cubemap_bench(
         let (hits, _) = gpu.trace(bench.trace, &cube, count, true);
         let (agree, false_misses, false_hits, wrong_hits) = compare(&hits, &brute.0);
         let (_, trace_ms) = gpu.trace(bench.trace, &cube, request.timing_rays, false);
+        if rows.is_empty() {
+            rows.push(bvh_row(&gpu, &cube, brute, request.timing_rays));
+        }
         rows.push(CubemapBenchRow {
+            tracer: Tracer::DeepCubemap,
+            triangles: scene.triangle_count(),
             resolution: config.resolution,
             tile_size: config.tile_size,
             bins: config.bins,
@@ -407,5 +439,42 @@ pub(super) fn run_cubemap_bench(
             overflow_rebuilds: fit.overflows,
         });
     }
+    // The hierarchy's row last, so that the default setting stays first.
+    if !rows.is_empty() {
+        rows.rotate_left(1);
+    }
     let _ = sender.send(rows);
+}
+
+/// The hierarchy's row: the same rays, compared with the same brute force (`cubemap` is bound
+/// only because the harness's pipelines share one layout).
+fn bvh_row(
+    gpu: &Gpu,
+    cubemap: &DeepCubemap,
+    brute: &(Vec<[f32; 4]>, f64),
+    timing_rays: u32,
+) -> CubemapBenchRow {
+    let count = brute.0.len() as u32;
+    let (hits, _) = gpu.trace(gpu.bench.bvh, cubemap, count, true);
+    let (agree, false_misses, false_hits, wrong_hits) = compare(&hits, &brute.0);
+    let (_, trace_ms) = gpu.trace(gpu.bench.bvh, cubemap, timing_rays, false);
+    CubemapBenchRow {
+        tracer: Tracer::Bvh,
+        triangles: gpu.scene.triangle_count(),
+        resolution: 0,
+        tile_size: 0,
+        bins: 0,
+        rays: count,
+        agreement: agree as f64 / count.max(1) as f64,
+        false_misses,
+        false_hits,
+        wrong_hits,
+        build_ms: gpu.bvh.build_ms,
+        timing_rays,
+        trace_ms,
+        brute_force_ms: brute.1,
+        bytes: gpu.bvh.bytes,
+        nodes_used: gpu.bvh.node_count,
+        overflow_rebuilds: 0,
+    }
 }

@@ -24,6 +24,7 @@ fn primary_rays_through_the_cubemap_match_the_gbuffer() {
 #[test]
 fn cubemap_traversal_agrees_with_brute_force() {
     use bevy_rppm::cubemap::CubemapConfig;
+    use bevy_rppm::debug::bench::Tracer;
     check_gpu_adapter().unwrap_or_else(|hint| panic!("{hint}"));
     let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/cornell_box.gltf");
     let defaults = PhotonMapping::default();
@@ -40,12 +41,15 @@ fn cubemap_traversal_agrees_with_brute_force() {
         },
     ];
     let (rows, _) = bevy_rppm_cli::headless::bench_dirt(&scene, configs, 8192, 8192).unwrap();
-    assert_eq!(rows.len(), 2);
-    for row in rows {
+    // Both settings, then the hierarchy peer.
+    assert_eq!(rows.len(), 3);
+    assert_eq!(rows[2].tracer, Tracer::Bvh);
+    for row in &rows {
         eprintln!("{row:?}");
         assert!(row.agreement >= 0.999, "{row:?}");
         assert_eq!(row.false_hits, 0, "{row:?}");
     }
+    assert_eq!(rows[2].false_misses, 0, "{:?}", rows[2]);
 }
 
 /// Many depth bins on many small triangles: the first build overflows its lists several
@@ -63,7 +67,7 @@ fn cubemap_lists_grow_to_hold_every_entry_with_many_bins() {
         bins: 64,
     }];
     let (rows, _) = bevy_rppm_cli::headless::bench_dirt(&scene, configs, 8192, 8192).unwrap();
-    assert_eq!(rows.len(), 1);
+    assert_eq!(rows.len(), 2);
     let row = &rows[0];
     eprintln!("{row:?}");
     assert_eq!(row.false_misses, 0, "{row:?}");

@@ -55,7 +55,7 @@ pub use ppm::{next_radius2, radius2_after};
 pub use scene::{RppmScene, RppmSky, SceneData};
 pub use settings::{
     PhotonCount, PhotonMapping, RppmDebugView, RppmFastForward, RppmHistory, RppmMode, RppmPreset,
-    RppmReadback, ViewEpoch,
+    RppmReadback, RppmTracer, ViewEpoch,
 };
 pub use stats::{RadianceImage, RppmRadiance, RppmStats, ViewStats};
 

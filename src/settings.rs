@@ -101,6 +101,21 @@ impl RppmHistory {
     }
 }
 
+/// What traces the rays of photons, camera paths and shadows.
+#[derive(Reflect, Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+#[reflect(Default, Clone, PartialEq, Hash)]
+pub enum RppmTracer {
+    /// The camera-centred deep cubemap, rebuilt by rasterisation every iteration (DIRT, as the
+    /// paper; default).
+    #[default]
+    DeepCubemap,
+    /// A bounding-volume hierarchy built on the CPU whenever the scene changes (binned SAH;
+    /// about 0.26 s at 10⁶ triangles on two cores) and walked on the GPU. On llvmpipe it traces
+    /// 2–7× more rays a second than the deep cubemap (README); a scene that changes every
+    /// frame pays its build every frame.
+    Bvh,
+}
+
 /// Rasterisation-based progressive photon mapping on a 3D camera.
 ///
 /// Add it to a `Camera3d`. Every value is checked each time it changes: an out-of-range value
@@ -162,6 +177,8 @@ pub struct PhotonMapping {
     /// (temporal reuse, `RppmHistory::Reuse { iterations: 8 }` is a good start). Default
     /// [`RppmHistory::Reset`].
     pub history: RppmHistory,
+    /// What traces rays. Default [`RppmTracer::DeepCubemap`].
+    pub tracer: RppmTracer,
     /// Profiling: every stage is submitted alone and waited for, and its CPU wall time is
     /// reported (`ViewStats::wall_ms_per_iteration`). Trustworthy where GPU timestamps are
     /// not (llvmpipe's overlap), and slow: it stalls the GPU between stages. Default false.
@@ -201,6 +218,7 @@ impl Default for PhotonMapping {
             indirect_subsampling: 1,
             debug_view: RppmDebugView::None,
             history: RppmHistory::default(),
+            tracer: RppmTracer::default(),
             profile_stages: false,
         }
     }

@@ -3,7 +3,7 @@
 
 use std::path::{Path, PathBuf};
 
-use bevy_rppm::{PhotonCount, PhotonMapping, RppmDebugView, RppmPreset};
+use bevy_rppm::{PhotonCount, PhotonMapping, RppmDebugView, RppmPreset, RppmTracer};
 use bevy_rppm_cli::headless::{Budget, RenderRequest};
 use clap::{Args, Parser, Subcommand, ValueEnum};
 
@@ -231,6 +231,9 @@ pub struct RenderArgs {
     /// (`wall_ms_per_iteration` in the stats; slow).
     #[arg(long)]
     pub profile: bool,
+    /// Trace rays through a BVH built on the CPU instead of the deep cubemap.
+    #[arg(long)]
+    pub bvh: bool,
     /// Pose the scene by its glTF animation of this index (skins, morph weights, nodes).
     #[arg(long)]
     pub animation: Option<usize>,
@@ -375,6 +378,9 @@ impl RenderArgs {
         s.kernel_flattening = self.flattening.unwrap_or(s.kernel_flattening);
         s.splat_russian_roulette |= self.splat_rr;
         s.profile_stages |= self.profile;
+        if self.bvh {
+            s.tracer = RppmTracer::Bvh;
+        }
         if let Some(view) = self.debug_view {
             s.debug_view = match view {
                 DebugView::GbufferNormals => RppmDebugView::GBufferNormals,

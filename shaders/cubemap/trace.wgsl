@@ -1,4 +1,5 @@
-// Ray tracing through the deep cubemap. A ray is cut where it crosses from one cube face to
+// Ray tracing through the deep cubemap (or, with RppmTracer::Bvh, a bounding-volume
+// hierarchy: trace_ray picks). A ray is cut where it crosses from one cube face to
 // the next; in each face it is marched through the tile grid in image space with the min/max
 // hierarchy (a cell whose depth range the ray's depth interval misses is skipped whole, and
 // the march climbs a level), and at the finest level only the triangles in the depth bins
@@ -14,6 +15,22 @@
 @group(3) @binding(3) var<storage, read> nodes: array<vec2<u32>>;
 // [count, ids…] of the triangles kept out of the lists (build.wgsl's `classify`).
 @group(3) @binding(4) var<storage, read> big: array<u32>;
+// The hierarchy that RppmTracer::Bvh traces instead (a stand-in otherwise).
+// BvhNode in src/cubemap/bvh/build.rs: a leaf's triangles are bvh_indices[first..first + count];
+// an inner node (count INNER) has children first and first + 1.
+struct BvhNode {
+    min: vec3<f32>,
+    first: u32,
+    max: vec3<f32>,
+    count: u32,
+}
+
+const INNER: u32 = 0xffffffffu;
+// MAX_DEPTH in src/cubemap/bvh/build.rs.
+const BVH_STACK: u32 = 48u;
+
+@group(3) @binding(5) var<storage, read> bvh_nodes: array<BvhNode>;
+@group(3) @binding(6) var<storage, read> bvh_indices: array<u32>;
 
 const NO_HIT: u32 = 0xffffffffu;
 const FAR: f32 = 1.0e30;
@@ -316,4 +333,75 @@ fn trace_cubemap(o: vec3<f32>, d: vec3<f32>, t_min: f32, t_max: f32, ignore: u32
         t0 = max(t0, t1);
     }
     return best;
+}
+
+// Where the ray enters a node's box within (0, t_max), or FAR_BOX on a miss.
+const FAR_BOX: f32 = 3.0e38;
+
+fn enter_box(o: vec3<f32>, inv: vec3<f32>, n: BvhNode, t_max: f32) -> f32 {
+    let t0 = (n.min - o) * inv;
+    let t1 = (n.max - o) * inv;
+    let lo = min(t0, t1);
+    let hi = max(t0, t1);
+    let near = max(max(lo.x, lo.y), max(lo.z, 0.0));
+    let far = min(min(hi.x, hi.y), min(hi.z, t_max));
+    return select(FAR_BOX, near, near <= far);
+}
+
+// Nearest hit by a stack walk of the hierarchy, nearer child first; triangles are tested as
+// brute force tests them.
+fn trace_bvh(o: vec3<f32>, d: vec3<f32>, t_min: f32, t_max: f32, ignore: u32) -> Hit {
+    var best = Hit(t_max, NO_HIT, vec2<f32>(0.0));
+    // A zero component's reciprocal as a huge number of its sign, never NaN in the slabs.
+    let inv = 1.0 / select(d, vec3<f32>(1e-30), abs(d) < vec3<f32>(1e-30));
+    var stack: array<u32, BVH_STACK>;
+    var top = 0u;
+    var node = 0u;
+    if enter_box(o, inv, bvh_nodes[0], t_max) == FAR_BOX {
+        return best;
+    }
+    loop {
+        let n = bvh_nodes[node];
+        if n.count != INNER {
+            for (var k = n.first; k < n.first + n.count; k += 1u) {
+                let id = bvh_indices[k];
+                if id != ignore {
+                    consider(o, d, id, t_min, &best);
+                }
+            }
+        } else {
+            let a = enter_box(o, inv, bvh_nodes[n.first], best.t);
+            let b = enter_box(o, inv, bvh_nodes[n.first + 1u], best.t);
+            let near = select(n.first + 1u, n.first, a <= b);
+            if min(a, b) < FAR_BOX {
+                if max(a, b) < FAR_BOX && top < BVH_STACK {
+                    stack[top] = select(n.first, n.first + 1u, a <= b);
+                    top += 1u;
+                }
+                node = near;
+                continue;
+            }
+        }
+        // Pop the next node the current best may still be beaten in.
+        var found = false;
+        while top > 0u && !found {
+            top -= 1u;
+            node = stack[top];
+            found = enter_box(o, inv, bvh_nodes[node], best.t) < FAR_BOX;
+        }
+        if !found {
+            break;
+        }
+    }
+    return best;
+}
+
+// Nearest hit in (t_min, t_max) by the view's tracer: the deep cubemap, or with BVH the
+// hierarchy.
+fn trace_ray(o: vec3<f32>, d: vec3<f32>, t_min: f32, t_max: f32, ignore: u32) -> Hit {
+#ifdef BVH
+    return trace_bvh(o, d, t_min, min(t_max, FAR), ignore);
+#else
+    return trace_cubemap(o, d, t_min, t_max, ignore);
+#endif
 }

@@ -9,7 +9,7 @@
 #ifdef IMPORTONS
 #import bevy_rppm::bsdf::{fresnel_dielectric, scatter_photon, stores_photons}
 #import bevy_rppm::common::{DELTA_ROUGHNESS, luminance}
-#import bevy_rppm::cubemap::{cubemap, trace_cubemap, NO_HIT}
+#import bevy_rppm::cubemap::{cubemap, trace_ray, NO_HIT}
 #endif
 
 @group(2) @binding(0) var gbuffer_position: texture_2d<f32>;
@@ -79,7 +79,7 @@ fn follow_camera_path(pixel: u32, x0: vec3<f32>, n0: vec3<f32>, m0: Material, tr
     var length = distance(params.camera_position.xyz, x0);
     let t_min = params.scene_sphere.w * 1e-6;
     for (var depth = 2u; depth <= params.max_eye_depth; depth += 1u) {
-        let hit = trace_cubemap(o, d, t_min, 1.0e30, ignore);
+        let hit = trace_ray(o, d, t_min, 1.0e30, ignore);
         if all(throughput <= vec3<f32>(0.0)) {
             return found;
         }

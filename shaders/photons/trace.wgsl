@@ -4,7 +4,7 @@
 // (bsdf.wgsl's scatter_photon: diffuse, GGX glossy, mirror, Fresnel glass) or absorbed.
 #import bevy_rppm::common::{Light, Photon, IterationParams, PI, LIGHT_POINT, LIGHT_SPOT, LIGHT_DIRECTIONAL, random, pcg_hash, basis_around, cosine_direction}
 #import bevy_rppm::scene::{triangle_at, material_at, as_seen_from, normal_at, interpolated_normal, triangle_point, uniform_barycentrics, lights, emitters, light_cdf, find_source}
-#import bevy_rppm::cubemap::{trace_cubemap, NO_HIT}
+#import bevy_rppm::cubemap::{trace_ray, NO_HIT}
 #import bevy_rppm::bsdf::{stores_photons, scatter_photon}
 
 @group(1) @binding(0) var<uniform> params: IterationParams;
@@ -121,7 +121,7 @@ fn trace(@builtin(global_invocation_id) id: vec3<u32>) {
     var ray = emit(&rng);
     let t_min = params.scene_sphere.w * 1e-6;
     for (var depth = 0u; depth < params.max_photon_depth; depth += 1u) {
-        let hit = trace_cubemap(ray.origin, ray.direction, t_min, 1.0e30, ray.ignore);
+        let hit = trace_ray(ray.origin, ray.direction, t_min, 1.0e30, ray.ignore);
         if hit.triangle == NO_HIT {
             return;
         }

@@ -5,6 +5,7 @@ use bevy::prelude::*;
 use bevy::render::render_resource::*;
 use bevy::render::renderer::{RenderDevice, RenderQueue};
 
+use super::bvh::BvhBuffers;
 use super::{BIG_TRIANGLES, BuildContext, CubemapConfig, CubemapParams, CubemapPipelines};
 use crate::scene::SceneBuffers;
 use crate::scene::place::dispatch_size;
@@ -35,7 +36,8 @@ pub struct DeepCubemap {
     build_group: BindGroup,
     classify_group: BindGroup,
     level_group: BindGroup,
-    /// Group 1 of a tracing shader.
+    /// Group 3 of a tracing shader, with the view's hierarchy under `RppmTracer::Bvh` (see
+    /// [`Self::bind_bvh`]), else a stand-in.
     pub trace_group: BindGroup,
 }
 
@@ -172,6 +174,7 @@ impl DeepCubemap {
                 size: BufferSize::new(16),
             }),
         );
+        let stand_in = BvhBuffers::empty(device);
         let trace_group = device.create_bind_group(
             "rppm_cubemap_trace_group",
             &cache.get_bind_group_layout(&pipelines.trace_layout),
@@ -181,6 +184,8 @@ impl DeepCubemap {
                 heads.as_entire_binding(),
                 nodes.as_entire_binding(),
                 big.as_entire_binding(),
+                stand_in.nodes.as_entire_binding(),
+                stand_in.indices.as_entire_binding(),
             )),
         );
         Ok(Self {
@@ -201,6 +206,23 @@ impl DeepCubemap {
             level_group,
             trace_group,
         })
+    }
+
+    /// Binds `bvh` for tracing shaders (`RppmTracer::Bvh`) in place of the stand-in.
+    pub fn bind_bvh(&mut self, device: &RenderDevice, layout: &BindGroupLayout, bvh: &BvhBuffers) {
+        self.trace_group = device.create_bind_group(
+            "rppm_cubemap_trace_group",
+            layout,
+            &BindGroupEntries::sequential((
+                self.params_buffer.as_entire_binding(),
+                self.hierarchy.as_entire_binding(),
+                self.heads.as_entire_binding(),
+                self.nodes.as_entire_binding(),
+                self.big.as_entire_binding(),
+                bvh.nodes.as_entire_binding(),
+                bvh.indices.as_entire_binding(),
+            )),
+        );
     }
 
     /// Follows a changed scene (its triangle count and size); takes effect at the next build.

@@ -3,8 +3,10 @@
 //! `grid`² tiles; each tile holds `bins` depth-binned linked lists of triangle ids, over a
 //! min/max depth hierarchy. Built by two raster passes (tile depth bounds, then list insertion
 //! with storage atomics) and a reduction (`shaders/cubemap/build.wgsl`); traced by
-//! `shaders/cubemap/trace.wgsl`.
+//! `shaders/cubemap/trace.wgsl`. Its peer, a bounding-volume hierarchy built on the CPU
+//! ([`bvh`]), traces instead under `RppmTracer::Bvh`.
 
+pub mod bvh;
 mod config;
 mod deep;
 mod view;
@@ -40,7 +42,7 @@ impl Plugin for CubemapPlugin {
 }
 
 /// Group 3 of any shader that traces rays: 0 params, 1 hierarchy, 2 heads, 3 nodes, 4 the big
-/// triangles ([`BIG_TRIANGLES`]).
+/// triangles ([`BIG_TRIANGLES`]), 5 and 6 the hierarchy's nodes and triangle ids ([`bvh`]).
 pub fn trace_layout() -> BindGroupLayoutDescriptor {
     let read = || storage_buffer_read_only_sized(false, None);
     BindGroupLayoutDescriptor::new(
@@ -49,6 +51,8 @@ pub fn trace_layout() -> BindGroupLayoutDescriptor {
             ShaderStages::COMPUTE | ShaderStages::FRAGMENT,
             (
                 uniform_buffer_sized(false, NonZeroU64::new(size_of::<CubemapParams>() as u64)),
+                read(),
+                read(),
                 read(),
                 read(),
                 read(),

@@ -1,9 +1,12 @@
 //! A camera's deep cubemap across frames: made, kept or dropped as the iteration needs one,
-//! centred on the camera, and its lists grown when a build overflowed.
+//! centred on the camera, and its lists grown when a build overflowed. Under
+//! `RppmTracer::Bvh` its lists stay empty and unbuilt (photon binning still uses its tiles)
+//! and the view's hierarchy, rebuilt when the scene changes, is bound with it.
 
 use bevy::prelude::*;
 use bevy::render::renderer::{RenderDevice, RenderQueue};
 
+use super::bvh::BvhBuffers;
 use super::deep::grown_capacity;
 use super::{BuildContext, CubemapConfig, DeepCubemap};
 
@@ -15,6 +18,8 @@ pub struct ViewCubemap {
     capacity: u32,
     /// (nodes used, nodes lost) of the last build read back.
     pub nodes: (u32, u32),
+    /// The hierarchy (`RppmTracer::Bvh`) and the scene epoch it was built from.
+    pub bvh: Option<(u64, BvhBuffers)>,
 }
 
 impl ViewCubemap {
@@ -26,8 +31,13 @@ impl ViewCubemap {
         &mut self,
         config: Option<CubemapConfig>,
         centre: Vec3,
+        bvh: bool,
         ctx: &BuildContext,
     ) -> Result<(), String> {
+        if bvh {
+            return self.prepare_bvh(config, centre, ctx);
+        }
+        self.bvh = None;
         let BuildContext {
             device,
             queue,
@@ -76,6 +86,42 @@ impl ViewCubemap {
         }
         if let Some(cubemap) = &mut self.cubemap {
             cubemap.set_centre(queue, centre);
+        }
+        Ok(())
+    }
+
+    /// Under `RppmTracer::Bvh`: an unbuilt cubemap with one depth bin and a list entry a tile
+    /// (only its tiles are used), and the hierarchy of the scene as it is now.
+    fn prepare_bvh(
+        &mut self,
+        config: Option<CubemapConfig>,
+        centre: Vec3,
+        ctx: &BuildContext,
+    ) -> Result<(), String> {
+        let Some(config) = config.map(|c| CubemapConfig { bins: 1, ..c }) else {
+            self.cubemap = None;
+            self.bvh = None;
+            return Ok(());
+        };
+        let scene = ctx.scene;
+        if self.cubemap.as_ref().is_none_or(|c| c.config != config) {
+            let tiles = 6 * config.grid() * config.grid();
+            self.cubemap = Some(DeepCubemap::new(ctx, config, centre, tiles)?);
+            self.bvh = None;
+        }
+        let Some(cubemap) = &mut self.cubemap else {
+            return Ok(());
+        };
+        cubemap.set_centre(ctx.queue, centre);
+        if self
+            .bvh
+            .as_ref()
+            .is_none_or(|(epoch, _)| *epoch != scene.epoch)
+        {
+            let bvh = BvhBuffers::build(ctx.device, &scene.data);
+            let layout = ctx.cache.get_bind_group_layout(&ctx.pipelines.trace_layout);
+            cubemap.bind_bvh(ctx.device, &layout, &bvh);
+            self.bvh = Some((scene.epoch, bvh));
         }
         Ok(())
     }

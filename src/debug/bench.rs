@@ -1,7 +1,7 @@
 //! The deep-cubemap correctness harness (DIRT's): random rays traced through the deep cubemap
 //! and by brute force against every triangle, both on the GPU, compared; with build and trace
-//! GPU times. The same rays go through a bounding-volume hierarchy too ([`super::bvh`]), the
-//! peer the deep cubemap is measured against.
+//! GPU times. The same rays go through the bounding-volume hierarchy too
+//! ([`crate::cubemap::bvh`]), the peer the deep cubemap is measured against.
 
 use std::sync::Arc;
 use std::time::Instant;
@@ -16,7 +16,7 @@ use bevy::render::renderer::{RenderDevice, RenderQueue};
 use bytemuck::{Pod, Zeroable};
 use serde::Serialize;
 
-use super::bvh::BvhBuffers;
+use crate::cubemap::bvh::BvhBuffers;
 use crate::cubemap::{BuildContext, CubemapConfig, CubemapPipelines, DeepCubemap, trace_layout};
 use crate::scene::SceneData;
 use crate::scene::prepare::{SceneBuffers, storage_buffer};
@@ -192,8 +192,6 @@ pub(super) fn init_bench_pipelines(
             (
                 storage_buffer_read_only_sized(false, None),
                 storage_buffer_sized(false, None),
-                storage_buffer_read_only_sized(false, None),
-                storage_buffer_read_only_sized(false, None),
             ),
         ),
     );
@@ -265,8 +263,6 @@ impl Gpu<'_> {
             &BindGroupEntries::sequential((
                 self.rays.as_entire_binding(),
                 hits.as_entire_binding(),
-                self.bvh.nodes.as_entire_binding(),
-                self.bvh.indices.as_entire_binding(),
             )),
         );
         let mut encoder = self
@@ -405,13 +401,15 @@ pub(super) fn run_cubemap_bench(
         let capacity =
             DeepCubemap::initial_capacity(config, scene.triangle_count()).min(most as u32);
         let fitted = DeepCubemap::fitted(&gpu.build_context(), config, request.centre, capacity);
-        let (cube, fit) = match fitted {
+        let (mut cube, fit) = match fitted {
             Ok(built) => built,
             Err(reason) => {
                 warn!("bevy_rppm: deep-cubemap setting {config:?} skipped: {reason}");
                 continue;
             }
         };
+        let trace_layout = gpu.cache.get_bind_group_layout(&gpu.cubemap.trace_layout);
+        cube.bind_bvh(gpu.device, &trace_layout, &gpu.bvh);
         let brute = brute.get_or_insert_with(|| gpu.trace(bench.brute_force, &cube, count, true));
         let (hits, _) = gpu.trace(bench.trace, &cube, count, true);
         let (agree, false_misses, false_hits, wrong_hits) = compare(&hits, &brute.0);
@@ -446,8 +444,8 @@ pub(super) fn run_cubemap_bench(
     let _ = sender.send(rows);
 }
 
-/// The hierarchy's row: the same rays, compared with the same brute force (`cubemap` is bound
-/// only because the harness's pipelines share one layout).
+/// The hierarchy's row: the same rays, compared with the same brute force (`cubemap`'s trace
+/// group holds the hierarchy).
 fn bvh_row(
     gpu: &Gpu,
     cubemap: &DeepCubemap,

@@ -1,10 +1,9 @@
 //! Checks by eye and by number, behind the `debug` feature: debug images that compare the deep
 //! cubemap with rasterisation (the G-buffer's shading normals, and those of primary rays traced
 //! through the cubemap with the same jitter), and the deep-cubemap correctness harness
-//! ([`bench`]) with its hierarchy peer ([`bvh`]), and the BSDF's white furnace ([`furnace`]).
+//! ([`bench`]) with its hierarchy peer, and the BSDF's white furnace ([`furnace`]).
 
 pub mod bench;
-pub mod bvh;
 pub mod furnace;
 
 use bevy::prelude::*;

@@ -166,7 +166,8 @@ fn encode_iteration(
         .encode(encoder, node.gbuffer, groups, triangles, offset, timer);
     mark(checkpoints, encoder, Stage::GBuffer);
     let cubemap = state.cubemap.cubemap.as_ref();
-    if let Some(cubemap) = cubemap {
+    // Under RppmTracer::Bvh the lists are not traced: no build.
+    if let Some(cubemap) = cubemap.filter(|_| !state.key.bvh) {
         cubemap.encode_build(encoder, node.cache, node.cubemap, &state.scene_group, timer);
         mark(checkpoints, encoder, Stage::CubemapBuild);
     }

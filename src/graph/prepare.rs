@@ -19,7 +19,7 @@ use crate::output::{OutputPipeline, output_key};
 use crate::photons::{PhotonKey, PhotonPipeline, device_photon_count, store_capacity};
 use crate::ppm::{next_radius2, radius2_after};
 use crate::scene::{ScatterPaths, SceneBuffers, SceneData};
-use crate::settings::{PhotonMapping, RppmDebugView, RppmMode};
+use crate::settings::{PhotonMapping, RppmDebugView, RppmMode, RppmTracer};
 use crate::shadows::{ShadowPipeline, cube_views};
 use crate::splat::{SplatKey, SplatPipeline};
 use crate::stats::timing::StageTimer;
@@ -151,6 +151,7 @@ fn select_stages(
                 traced_shadows: state.traced_shadows,
                 textured,
                 sky: scene.paths.contains(ScatterPaths::SKY),
+                bvh: state.key.bvh,
             },
         ),
         trace: traced.then(|| {
@@ -160,6 +161,7 @@ fn select_stages(
                 PhotonKey {
                     paths: scene.paths,
                     textured,
+                    bvh: state.key.bvh,
                 },
             )
         }),
@@ -261,6 +263,7 @@ pub(crate) fn prepare_views(
             importon_tiles: importon_tiles(settings, &scene.data),
             subsampling: settings.indirect_subsampling,
             history: settings.history.window().is_some(),
+            bvh: settings.tracer == RppmTracer::Bvh,
         };
         let fresh = |pipelines: &Pipelines, textures: &mut TextureCache| {
             RppmViewState::new(
@@ -404,7 +407,7 @@ fn prepare_view(
         scene,
         scene_group: &state.scene_group,
     };
-    if let Err(e) = state.cubemap.prepare(config, centre, &ctx) {
+    if let Err(e) = state.cubemap.prepare(config, centre, key.bvh, &ctx) {
         state.error = Some(e);
     }
     // Importons need the cubemap bound; without one (its buffers refused) none are made.

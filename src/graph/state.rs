@@ -36,6 +36,8 @@ pub struct ResourceKey {
     pub subsampling: u32,
     /// History is kept through motion (`RppmHistory::Reuse`): its buffers are held.
     pub history: bool,
+    /// Rays go through the view's hierarchy (`RppmTracer::Bvh`), not the deep cubemap.
+    pub bvh: bool,
 }
 
 /// The pipelines a view's iteration runs, by its scene and settings.

@@ -62,6 +62,8 @@ pub struct EyePathKey {
     pub textured: bool,
     /// The scene has a sky (`SKY`): direct light samples it, escaping paths see it.
     pub sky: bool,
+    /// Rays through the hierarchy (`BVH`): `RppmTracer::Bvh`.
+    pub bvh: bool,
 }
 
 impl SpecializedComputePipeline for EyePathPipeline {
@@ -87,6 +89,9 @@ impl SpecializedComputePipeline for EyePathPipeline {
         }
         if key.traced_shadows {
             shader_defs.push("TRACED_SHADOWS".into());
+        }
+        if key.bvh {
+            shader_defs.push("BVH".into());
         }
         shader_defs.extend(texture_defs(key.textured));
         ComputePipelineDescriptor {

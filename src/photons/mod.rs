@@ -107,6 +107,8 @@ pub struct PhotonKey {
     pub paths: ScatterPaths,
     /// The scene's texture lookups (`TEXTURED`).
     pub textured: bool,
+    /// Rays through the hierarchy (`BVH`): `RppmTracer::Bvh`.
+    pub bvh: bool,
 }
 
 impl SpecializedComputePipeline for PhotonPipeline {
@@ -121,6 +123,9 @@ impl SpecializedComputePipeline for PhotonPipeline {
             .map(Into::into)
             .collect();
         descriptor.shader_defs.extend(texture_defs(key.textured));
+        if key.bvh {
+            descriptor.shader_defs.push("BVH".into());
+        }
         descriptor
     }
 }

@@ -152,3 +152,30 @@ fn a_scene_whose_first_lists_overflowed_renders_every_triangle_from_the_first_it
     let error = bevy_rppm_cli::image_io::relmse(&again.image, &first.image).unwrap();
     assert!(error < 1e-3, "two renders differ: relMSE {error}");
 }
+
+/// `RppmTracer::Bvh` finds the hits the deep cubemap finds (both are exact), so the glass
+/// bunny, with importons, traced shadows and photons, renders the same image through either;
+/// the BVH view builds no lists.
+#[test]
+fn the_bvh_tracer_renders_what_the_deep_cubemap_renders() {
+    use bevy_rppm::RppmTracer;
+    use bevy_rppm_cli::headless::{Budget, RenderRequest, render_gltf};
+    let request = |tracer| RenderRequest {
+        scene: Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/glass_bunny.gltf"),
+        width: 48,
+        height: 48,
+        budget: Budget::Iterations(4),
+        settings: PhotonMapping {
+            photons_per_iteration: PhotonCount::Fixed(4096),
+            tracer,
+            ..default()
+        },
+    };
+    let cubemap = render_gltf(&request(RppmTracer::DeepCubemap), |_| {}).unwrap();
+    let bvh = render_gltf(&request(RppmTracer::Bvh), |_| {}).unwrap();
+    assert!(cubemap.stats.cubemap_nodes > 0);
+    assert_eq!(bvh.stats.cubemap_nodes, 0, "{:?}", bvh.stats);
+    assert!(bvh.image.mean() > 0.01, "the BVH image is black");
+    let error = bevy_rppm_cli::image_io::relmse(&bvh.image, &cubemap.image).unwrap();
+    assert!(error < 1e-3, "the tracers' images differ: relMSE {error}");
+}

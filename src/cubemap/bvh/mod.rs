@@ -1,6 +1,7 @@
-//! The deep cubemap's peer in the correctness harness: a bounding-volume hierarchy built on
-//! the CPU from the same triangles each time the scene changes, uploaded, and walked on the GPU
-//! (`trace_bvh` in `shaders/debug/cubemap_bench.wgsl`) over the same rays.
+//! The deep cubemap's peer: a bounding-volume hierarchy built on the CPU from the scene's
+//! world-space triangles each time the scene changes, uploaded, and walked on the GPU
+//! (`trace_bvh` in `shaders/cubemap/trace.wgsl`). It traces a view's rays under
+//! `RppmTracer::Bvh`, and the same rays as the cubemap in the DIRT harness.
 
 mod build;
 
@@ -25,6 +26,17 @@ pub struct BvhBuffers {
 }
 
 impl BvhBuffers {
+    /// The stand-in a view tracing by the deep cubemap binds: an empty leaf.
+    pub fn empty(device: &RenderDevice) -> Self {
+        Self {
+            nodes: storage_buffer(device, "rppm_bvh_nodes", &[BvhNode::default()]),
+            indices: storage_buffer::<u32>(device, "rppm_bvh_indices", &[]),
+            node_count: 1,
+            bytes: 0,
+            build_ms: 0.0,
+        }
+    }
+
     pub fn build(device: &RenderDevice, data: &SceneData) -> Self {
         let triangles: Vec<_> = data
             .world_triangles()
@@ -35,8 +47,8 @@ impl BvhBuffers {
         let bvh = Bvh::build(&triangles);
         let build_ms = start.elapsed().as_secs_f64() * 1e3;
         Self {
-            nodes: storage_buffer(device, "rppm_bench_bvh_nodes", &bvh.nodes),
-            indices: storage_buffer(device, "rppm_bench_bvh_indices", &bvh.indices),
+            nodes: storage_buffer(device, "rppm_bvh_nodes", &bvh.nodes),
+            indices: storage_buffer(device, "rppm_bvh_indices", &bvh.indices),
             node_count: bvh.nodes.len() as u32,
             bytes: bvh.bytes(),
             build_ms,

@@ -10,13 +10,13 @@ const LEAF_TRIANGLES: usize = 4;
 /// SAH bins along the longest axis of a node's centroids.
 const BINS: usize = 12;
 /// Deepest node: the GPU walk's stack holds this many entries (`BVH_STACK` in
-/// cubemap_bench.wgsl).
+/// trace.wgsl).
 pub const MAX_DEPTH: usize = 48;
 
 /// `count` of an inner node.
 pub const INNER: u32 = u32::MAX;
 
-/// A node as the GPU reads it (`BvhNode` in cubemap_bench.wgsl): a leaf holds triangles
+/// A node as the GPU reads it (`BvhNode` in trace.wgsl): a leaf holds triangles
 /// `first..first + count` of [`Bvh::indices`]; an inner node (`count` = [`INNER`]) has
 /// children `first` and `first + 1`.
 #[repr(C)]

@@ -87,6 +87,9 @@ pub struct SuiteArgs {
     /// Only our renders, without Mitsuba.
     #[arg(long)]
     pub no_path_tracer: bool,
+    /// Ours with `RppmTracer::Bvh` instead of the default deep cubemap.
+    #[arg(long)]
+    pub bvh: bool,
     /// Mitsuba's variant (`llvm_ad_rgb` is faster where drjit accepts the machine's LLVM).
     #[arg(long, default_value = "scalar_rgb")]
     pub variant: String,

@@ -50,6 +50,29 @@ fn buffer(device: &RenderDevice, label: &'static str, size: u64, usage: BufferUs
     })
 }
 
+/// Group 3 of a tracing shader: the cubemap's params, hierarchy, heads, nodes and big
+/// triangles, and a hierarchy's nodes and triangle ids.
+fn trace_group(
+    device: &RenderDevice,
+    layout: &BindGroupLayout,
+    [params, hierarchy, heads, nodes, big]: [&Buffer; 5],
+    bvh: &BvhBuffers,
+) -> BindGroup {
+    device.create_bind_group(
+        "rppm_cubemap_trace_group",
+        layout,
+        &BindGroupEntries::sequential((
+            params.as_entire_binding(),
+            hierarchy.as_entire_binding(),
+            heads.as_entire_binding(),
+            nodes.as_entire_binding(),
+            big.as_entire_binding(),
+            bvh.nodes.as_entire_binding(),
+            bvh.indices.as_entire_binding(),
+        )),
+    )
+}
+
 impl DeepCubemap {
     /// Buffers for `config` around `centre`, with room for `node_capacity` list entries.
     pub fn new(
@@ -174,19 +197,11 @@ impl DeepCubemap {
                 size: BufferSize::new(16),
             }),
         );
-        let stand_in = BvhBuffers::empty(device);
-        let trace_group = device.create_bind_group(
-            "rppm_cubemap_trace_group",
+        let trace_group = trace_group(
+            device,
             &cache.get_bind_group_layout(&pipelines.trace_layout),
-            &BindGroupEntries::sequential((
-                params_buffer.as_entire_binding(),
-                hierarchy.as_entire_binding(),
-                heads.as_entire_binding(),
-                nodes.as_entire_binding(),
-                big.as_entire_binding(),
-                stand_in.nodes.as_entire_binding(),
-                stand_in.indices.as_entire_binding(),
-            )),
+            [&params_buffer, &hierarchy, &heads, &nodes, &big],
+            &BvhBuffers::empty(device),
         );
         Ok(Self {
             config,
@@ -210,19 +225,14 @@ impl DeepCubemap {
 
     /// Binds `bvh` for tracing shaders (`RppmTracer::Bvh`) in place of the stand-in.
     pub fn bind_bvh(&mut self, device: &RenderDevice, layout: &BindGroupLayout, bvh: &BvhBuffers) {
-        self.trace_group = device.create_bind_group(
-            "rppm_cubemap_trace_group",
-            layout,
-            &BindGroupEntries::sequential((
-                self.params_buffer.as_entire_binding(),
-                self.hierarchy.as_entire_binding(),
-                self.heads.as_entire_binding(),
-                self.nodes.as_entire_binding(),
-                self.big.as_entire_binding(),
-                bvh.nodes.as_entire_binding(),
-                bvh.indices.as_entire_binding(),
-            )),
-        );
+        let own = [
+            &self.params_buffer,
+            &self.hierarchy,
+            &self.heads,
+            &self.nodes,
+            &self.big,
+        ];
+        self.trace_group = trace_group(device, layout, own, bvh);
     }
 
     /// Follows a changed scene (its triangle count and size); takes effect at the next build.

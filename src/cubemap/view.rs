@@ -3,12 +3,36 @@
 //! `RppmTracer::Bvh` its lists stay empty and unbuilt (photon binning still uses its tiles)
 //! and the view's hierarchy, rebuilt when the scene changes, is bound with it.
 
+use std::sync::Arc;
+
 use bevy::prelude::*;
 use bevy::render::renderer::{RenderDevice, RenderQueue};
 
 use super::bvh::BvhBuffers;
 use super::deep::grown_capacity;
 use super::{BuildContext, CubemapConfig, DeepCubemap};
+use crate::scene::SceneData;
+
+/// What a hierarchy was built from: the meshes (by identity) and where each instance places
+/// which of them.
+#[derive(PartialEq)]
+pub struct Geometry {
+    meshes: Vec<usize>,
+    instances: Vec<([[f32; 4]; 3], u32)>,
+}
+
+impl Geometry {
+    fn of(data: &SceneData) -> Self {
+        Self {
+            meshes: data.meshes.iter().map(|m| Arc::as_ptr(m) as usize).collect(),
+            instances: data
+                .instances
+                .iter()
+                .map(|i| (i.rows, i.first_local))
+                .collect(),
+        }
+    }
+}
 
 /// One camera's deep cubemap, when a stage that traces rays needs one.
 #[derive(Default)]
@@ -18,8 +42,8 @@ pub struct ViewCubemap {
     capacity: u32,
     /// (nodes used, nodes lost) of the last build read back.
     pub nodes: (u32, u32),
-    /// The hierarchy (`RppmTracer::Bvh`) and the scene epoch it was built from.
-    pub bvh: Option<(u64, BvhBuffers)>,
+    /// The hierarchy (`RppmTracer::Bvh`) and the geometry it was built from.
+    pub bvh: Option<(Geometry, BvhBuffers)>,
 }
 
 impl ViewCubemap {
@@ -113,15 +137,13 @@ impl ViewCubemap {
             return Ok(());
         };
         cubemap.set_centre(ctx.queue, centre);
-        if self
-            .bvh
-            .as_ref()
-            .is_none_or(|(epoch, _)| *epoch != scene.epoch)
-        {
+        // Rebuilt only when the geometry changed, not for a light or a material.
+        let geometry = Geometry::of(&scene.data);
+        if self.bvh.as_ref().is_none_or(|(built, _)| *built != geometry) {
             let bvh = BvhBuffers::build(ctx.device, &scene.data);
             let layout = ctx.cache.get_bind_group_layout(&ctx.pipelines.trace_layout);
             cubemap.bind_bvh(ctx.device, &layout, &bvh);
-            self.bvh = Some((scene.epoch, bvh));
+            self.bvh = Some((geometry, bvh));
         }
         Ok(())
     }

@@ -347,6 +347,9 @@ impl RppmViewState {
         if let Some(cubemap) = &self.cubemap.cubemap {
             memory.extend(cubemap.memory());
         }
+        if let Some((_, bvh)) = &self.cubemap.bvh {
+            memory.push(("bvh", bvh.bytes));
+        }
         memory
             .into_iter()
             .map(|(n, b)| (n.to_string(), b))

@@ -101,6 +101,8 @@ pub struct ViewStats {
     pub scene_geometry_bytes: u64,
     /// CPU milliseconds of the scene's latest extraction in the main world.
     pub scene_extract_ms: f64,
+    /// CPU milliseconds of the view's latest BVH build (`RppmTracer::Bvh`; 0 otherwise).
+    pub bvh_build_ms: f64,
 }
 
 /// Stats of every photon-mapping camera, by camera entity.

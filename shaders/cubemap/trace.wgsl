@@ -349,8 +349,8 @@ fn enter_box(o: vec3<f32>, inv: vec3<f32>, n: BvhNode, t_max: f32) -> f32 {
 }
 
 // Nearest hit by a stack walk of the hierarchy, nearer child first; triangles are tested as
-// brute force tests them.
-fn trace_bvh(o: vec3<f32>, d: vec3<f32>, t_min: f32, t_max: f32, ignore: u32) -> Hit {
+// brute force tests them. With `any`, the first hit found (a shadow ray's question).
+fn trace_bvh(o: vec3<f32>, d: vec3<f32>, t_min: f32, t_max: f32, ignore: u32, any: bool) -> Hit {
     var best = Hit(t_max, NO_HIT, vec2<f32>(0.0));
     // A zero component's reciprocal as a huge number of its sign, never NaN in the slabs.
     let inv = 1.0 / select(d, vec3<f32>(1e-30), abs(d) < vec3<f32>(1e-30));
@@ -368,6 +368,9 @@ fn trace_bvh(o: vec3<f32>, d: vec3<f32>, t_min: f32, t_max: f32, ignore: u32) ->
                 if id != ignore {
                     consider(o, d, id, t_min, &best);
                 }
+            }
+            if any && best.triangle != NO_HIT {
+                return best;
             }
         } else {
             let a = enter_box(o, inv, bvh_nodes[n.first], best.t);
@@ -400,8 +403,17 @@ fn trace_bvh(o: vec3<f32>, d: vec3<f32>, t_min: f32, t_max: f32, ignore: u32) ->
 // hierarchy.
 fn trace_ray(o: vec3<f32>, d: vec3<f32>, t_min: f32, t_max: f32, ignore: u32) -> Hit {
 #ifdef BVH
-    return trace_bvh(o, d, t_min, min(t_max, FAR), ignore);
+    return trace_bvh(o, d, t_min, min(t_max, FAR), ignore, false);
 #else
     return trace_cubemap(o, d, t_min, t_max, ignore);
+#endif
+}
+
+// Whether anything lies in (t_min, t_max) along the ray: the hierarchy stops at its first hit.
+fn occluded(o: vec3<f32>, d: vec3<f32>, t_min: f32, t_max: f32, ignore: u32) -> bool {
+#ifdef BVH
+    return trace_bvh(o, d, t_min, min(t_max, FAR), ignore, true).triangle != NO_HIT;
+#else
+    return trace_cubemap(o, d, t_min, t_max, ignore).triangle != NO_HIT;
 #endif
 }

@@ -45,5 +45,5 @@ fn bvh(@builtin(global_invocation_id) id: vec3<u32>) {
         return;
     }
     let ray = rays[id.x % arrayLength(&rays)];
-    store(id.x, trace_bvh(ray.origin.xyz, ray.direction.xyz, ray.origin.w, 1.0e30, bitcast<u32>(ray.direction.w)));
+    store(id.x, trace_bvh(ray.origin.xyz, ray.direction.xyz, ray.origin.w, 1.0e30, bitcast<u32>(ray.direction.w), false));
 }

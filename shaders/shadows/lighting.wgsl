@@ -10,7 +10,7 @@
 #import bevy_rppm::bsdf::bsdf_eval
 #import bevy_rppm::scene::{shadow_views, lights, triangles, triangle_at, material_at, emitters, light_cdf, find_source, triangle_point, uniform_barycentrics}
 #ifdef TRACED_SHADOWS
-#import bevy_rppm::cubemap::{trace_ray, NO_HIT}
+#import bevy_rppm::cubemap::occluded
 #endif
 
 @group(1) @binding(0) var<uniform> params: IterationParams;
@@ -61,7 +61,7 @@ fn cube_visibility(view_base: u32, layer: u32, eye: vec3<f32>, x: vec3<f32>, n: 
 fn visibility(x: vec3<f32>, dir: vec3<f32>, distance: f32, origin_triangle: u32) -> f32 {
     let t_min = params.scene_sphere.w * 1e-6;
     let t_max = select(distance * (1.0 - 1e-4), 1.0e30, distance >= 1.0e30);
-    return select(0.0, 1.0, trace_ray(x, dir, t_min, t_max, origin_triangle).triangle == NO_HIT);
+    return select(1.0, 0.0, occluded(x, dir, t_min, t_max, origin_triangle));
 }
 #endif
 

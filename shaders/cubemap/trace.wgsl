@@ -87,17 +87,11 @@ fn intersect_triangle(o: vec3<f32>, d: vec3<f32>, id: u32) -> vec3<f32> {
     return vec3<f32>(t, v / det, w / det);
 }
 
-// Distances within this fraction of each other are one: the hit goes to the lower index.
-const TIE: f32 = 1e-6;
-
 fn consider(o: vec3<f32>, d: vec3<f32>, id: u32, t_min: f32, best: ptr<function, Hit>) {
     let h = intersect_triangle(o, d, id);
-    // Equal distances (an edge two triangles share; coplanar faces, as an object resting on
-    // another, whose distances differ in the last bits) go to the lower index, not to
-    // whichever a tracer meets first: the lists fill by atomics in no set order, and the
-    // cubemap and the BVH meet triangles in different orders.
-    let tie = abs(h.x - (*best).t) <= TIE * (*best).t;
-    let nearer = select(h.x < (*best).t, id < (*best).triangle, tie);
+    // Equal distances (an edge two triangles share) go to the lower index, not to whichever
+    // the list, filled by atomics in no set order, gives first.
+    let nearer = h.x < (*best).t || (h.x == (*best).t && id < (*best).triangle);
     if h.x > t_min && nearer && opaque_at(id, h.yz) {
         *best = Hit(h.x, id, h.yz);
     }
@@ -350,8 +344,7 @@ fn enter_box(o: vec3<f32>, inv: vec3<f32>, n: BvhNode, t_max: f32) -> f32 {
     let lo = min(t0, t1);
     let hi = max(t0, t1);
     let near = max(max(lo.x, lo.y), max(lo.z, 0.0));
-    // Boxes a tie (`consider`) may still be in are entered.
-    let far = min(min(hi.x, hi.y), min(hi.z, t_max * (1.0 + 2.0 * TIE)));
+    let far = min(min(hi.x, hi.y), min(hi.z, t_max));
     return select(FAR_BOX, near, near <= far);
 }
 

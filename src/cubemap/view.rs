@@ -24,7 +24,11 @@ pub struct Geometry {
 impl Geometry {
     fn of(data: &SceneData) -> Self {
         Self {
-            meshes: data.meshes.iter().map(|m| Arc::as_ptr(m) as usize).collect(),
+            meshes: data
+                .meshes
+                .iter()
+                .map(|m| Arc::as_ptr(m) as usize)
+                .collect(),
             instances: data
                 .instances
                 .iter()
@@ -139,7 +143,11 @@ impl ViewCubemap {
         cubemap.set_centre(ctx.queue, centre);
         // Rebuilt only when the geometry changed, not for a light or a material.
         let geometry = Geometry::of(&scene.data);
-        if self.bvh.as_ref().is_none_or(|(built, _)| *built != geometry) {
+        if self
+            .bvh
+            .as_ref()
+            .is_none_or(|(built, _)| *built != geometry)
+        {
             let bvh = BvhBuffers::build(ctx.device, &scene.data);
             let layout = ctx.cache.get_bind_group_layout(&ctx.pipelines.trace_layout);
             cubemap.bind_bvh(ctx.device, &layout, &bvh);

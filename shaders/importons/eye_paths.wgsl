@@ -17,8 +17,9 @@
 @group(2) @binding(3) var<storage, read_write> samples: array<vec4<f32>>;
 #ifdef IMPORTONS
 @group(2) @binding(4) var<storage, read_write> importons: array<Importon>;
-// [0]: importons made; the indirect splat's dispatches, their x set here once an importon
-// exists: [4..7] binning photons, [8..11] gathering them per pixel.
+// [1]: importons made (read back as `ViewStats::importons`); the indirect splat's dispatches,
+// their x set here once an importon exists: [4..7] binning photons, [8..11] gathering them
+// per pixel.
 @group(2) @binding(5) var<storage, read_write> importon_stats: array<atomic<u32>, 12>;
 
 // Camera-path vertex from which Russian roulette may end a path.
@@ -105,7 +106,7 @@ fn follow_camera_path(pixel: u32, x0: vec3<f32>, n0: vec3<f32>, m0: Material, tr
             let footprint = params.pixel_spread * select(length, 1.0, params.orthographic != 0u);
             let radius = gather_radius(params, params.splat_radius, footprint);
             importons[pixel] = Importon(x, hit.triangle, interpolated, 0u, throughput, radius, -d, 0u);
-            atomicAdd(&importon_stats[0], 1u);
+            atomicAdd(&importon_stats[1], 1u);
             atomicMax(&importon_stats[4], (params.photon_capacity + 63u) / 64u);
             atomicMax(&importon_stats[8], (params.size.x * params.size.y + 63u) / 64u);
             return found + throughput * surface_light(m, x, n, -d, front, hit.triangle, true, rng);

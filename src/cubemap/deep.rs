@@ -73,7 +73,20 @@ fn trace_group(
     )
 }
 
+/// The bytes one buffer binding of `device` may hold: the bound on every cubemap buffer.
+pub(crate) fn binding_limit(device: &RenderDevice) -> u64 {
+    let limits = device.limits();
+    limits
+        .max_storage_buffer_binding_size
+        .min(limits.max_buffer_size)
+}
+
 impl DeepCubemap {
+    /// The most list entries one binding holds (8 bytes each).
+    pub fn most_nodes(device: &RenderDevice) -> u32 {
+        (binding_limit(device) / 8).min(u32::MAX as u64) as u32
+    }
+
     /// Buffers for `config` around `centre`, with room for `node_capacity` list entries.
     pub fn new(
         ctx: &BuildContext,
@@ -91,10 +104,7 @@ impl DeepCubemap {
         } = *ctx;
         let grid = config.grid();
         let tiles = 6 * grid as u64 * grid as u64;
-        let limit = device
-            .limits()
-            .max_storage_buffer_binding_size
-            .min(device.limits().max_buffer_size);
+        let limit = binding_limit(device);
         let largest = (tiles * config.bins as u64 * 4).max(node_capacity as u64 * 8);
         if largest > limit {
             return Err(format!(
@@ -305,12 +315,7 @@ impl DeepCubemap {
                 return Ok((cubemap, fit));
             }
             // No more room than one buffer binding holds: past it, entries stay lost (counted).
-            let limits = ctx.device.limits();
-            let limit = limits
-                .max_storage_buffer_binding_size
-                .min(limits.max_buffer_size)
-                / 8;
-            let grown = (grown_capacity(used) as u64).min(limit) as u32;
+            let grown = grown_capacity(used).min(Self::most_nodes(ctx.device));
             if grown <= capacity {
                 return Ok((cubemap, fit));
             }

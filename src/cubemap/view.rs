@@ -9,14 +9,21 @@ use bevy::prelude::*;
 use bevy::render::renderer::{RenderDevice, RenderQueue};
 
 use super::bvh::BvhBuffers;
-use super::deep::grown_capacity;
+use super::deep::{binding_limit, grown_capacity};
 use super::{BuildContext, CubemapConfig, DeepCubemap};
 use crate::scene::SceneData;
+
+/// A view's hierarchy, and the scene (epoch, geometry) it was built from or checked against.
+pub struct ViewBvh {
+    pub buffers: BvhBuffers,
+    epoch: u64,
+    geometry: Geometry,
+}
 
 /// What a hierarchy was built from: the meshes (by identity) and where each instance places
 /// which of them.
 #[derive(PartialEq)]
-pub struct Geometry {
+struct Geometry {
     meshes: Vec<usize>,
     instances: Vec<([[f32; 4]; 3], u32)>,
 }
@@ -46,8 +53,8 @@ pub struct ViewCubemap {
     capacity: u32,
     /// (nodes used, nodes lost) of the last build read back.
     pub nodes: (u32, u32),
-    /// The hierarchy (`RppmTracer::Bvh`) and the geometry it was built from.
-    pub bvh: Option<(Geometry, BvhBuffers)>,
+    /// The hierarchy (`RppmTracer::Bvh`).
+    pub bvh: Option<ViewBvh>,
 }
 
 impl ViewCubemap {
@@ -62,10 +69,6 @@ impl ViewCubemap {
         bvh: bool,
         ctx: &BuildContext,
     ) -> Result<(), String> {
-        if bvh {
-            return self.prepare_bvh(config, centre, ctx);
-        }
-        self.bvh = None;
         let BuildContext {
             device,
             queue,
@@ -74,13 +77,13 @@ impl ViewCubemap {
         } = *ctx;
         let Some(config) = config else {
             self.cubemap = None;
+            self.bvh = None;
             return Ok(());
         };
-        let limits = device.limits();
-        let limit = limits
-            .max_storage_buffer_binding_size
-            .min(limits.max_buffer_size);
-        let fitted = config.fitted(limit, limits.max_texture_dimension_2d);
+        let fitted = config.fitted(
+            binding_limit(device),
+            device.limits().max_texture_dimension_2d,
+        );
         if fitted != config {
             warn_once!(
                 "bevy_rppm: a {}² deep cubemap with {} bins does not fit this GPU's buffers; \
@@ -90,8 +93,12 @@ impl ViewCubemap {
                 fitted.resolution
             );
         }
+        if bvh {
+            return self.prepare_bvh(fitted, centre, ctx);
+        }
+        self.bvh = None;
         let config = fitted;
-        let most = (limit / 8) as u32;
+        let most = DeepCubemap::most_nodes(device);
         let wanted = self.capacity.min(most);
         let stale = self
             .cubemap
@@ -118,41 +125,42 @@ impl ViewCubemap {
         Ok(())
     }
 
-    /// Under `RppmTracer::Bvh`: an unbuilt cubemap with one depth bin and a list entry a tile
+    /// Under `RppmTracer::Bvh`: an unbuilt cubemap with one depth bin and one list entry
     /// (only its tiles are used), and the hierarchy of the scene as it is now.
     fn prepare_bvh(
         &mut self,
-        config: Option<CubemapConfig>,
+        config: CubemapConfig,
         centre: Vec3,
         ctx: &BuildContext,
     ) -> Result<(), String> {
-        let Some(config) = config.map(|c| CubemapConfig { bins: 1, ..c }) else {
-            self.cubemap = None;
-            self.bvh = None;
-            return Ok(());
-        };
+        let config = CubemapConfig { bins: 1, ..config };
         let scene = ctx.scene;
         if self.cubemap.as_ref().is_none_or(|c| c.config != config) {
-            let tiles = 6 * config.grid() * config.grid();
-            self.cubemap = Some(DeepCubemap::new(ctx, config, centre, tiles)?);
+            self.cubemap = Some(DeepCubemap::new(ctx, config, centre, 1)?);
             self.bvh = None;
         }
         let Some(cubemap) = &mut self.cubemap else {
             return Ok(());
         };
         cubemap.set_centre(ctx.queue, centre);
-        // Rebuilt only when the geometry changed, not for a light or a material.
-        let geometry = Geometry::of(&scene.data);
-        if self
-            .bvh
-            .as_ref()
-            .is_none_or(|(built, _)| *built != geometry)
-        {
-            let bvh = BvhBuffers::build(ctx.device, &scene.data);
-            let layout = ctx.cache.get_bind_group_layout(&ctx.pipelines.trace_layout);
-            cubemap.bind_bvh(ctx.device, &layout, &bvh);
-            self.bvh = Some((geometry, bvh));
+        // Looked at when the scene changed, and rebuilt only when its geometry did (not for a
+        // light or a material).
+        if self.bvh.as_ref().is_some_and(|b| b.epoch == scene.epoch) {
+            return Ok(());
         }
+        let geometry = Geometry::of(&scene.data);
+        if let Some(b) = self.bvh.as_mut().filter(|b| b.geometry == geometry) {
+            b.epoch = scene.epoch;
+            return Ok(());
+        }
+        let buffers = BvhBuffers::build(ctx.device, &scene.data);
+        let layout = ctx.cache.get_bind_group_layout(&ctx.pipelines.trace_layout);
+        cubemap.bind_bvh(ctx.device, &layout, &buffers);
+        self.bvh = Some(ViewBvh {
+            buffers,
+            epoch: scene.epoch,
+            geometry,
+        });
         Ok(())
     }
 

@@ -391,15 +391,11 @@ pub(super) fn run_cubemap_bench(
     let count = request.rays.len() as u32;
     let mut rows = Vec::new();
     let mut brute: Option<(Vec<[f32; 4]>, f64)> = None;
+    // The first guess no larger than one binding holds (as a view's cubemap starts).
+    let most = DeepCubemap::most_nodes(&device);
+    let trace_layout = gpu.cache.get_bind_group_layout(&gpu.cubemap.trace_layout);
     for &config in &request.configs {
-        // The first guess no larger than one binding holds (as a view's cubemap starts).
-        let limits = device.limits();
-        let most = limits
-            .max_storage_buffer_binding_size
-            .min(limits.max_buffer_size)
-            / 8;
-        let capacity =
-            DeepCubemap::initial_capacity(config, scene.triangle_count()).min(most as u32);
+        let capacity = DeepCubemap::initial_capacity(config, scene.triangle_count()).min(most);
         let fitted = DeepCubemap::fitted(&gpu.build_context(), config, request.centre, capacity);
         let (mut cube, fit) = match fitted {
             Ok(built) => built,
@@ -408,7 +404,6 @@ pub(super) fn run_cubemap_bench(
                 continue;
             }
         };
-        let trace_layout = gpu.cache.get_bind_group_layout(&gpu.cubemap.trace_layout);
         cube.bind_bvh(gpu.device, &trace_layout, &gpu.bvh);
         let brute = brute.get_or_insert_with(|| gpu.trace(bench.brute_force, &cube, count, true));
         let (hits, _) = gpu.trace(bench.trace, &cube, count, true);

@@ -201,7 +201,11 @@ pub(crate) fn report_views(
                 scene_upload_bytes: scene.as_ref().map_or(0, |s| s.upload_bytes),
                 scene_geometry_bytes: scene.as_ref().map_or(0, |s| s.geometry_bytes()),
                 scene_extract_ms: extracted.as_ref().map_or(0.0, |s| s.extract_ms),
-                bvh_build_ms: state.cubemap.bvh.as_ref().map_or(0.0, |b| b.1.build_ms),
+                bvh_build_ms: state
+                    .cubemap
+                    .bvh
+                    .as_ref()
+                    .map_or(0.0, |b| b.buffers.build_ms),
             }),
         ));
     }

@@ -347,8 +347,8 @@ impl RppmViewState {
         if let Some(cubemap) = &self.cubemap.cubemap {
             memory.extend(cubemap.memory());
         }
-        if let Some((_, bvh)) = &self.cubemap.bvh {
-            memory.push(("bvh", bvh.bytes));
+        if let Some(bvh) = &self.cubemap.bvh {
+            memory.push(("bvh", bvh.buffers.bytes));
         }
         memory
             .into_iter()

@@ -144,7 +144,7 @@ pub struct EyePaths {
     pub importons: Buffer,
     /// The heads of the cubemap tiles' photon lists, which indirect splatting gathers from.
     pub photon_heads: Buffer,
-    /// [importons made, -, -, -, bin x, y, z, -, gather x, y, z, -]: the stage sets the
+    /// [-, importons made, -, -, bin x, y, z, -, gather x, y, z, -]: the stage sets the
     /// indirect splat's workgroup counts only when it makes an importon.
     pub stats: Buffer,
     /// Per pixel, the photons the pixel's importon gathered (indirect splatting's output).

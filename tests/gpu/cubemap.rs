@@ -175,6 +175,7 @@ fn the_bvh_tracer_renders_what_the_deep_cubemap_renders() {
     let bvh = render_gltf(&request(RppmTracer::Bvh), |_| {}).unwrap();
     assert!(cubemap.stats.cubemap_nodes > 0);
     assert_eq!(bvh.stats.cubemap_nodes, 0, "{:?}", bvh.stats);
+    assert!(cubemap.stats.importons > 0 && bvh.stats.importons > 0);
     assert!(bvh.image.mean() > 0.01, "the BVH image is black");
     let error = bevy_rppm_cli::image_io::relmse(&bvh.image, &cubemap.image).unwrap();
     assert!(error < 1e-3, "the tracers' images differ: relMSE {error}");

@@ -83,3 +83,35 @@ fn a_moved_object_sends_its_instance_and_renders_where_it_moved() {
     assert!(error < 0.01, "moved against placed: {error}");
     assert!(stale > 10.0 * error.max(1e-4), "before the move: {stale}");
 }
+
+/// Under `RppmTracer::Bvh` a moved object rebuilds the hierarchy: its shadow follows it, and
+/// the image is the one of the object placed there from the start.
+#[test]
+fn the_bvh_follows_a_moved_object() {
+    let bvh_scene = |x: f32| {
+        let mut app = gpu_app();
+        let (camera, _) = lit_plane(&mut app, 1000.0, 2.0, 32);
+        let square = spawn_occluder(&mut app, 0.5, 1.0, StandardMaterial::default());
+        let world = app.world_mut();
+        world.get_mut::<Transform>(square).unwrap().translation.x = x;
+        world.get_mut::<PhotonMapping>(camera).unwrap().tracer = bevy_rppm::RppmTracer::Bvh;
+        (app, camera, square)
+    };
+    let (mut app, camera, square) = bvh_scene(0.0);
+    let before = estimate_after(&mut app, camera, 4, "before the move");
+    let epoch = radiance(&app, camera).epoch;
+    app.world_mut()
+        .get_mut::<Transform>(square)
+        .unwrap()
+        .translation
+        .x = 0.6;
+    app.update();
+    let moved = estimate_since(&mut app, camera, epoch, 4);
+    let (mut fresh_app, fresh_camera, _) = bvh_scene(0.6);
+    let fresh = estimate_after(&mut fresh_app, fresh_camera, 4, "placed there");
+    let error = relmse(&moved, &fresh).unwrap();
+    let stale = relmse(&before, &fresh).unwrap();
+    println!("BVH, relMSE against the square placed there: moved {error:.5}, before {stale:.5}");
+    assert!(error < 0.01, "moved against placed: {error}");
+    assert!(stale > 10.0 * error.max(1e-4), "before the move: {stale}");
+}

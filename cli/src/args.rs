@@ -87,9 +87,9 @@ pub struct SuiteArgs {
     /// Only our renders, without Mitsuba.
     #[arg(long)]
     pub no_path_tracer: bool,
-    /// Ours with `RppmTracer::Bvh` instead of the default deep cubemap.
-    #[arg(long)]
-    pub bvh: bool,
+    /// What traces our rays (default: auto, the BVH on a software adapter).
+    #[arg(long, value_enum, default_value_t = Tracer::Auto)]
+    pub tracer: Tracer,
     /// Mitsuba's variant (`llvm_ad_rgb` is faster where drjit accepts the machine's LLVM).
     #[arg(long, default_value = "scalar_rgb")]
     pub variant: String,
@@ -152,6 +152,24 @@ pub enum Preset {
     Preview,
     Balanced,
     Reference,
+}
+
+/// `RppmTracer`'s choices.
+#[derive(Clone, Copy, ValueEnum)]
+pub enum Tracer {
+    Auto,
+    DeepCubemap,
+    Bvh,
+}
+
+impl From<Tracer> for RppmTracer {
+    fn from(t: Tracer) -> Self {
+        match t {
+            Tracer::Auto => RppmTracer::Auto,
+            Tracer::DeepCubemap => RppmTracer::DeepCubemap,
+            Tracer::Bvh => RppmTracer::Bvh,
+        }
+    }
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -234,9 +252,10 @@ pub struct RenderArgs {
     /// (`wall_ms_per_iteration` in the stats; slow).
     #[arg(long)]
     pub profile: bool,
-    /// Trace rays through a BVH built on the CPU instead of the deep cubemap.
-    #[arg(long)]
-    pub bvh: bool,
+    /// What traces the rays (default: auto, the BVH on a software adapter, else the deep
+    /// cubemap).
+    #[arg(long, value_enum, default_value_t = Tracer::Auto)]
+    pub tracer: Tracer,
     /// Pose the scene by its glTF animation of this index (skins, morph weights, nodes).
     #[arg(long)]
     pub animation: Option<usize>,
@@ -381,9 +400,7 @@ impl RenderArgs {
         s.kernel_flattening = self.flattening.unwrap_or(s.kernel_flattening);
         s.splat_russian_roulette |= self.splat_rr;
         s.profile_stages |= self.profile;
-        if self.bvh {
-            s.tracer = RppmTracer::Bvh;
-        }
+        s.tracer = self.tracer.into();
         if let Some(view) = self.debug_view {
             s.debug_view = match view {
                 DebugView::GbufferNormals => RppmDebugView::GBufferNormals,

@@ -36,6 +36,16 @@ pub const INSTALL_HINT: &str = "no GPU adapter found. On a machine without a GPU
 
 /// Finds a GPU adapter the way Bevy will, before Bevy would panic without one; returns its name.
 pub fn check_gpu_adapter() -> Result<String, String> {
+    adapter_info().map(|info| info.name)
+}
+
+/// Whether the adapter a render gets is a CPU emulating a GPU (llvmpipe), where
+/// `RppmTracer::Auto` traces through the BVH.
+pub fn software_adapter() -> Result<bool, String> {
+    adapter_info().map(|info| info.device_type == wgpu::DeviceType::Cpu)
+}
+
+fn adapter_info() -> Result<wgpu::AdapterInfo, String> {
     let instance = wgpu::Instance::new(wgpu::InstanceDescriptor {
         backends: wgpu::Backends::from_env().unwrap_or(wgpu::Backends::all()),
         ..wgpu::InstanceDescriptor::new_without_display_handle()
@@ -45,7 +55,7 @@ pub fn check_gpu_adapter() -> Result<String, String> {
         ..Default::default()
     }))
     .map_err(|e| format!("{INSTALL_HINT} ({e})"))?;
-    Ok(adapter.get_info().name)
+    Ok(adapter.get_info())
 }
 
 /// A windowless Bevy app with the photon-mapping plugin, ready for `update()`; assets load

@@ -8,7 +8,7 @@ use std::process::ExitCode;
 
 use anyhow::{Context, Result, bail};
 use bevy_rppm::cubemap::CubemapConfig;
-use bevy_rppm::{PhotonCount, PhotonMapping, RppmTracer, ViewStats};
+use bevy_rppm::{PhotonCount, PhotonMapping, ViewStats};
 use bevy_rppm_cli::animation;
 use bevy_rppm_cli::bench::{print_table, sweep_configs};
 use bevy_rppm_cli::headless::{
@@ -409,7 +409,7 @@ fn suite(args: &SuiteArgs) -> Result<()> {
     for scene in &scenes {
         eprintln!("rppm: {} ({} s each)", scene.name, args.budget);
         let settings = PhotonMapping {
-            tracer: [RppmTracer::DeepCubemap, RppmTracer::Bvh][args.bvh as usize],
+            tracer: args.tracer.into(),
             ..PhotonMapping::default()
         };
         rows.push(run_scene(

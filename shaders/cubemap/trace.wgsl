@@ -337,6 +337,7 @@ fn trace_cubemap(o: vec3<f32>, d: vec3<f32>, t_min: f32, t_max: f32, ignore: u32
 
 // Where the ray enters a node's box within (0, t_max), or FAR_BOX on a miss.
 const FAR_BOX: f32 = 3.0e38;
+const BOX_SLACK: f32 = 4e-6;
 
 fn enter_box(o: vec3<f32>, inv: vec3<f32>, n: BvhNode, t_max: f32) -> f32 {
     let t0 = (n.min - o) * inv;
@@ -344,7 +345,10 @@ fn enter_box(o: vec3<f32>, inv: vec3<f32>, n: BvhNode, t_max: f32) -> f32 {
     let lo = min(t0, t1);
     let hi = max(t0, t1);
     let near = max(max(lo.x, lo.y), max(lo.z, 0.0));
-    let far = min(min(hi.x, hi.y), min(hi.z, t_max));
+    // A box's entry distance rounds otherwise than a triangle's in it: entered a hair beyond
+    // t_max, a face coplanar with the best hit (a glass block resting on a floor) is still
+    // tested, and the nearer of the two by the last bit wins, as in brute force.
+    let far = min(min(hi.x, hi.y), min(hi.z, t_max * (1.0 + BOX_SLACK)));
     return select(FAR_BOX, near, near <= far);
 }
 

@@ -4,7 +4,7 @@
 // through the deep cubemap to the first non-specular surface, lights it the same way, and
 // leaves an importon there for indirect splatting.
 #import bevy_rppm::common::{Material, IterationParams, Importon, NO_IMPORTON, gather_radius, random, pcg_hash}
-#import bevy_rppm::scene::{triangle_at, gbuffer_material, material_at, as_seen_from, normal_at, interpolated_normal}
+#import bevy_rppm::scene::{triangle_at, gbuffer_material, resolve_surface, kernel_normal, material_at, as_seen_from, normal_at, interpolated_normal}
 #import bevy_rppm::lighting::{params, surface_light}
 #ifdef IMPORTONS
 #import bevy_rppm::bsdf::{fresnel_dielectric, scatter_photon, stores_photons}
@@ -15,6 +15,10 @@
 @group(2) @binding(0) var gbuffer_position: texture_2d<f32>;
 @group(2) @binding(1) var gbuffer_normal: texture_2d<f32>;
 @group(2) @binding(3) var<storage, read_write> samples: array<vec4<f32>>;
+#ifdef TEXTURED
+// Each pixel's `resolve_surface`, which the splat reads.
+@group(2) @binding(6) var<storage, read_write> surfaces: array<vec4<u32>>;
+#endif
 #ifdef IMPORTONS
 @group(2) @binding(4) var<storage, read_write> importons: array<Importon>;
 // [1]: importons made (read back as `ViewStats::importons`); the indirect splat's dispatches,
@@ -150,6 +154,9 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
         let gn = textureLoad(gbuffer_normal, vec2<i32>(id.xy), 0);
         let n = gn.xyz;
         let m = gbuffer_material(gp, gn.w);
+#ifdef TEXTURED
+        surfaces[pixel] = resolve_surface(m, kernel_normal(gp, n), n);
+#endif
         let wo = normalize(params.camera_position.xyz - gp.xyz);
         // Mode Indirect: Bevy renders the first hit's emission and direct light itself.
 #ifdef IMPORTONS

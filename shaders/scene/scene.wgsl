@@ -2,7 +2,7 @@
 // and the material lookups that apply textures and vertex colours (src/scene/textures.rs).
 #define_import_path bevy_rppm::scene
 
-#import bevy_rppm::common::{Triangle, PackedTriangle, unpack_normal, Material, Light, Emitter, ShadowView, TriangleAttributes, Texture, DELTA_ROUGHNESS, MATERIAL_TEXTURED, MATERIAL_ALPHA_MASK, MATERIAL_ALPHA_HASHED, MATERIAL_DOUBLE_SIDED, MATERIAL_UNLIT, MATERIAL_FLIP_NORMAL_Y, NO_TEXTURE, pcg_hash}
+#import bevy_rppm::common::{Triangle, PackedTriangle, unpack_normal, pack_normal, Material, Light, Emitter, ShadowView, TriangleAttributes, Texture, DELTA_ROUGHNESS, MATERIAL_TEXTURED, MATERIAL_ALPHA_MASK, MATERIAL_ALPHA_HASHED, MATERIAL_DOUBLE_SIDED, MATERIAL_UNLIT, MATERIAL_FLIP_NORMAL_Y, NO_TEXTURE, pcg_hash}
 
 @group(0) @binding(0) var<storage, read> triangles: array<PackedTriangle>;
 @group(0) @binding(1) var<storage, read> shadow_views: array<ShadowView>;
@@ -67,6 +67,39 @@ fn gbuffer_material(position: vec4<f32>, footprint: f32) -> Material {
     let triangle = u32(abs(position.w)) - 1u;
     let m = material_at(triangle, barycentrics(triangle_at(triangle), position.xyz), footprint);
     return as_seen_from(m, position.w > 0.0);
+}
+
+// A G-buffer texel's textures looked up once, for stages that read them for many photons a
+// pixel (the splat): base colour (half floats: x r, g; y b), whether a normal map bends the
+// shading normal away from the kernel's (y's high half), metalness and roughness (z, unorm16)
+// and the kernel's normal (w, octahedral).
+fn resolve_surface(m: Material, kernel: vec3<f32>, shading: vec3<f32>) -> vec4<u32> {
+    let bent = select(0.0, 1.0, any(kernel != shading));
+    return vec4<u32>(
+        pack2x16float(m.base_color.rg),
+        pack2x16float(vec2<f32>(m.base_color.b, bent)),
+        pack2x16unorm(vec2<f32>(m.metallic, m.perceptual_roughness)),
+        pack_normal(kernel),
+    );
+}
+
+// `gbuffer_material` from the texel's `resolve_surface`.
+fn resolved_material(position: vec4<f32>, surface: vec4<u32>) -> Material {
+    var m = materials[triangles[u32(abs(position.w)) - 1u].material];
+    m.base_color = vec4<f32>(unpack2x16float(surface.x), unpack2x16float(surface.y).x, m.base_color.a);
+    let mr = unpack2x16unorm(surface.z);
+    m.metallic = mr.x;
+    m.perceptual_roughness = mr.y;
+    if (m.flags & MATERIAL_UNLIT) != 0u {
+        m.reflectance = 0.0;
+        m.specular_transmission = 0.0;
+    }
+    return as_seen_from(m, position.w > 0.0);
+}
+
+// `kernel_normal` from the texel's `resolve_surface`.
+fn resolved_kernel_normal(surface: vec4<u32>, shading: vec3<f32>) -> vec3<f32> {
+    return select(shading, unpack_normal(surface.w), unpack2x16float(surface.y).y > 0.5);
 }
 
 // The material on the side a ray arrives from: the back of a one-sided (not `double_sided`)

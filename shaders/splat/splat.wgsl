@@ -6,13 +6,17 @@
 // pixel of the block, and holds incident light Σ Φ / (π r²) for the joint-bilateral upsampling
 // in shaders/accumulate/accumulate.wgsl, which applies each full-resolution pixel's own BSDF.
 #import bevy_rppm::common::{Photon, IterationParams, PI, gather_radius, splat_survives, splat_weight, subsample_representative}
-#import bevy_rppm::scene::{gbuffer_material, kernel_normal}
+#import bevy_rppm::scene::{gbuffer_material, resolved_material, resolved_kernel_normal, kernel_normal}
 #import bevy_rppm::bsdf::bsdf_eval
 
 @group(1) @binding(0) var<uniform> params: IterationParams;
 @group(1) @binding(1) var<storage, read> photons: array<Photon>;
 @group(1) @binding(2) var gbuffer_position: texture_2d<f32>;
 @group(1) @binding(3) var gbuffer_normal: texture_2d<f32>;
+#ifdef TEXTURED
+// Each pixel's textures, looked up once by local illumination (`resolve_surface`).
+@group(1) @binding(4) var<storage, read> surfaces: array<vec4<u32>>;
+#endif
 
 struct VertexOut {
     @builtin(position) clip: vec4<f32>,
@@ -53,7 +57,12 @@ fn fragment(in: VertexOut) -> @location(0) vec4<f32> {
     let p = photons[in.photon];
     let radius = gather_radius(params, params.splat_radius, gn.w);
     let offset = p.position - gp.xyz;
+#ifdef TEXTURED
+    let surface = surfaces[u32(pixel.y) * params.size.x + u32(pixel.x)];
+    let plane = resolved_kernel_normal(surface, gn.xyz);
+#else
     let plane = kernel_normal(gp, gn.xyz);
+#endif
     // Inside the gather disc, on this surface: near its plane and facing the same way.
     if dot(offset, offset) > radius * radius || abs(dot(offset, plane)) > params.kernel_flattening * radius || dot(p.normal, plane) < 0.5 {
         discard;
@@ -65,7 +74,11 @@ fn fragment(in: VertexOut) -> @location(0) vec4<f32> {
 #ifdef SUBSAMPLED
     return vec4<f32>(p.flux * density, 0.0);
 #else
+#ifdef TEXTURED
+    let m = resolved_material(gp, surface);
+#else
     let m = gbuffer_material(gp, gn.w);
+#endif
     let wo = normalize(params.camera_position.xyz - gp.xyz);
     // The photons' density is irradiance on the kernel's plane; a normal map's bent normal
     // receives it by its own cosine instead.

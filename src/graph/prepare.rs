@@ -5,11 +5,13 @@
 use bevy::prelude::*;
 use bevy::render::camera::ExtractedCamera;
 use bevy::render::render_resource::*;
-use bevy::render::renderer::{RenderDevice, RenderQueue};
+use bevy::render::renderer::{RenderAdapterInfo, RenderDevice, RenderQueue};
 use bevy::render::texture::TextureCache;
 use bevy::render::view::{ExtractedView, ViewTarget};
 
-use super::state::{ResourceKey, RppmViewState, StageIds, StagePipelines, ViewTimer};
+use super::state::{
+    ResourceKey, RppmViewState, StageIds, StagePipelines, ViewTimer, readiness, stages_ready,
+};
 use crate::accumulate::{AccumulateKey, AccumulatePipeline, Changes, HistoryFlags};
 use crate::cubemap::{BuildContext, CubemapConfig, CubemapPipelines};
 use crate::gbuffer::GBufferPipeline;
@@ -19,7 +21,7 @@ use crate::output::{OutputPipeline, output_key};
 use crate::photons::{PhotonKey, PhotonPipeline, device_photon_count, store_capacity};
 use crate::ppm::{next_radius2, radius2_after};
 use crate::scene::{ScatterPaths, SceneBuffers, SceneData};
-use crate::settings::{PhotonMapping, RppmDebugView, RppmMode, RppmTracer};
+use crate::settings::{PhotonMapping, RppmDebugView, RppmMode};
 use crate::shadows::{ShadowPipeline, cube_views};
 use crate::splat::{SplatKey, SplatPipeline};
 use crate::stats::timing::StageTimer;
@@ -82,49 +84,6 @@ fn cubemap_config(settings: &PhotonMapping) -> CubemapConfig {
         tile_size: settings.cubemap_tile_size,
         bins: settings.bins,
     }
-}
-
-/// Whether every pipeline is compiled; an error when one failed to build.
-fn readiness<'a>(
-    states: impl IntoIterator<Item = &'a CachedPipelineState>,
-) -> Result<bool, String> {
-    let mut ready = true;
-    for state in states {
-        match state {
-            CachedPipelineState::Err(e) => {
-                return Err(format!("a bevy_rppm pipeline failed to build: {e}"));
-            }
-            CachedPipelineState::Ok(_) => {}
-            _ => ready = false,
-        }
-    }
-    Ok(ready)
-}
-
-/// Whether the stage variants this view selected are compiled.
-fn stages_ready(state: &RppmViewState, cache: &PipelineCache) -> Result<bool, String> {
-    let Some(stages) = state.stages else {
-        return Ok(false);
-    };
-    let [bin, gather] = stages.indirect_splat.map_or([None; 2], |ids| ids.map(Some));
-    let compute = [
-        Some(stages.eye_paths),
-        Some(stages.accumulate),
-        stages.trace,
-        bin,
-        gather,
-    ];
-    let render = [Some(stages.gbuffer), stages.splat]
-        .into_iter()
-        .flatten()
-        .map(|id| cache.get_render_pipeline_state(id));
-    readiness(
-        compute
-            .into_iter()
-            .flatten()
-            .map(|id| cache.get_compute_pipeline_state(id))
-            .chain(render),
-    )
 }
 
 /// The variants of the stages this view runs: only the scattering paths its scene's
@@ -234,6 +193,7 @@ pub(crate) fn prepare_views(
     queue: Res<RenderQueue>,
     mut textures: ResMut<TextureCache>,
     mut pipelines: Pipelines,
+    adapter: Res<RenderAdapterInfo>,
     mut warned_indirect: Local<bool>,
 ) {
     let Some(scene) = scene.as_deref() else {
@@ -263,7 +223,10 @@ pub(crate) fn prepare_views(
             importon_tiles: importon_tiles(settings, &scene.data),
             subsampling: settings.indirect_subsampling,
             history: settings.history.window().is_some(),
-            bvh: settings.tracer == RppmTracer::Bvh,
+            bvh: settings
+                .tracer
+                .uses_bvh(adapter.device_type == wgpu::DeviceType::Cpu),
+            textured: scene.data.is_textured(),
         };
         let fresh = |pipelines: &Pipelines, textures: &mut TextureCache| {
             RppmViewState::new(

@@ -34,7 +34,7 @@ fn passes(state: &RppmViewState) -> Vec<String> {
         ),
         ("traced_shadows", !debug && state.traced_shadows),
         ("gbuffer", state.debug_view != RppmDebugView::CubemapNormals),
-        ("cubemap_build", has_cubemap),
+        ("cubemap_build", has_cubemap && !state.key.bvh),
         ("local_illumination", !debug),
         ("importon_tracing", state.importons),
         ("photon_trace", traced),

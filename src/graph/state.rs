@@ -38,6 +38,8 @@ pub struct ResourceKey {
     pub history: bool,
     /// Rays go through the view's hierarchy (`RppmTracer::Bvh`), not the deep cubemap.
     pub bvh: bool,
+    /// The scene has textures: each pixel's resolved surface is held for the splat.
+    pub textured: bool,
 }
 
 /// The pipelines a view's iteration runs, by its scene and settings.
@@ -150,7 +152,7 @@ impl RppmViewState {
             usage: BufferUsages::UNIFORM | BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
-        let eye_paths = EyePaths::new(device, size, key.importon_tiles);
+        let eye_paths = EyePaths::new(device, size, key.importon_tiles, key.textured);
         let splats = SplatTarget::new(textures, device, pipelines.splat, size, key.subsampling);
         let estimate = Estimate::new(device, size, key.history);
         let (store, indirect_group) = photon_store(key, device, cache, pipelines, &eye_paths);
@@ -265,6 +267,7 @@ impl RppmViewState {
                 params.clone(),
                 store,
                 &self.gbuffer,
+                &self.eye_paths.surfaces,
             );
         }
         self.estimate.bind(
@@ -374,4 +377,47 @@ fn photon_store(
             indirect_splat::bind_group(device, cache, pipelines.indirect_splat, store, eye_paths)
         });
     (store, group)
+}
+
+/// Whether every pipeline is compiled; an error when one failed to build.
+pub(super) fn readiness<'a>(
+    states: impl IntoIterator<Item = &'a CachedPipelineState>,
+) -> Result<bool, String> {
+    let mut ready = true;
+    for state in states {
+        match state {
+            CachedPipelineState::Err(e) => {
+                return Err(format!("a bevy_rppm pipeline failed to build: {e}"));
+            }
+            CachedPipelineState::Ok(_) => {}
+            _ => ready = false,
+        }
+    }
+    Ok(ready)
+}
+
+/// Whether the stage variants this view selected are compiled.
+pub(super) fn stages_ready(state: &RppmViewState, cache: &PipelineCache) -> Result<bool, String> {
+    let Some(stages) = state.stages else {
+        return Ok(false);
+    };
+    let [bin, gather] = stages.indirect_splat.map_or([None; 2], |ids| ids.map(Some));
+    let compute = [
+        Some(stages.eye_paths),
+        Some(stages.accumulate),
+        stages.trace,
+        bin,
+        gather,
+    ];
+    let render = [Some(stages.gbuffer), stages.splat]
+        .into_iter()
+        .flatten()
+        .map(|id| cache.get_render_pipeline_state(id));
+    readiness(
+        compute
+            .into_iter()
+            .flatten()
+            .map(|id| cache.get_compute_pipeline_state(id))
+            .chain(render),
+    )
 }

@@ -42,7 +42,7 @@ impl Plugin for ImportonsPlugin {
 #[derive(Resource)]
 pub struct EyePathPipeline {
     /// 0 G-buffer position, 1 G-buffer normal, 2 shadow maps, 3 this iteration's samples,
-    /// 4 importons, 5 importon stats.
+    /// 4 importons, 5 importon stats, 6 resolved surfaces.
     pub layout: BindGroupLayoutDescriptor,
     view: ViewLayouts,
     shader: Handle<Shader>,
@@ -118,6 +118,7 @@ pub fn eye_path_layout() -> BindGroupLayoutDescriptor {
                 storage_buffer_sized(false, None),
                 storage_buffer_sized(false, None),
                 storage_buffer_sized(false, None),
+                storage_buffer_sized(false, None),
             ),
         ),
     )
@@ -149,6 +150,10 @@ pub struct EyePaths {
     pub stats: Buffer,
     /// Per pixel, the photons the pixel's importon gathered (indirect splatting's output).
     pub radiance: Buffer,
+    /// Per pixel of a textured scene, the first hit's textures as looked up once (base
+    /// colour, metalness, roughness; `resolved_material` in shaders/scene/scene.wgsl), for
+    /// the splat's many photons a pixel.
+    pub surfaces: Buffer,
     /// Group 2 of the stage (made again when the scene's shadow maps change).
     pub group: Option<BindGroup>,
 }
@@ -164,8 +169,9 @@ pub fn storage(device: &RenderDevice, label: &'static str, size: u64) -> Buffer 
 }
 
 impl EyePaths {
-    /// Buffers for `size` pixels, with importons when `importon_tiles` > 0.
-    pub fn new(device: &RenderDevice, size: UVec2, importon_tiles: u32) -> Self {
+    /// Buffers for `size` pixels, with importons when `importon_tiles` > 0 and surfaces
+    /// when `textured`.
+    pub fn new(device: &RenderDevice, size: UVec2, importon_tiles: u32, textured: bool) -> Self {
         let pixels = size.x as u64 * size.y as u64;
         let per_pixel = |bytes: u64| {
             if importon_tiles > 0 {
@@ -192,6 +198,7 @@ impl EyePaths {
                     | BufferUsages::INDIRECT,
             }),
             radiance: storage(device, "rppm_importon_radiance", per_pixel(16)),
+            surfaces: storage(device, "rppm_surfaces", pixels * 16 * textured as u64),
             group: None,
         }
     }
@@ -215,12 +222,14 @@ impl EyePaths {
                 self.samples.as_entire_binding(),
                 self.importons.as_entire_binding(),
                 self.stats.as_entire_binding(),
+                self.surfaces.as_entire_binding(),
             )),
         ));
     }
 
-    pub fn memory(&self) -> [(&'static str, u64); 4] {
+    pub fn memory(&self) -> [(&'static str, u64); 5] {
         [
+            ("surfaces", self.surfaces.size()),
             ("samples", self.samples.size()),
             ("importons", self.importons.size()),
             ("photon_heads", self.photon_heads.size()),

@@ -120,6 +120,7 @@ fn init_splat_pipeline(
                 storage_buffer_read_only_sized(false, None),
                 texture_2d(unfilterable),
                 texture_2d(unfilterable),
+                storage_buffer_read_only_sized(false, None),
             ),
         ),
     );
@@ -169,6 +170,7 @@ impl SplatTarget {
         params: BufferBinding,
         store: &PhotonStore,
         gbuffer: &GBuffer,
+        surfaces: &Buffer,
     ) {
         self.group = Some(device.create_bind_group(
             "rppm_splat_group",
@@ -178,6 +180,7 @@ impl SplatTarget {
                 store.photons.as_entire_binding(),
                 &gbuffer.position,
                 &gbuffer.normal,
+                surfaces.as_entire_binding(),
             )),
         ));
     }

@@ -183,6 +183,7 @@ fn only_the_passes_and_code_paths_the_scene_needs_run() {
     let (one_bounce, _, memory) = passes(
         PhotonMapping {
             max_photon_depth: 1,
+            tracer: bevy_rppm::RppmTracer::DeepCubemap,
             ..default()
         },
         false,
@@ -229,6 +230,7 @@ fn profiling_times_every_stage_and_leaves_the_image_alone() {
     let settings = |profile_stages| PhotonMapping {
         photons_per_iteration: PhotonCount::Fixed(16_384),
         profile_stages,
+        tracer: bevy_rppm::RppmTracer::DeepCubemap,
         ..default()
     };
     let plain = render_asset(settings(false), 32, 32, 4);

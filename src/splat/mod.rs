@@ -162,6 +162,7 @@ impl SplatTarget {
     }
 
     /// Binds the photon store (when there is one) with the G-buffer it is splatted onto.
+    #[expect(clippy::too_many_arguments, reason = "the inputs of the splat's group")]
     pub fn bind(
         &mut self,
         device: &RenderDevice,

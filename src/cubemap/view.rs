@@ -135,9 +135,14 @@ impl ViewCubemap {
     ) -> Result<(), String> {
         let config = CubemapConfig { bins: 1, ..config };
         let scene = ctx.scene;
+        let layout = || ctx.cache.get_bind_group_layout(&ctx.pipelines.trace_layout);
         if self.cubemap.as_ref().is_none_or(|c| c.config != config) {
-            self.cubemap = Some(DeepCubemap::new(ctx, config, centre, 1)?);
-            self.bvh = None;
+            let mut cubemap = DeepCubemap::new(ctx, config, centre, 1)?;
+            // A hierarchy already built stays: the new cubemap binds it.
+            if let Some(bvh) = &self.bvh {
+                cubemap.bind_bvh(ctx.device, &layout(), &bvh.buffers);
+            }
+            self.cubemap = Some(cubemap);
         }
         let Some(cubemap) = &mut self.cubemap else {
             return Ok(());
@@ -154,8 +159,7 @@ impl ViewCubemap {
             return Ok(());
         }
         let buffers = BvhBuffers::build(ctx.device, &scene.data);
-        let layout = ctx.cache.get_bind_group_layout(&ctx.pipelines.trace_layout);
-        cubemap.bind_bvh(ctx.device, &layout, &buffers);
+        cubemap.bind_bvh(ctx.device, &layout(), &buffers);
         self.bvh = Some(ViewBvh {
             buffers,
             epoch: scene.epoch,

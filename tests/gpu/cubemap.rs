@@ -133,18 +133,8 @@ fn cubemap_lists_hold_every_entry_and_grow_without_a_blocking_read_back() {
 /// run), renders with no entry lost and the same image twice.
 #[test]
 fn a_scene_whose_first_lists_overflowed_renders_every_triangle_from_the_first_iteration() {
-    use bevy_rppm_cli::headless::{Budget, RenderRequest, render_gltf};
-    let request = RenderRequest {
-        scene: Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/glass_bunny.gltf"),
-        width: 48,
-        height: 48,
-        budget: Budget::Iterations(1),
-        settings: PhotonMapping {
-            photons_per_iteration: PhotonCount::Fixed(4096),
-            tracer: bevy_rppm::RppmTracer::DeepCubemap,
-            ..default()
-        },
-    };
+    use bevy_rppm_cli::headless::render_gltf;
+    let request = render_request(BUNNY, 48, 1, bevy_rppm::RppmTracer::DeepCubemap);
     let first = render_gltf(&request, |_| {}).unwrap_or_else(|e| panic!("{e}"));
     assert_eq!(first.stats.cubemap_overflow, 0, "{:?}", first.stats);
     assert!(first.stats.cubemap_nodes > 0);
@@ -164,20 +154,9 @@ fn a_scene_whose_first_lists_overflowed_renders_every_triangle_from_the_first_it
 #[test]
 fn the_bvh_tracer_renders_what_the_deep_cubemap_renders() {
     use bevy_rppm::RppmTracer;
-    use bevy_rppm_cli::headless::{Budget, RenderRequest, render_gltf};
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    for scene in ["assets/glass_bunny.gltf", "assets/suite/closed_room.gltf"] {
-        let request = |tracer| RenderRequest {
-            scene: root.join(scene),
-            width: 48,
-            height: 48,
-            budget: Budget::Iterations(4),
-            settings: PhotonMapping {
-                photons_per_iteration: PhotonCount::Fixed(4096),
-                tracer,
-                ..default()
-            },
-        };
+    use bevy_rppm_cli::headless::render_gltf;
+    for scene in [BUNNY, "assets/suite/closed_room.gltf"] {
+        let request = |tracer| render_request(scene, 48, 4, tracer);
         let cubemap = render_gltf(&request(RppmTracer::DeepCubemap), |_| {}).unwrap();
         let bvh = render_gltf(&request(RppmTracer::Bvh), |_| {}).unwrap();
         let builds = |stats: &bevy_rppm::ViewStats| stats.passes.contains(&"cubemap_build".into());
@@ -199,21 +178,34 @@ fn the_bvh_tracer_renders_what_the_deep_cubemap_renders() {
 /// builds and holds only the structure it traces.
 #[test]
 fn the_default_tracer_follows_the_adapter() {
-    use bevy_rppm_cli::headless::{Budget, RenderRequest, render_gltf, software_adapter};
+    use bevy_rppm_cli::headless::{render_gltf, software_adapter};
     let software = software_adapter().unwrap_or_else(|hint| panic!("{hint}"));
-    let request = RenderRequest {
-        scene: Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/glass_bunny.gltf"),
-        width: 32,
-        height: 32,
-        budget: Budget::Iterations(2),
-        settings: PhotonMapping {
-            photons_per_iteration: PhotonCount::Fixed(4096),
-            ..default()
-        },
-    };
+    let request = render_request(BUNNY, 32, 2, bevy_rppm::RppmTracer::default());
     let stats = render_gltf(&request, |_| {}).unwrap().stats;
     assert_eq!(stats.memory.contains_key("bvh"), software, "{stats:?}");
     assert_eq!(stats.cubemap_nodes == 0, software, "{stats:?}");
     let built = stats.passes.contains(&"cubemap_build".to_string());
     assert_eq!(built, !software, "{:?}", stats.passes);
+}
+
+const BUNNY: &str = "assets/glass_bunny.gltf";
+
+/// A square render of the repository's `scene` with 4 096 photons an iteration and `tracer`.
+fn render_request(
+    scene: &str,
+    size: u32,
+    iterations: u32,
+    tracer: bevy_rppm::RppmTracer,
+) -> bevy_rppm_cli::headless::RenderRequest {
+    bevy_rppm_cli::headless::RenderRequest {
+        scene: Path::new(env!("CARGO_MANIFEST_DIR")).join(scene),
+        width: size,
+        height: size,
+        budget: bevy_rppm_cli::headless::Budget::Iterations(iterations),
+        settings: PhotonMapping {
+            photons_per_iteration: PhotonCount::Fixed(4096),
+            tracer,
+            ..default()
+        },
+    }
 }

@@ -148,7 +148,10 @@ pub struct PhotonMapping {
     /// Photons emitted per iteration: a fixed count, or as many as the device affords.
     /// Default [`PhotonCount::Auto`] up to 262 144.
     pub photons_per_iteration: PhotonCount,
-    /// Bounces a photon may take. Range 1..=64, default 8.
+    /// Bounces a photon may take. Russian roulette by the albedo met ends most paths well
+    /// before it; a low cap loses the light of long paths (8 left a bright open box 4 % dark
+    /// in indirect light). Range 1..=64, default 16 (as camera paths and Mitsuba's path
+    /// tracer).
     pub max_photon_depth: u32,
     /// Bounces an importon (camera path) may take through mirrors and glass; 1 means the
     /// camera G-buffer only. Past the third, Russian roulette ends paths (unbiased), so a high
@@ -218,7 +221,7 @@ impl Default for PhotonMapping {
             enabled: true,
             mode: RppmMode::Full,
             photons_per_iteration: PhotonCount::default(),
-            max_photon_depth: 8,
+            max_photon_depth: 16,
             max_eye_depth: 16,
             alpha: 0.7,
             initial_radius_pixels: 4.0,

@@ -13,7 +13,10 @@ points DRJIT_LIBLLVM_PATH at it; otherwise it falls back to `scalar_rgb`, which 
 Material mapping (as the references in shared/scenes): metallic 0 and no transmission →
 Lambertian `diffuse` (Bevy's 4% specular layer is left out, see CONVENTIONS.md); metallic with
 roughness < 0.02 → perfect `conductor`; metallic otherwise → `roughconductor` (GGX, α =
-roughness²); transmission with roughness < 0.02 → `dielectric`; emissive → area emitter.
+roughness²); transmission with roughness < 0.02 → `dielectric`, rougher → `roughdielectric` (GGX, α =
+roughness²); inside either an absorbing `homogeneous` medium
+(and the `volpath` integrator) for `KHR_materials_volume` with a thickness; emissive → area
+emitter.
 Textures (numpy needed): base colour texture × factor and emissive texture × factor as
 bilinear repeating bitmaps, COLOR_0 as the `vertex_color` mesh attribute, alpha `MASK` as a
 `mask` BSDF, `doubleSided` as `twosided`, a metallic-roughness texture (on a Lambertian
@@ -219,6 +222,12 @@ def bsdf_of(material, textures=None, vertex_colors=False):
     rgb = {"type": "rgb", "value": base}
     if transmission > 0 and roughness < 0.02:
         return {"type": "dielectric", "int_ior": ior, "ext_ior": 1.0}, f"dielectric(ior={ior})"
+    if transmission > 0:
+        if transmission < 1:
+            print("reference.py: partial transmission is rendered as full", file=sys.stderr)
+        alpha = roughness * roughness
+        return ({"type": "roughdielectric", "distribution": "ggx", "alpha": alpha, "int_ior": ior, "ext_ior": 1.0},
+                f"roughdielectric(ior={ior}, alpha={alpha:.3f})")
     textured_metal = "metallicRoughnessTexture" in pbr and textures
     if metallic > 0 and roughness < 0.02 and not textured_metal:
         return {"type": "conductor", "material": "none", "specular_reflectance": rgb}, "conductor(none)"
@@ -258,6 +267,23 @@ def bsdf_of(material, textures=None, vertex_colors=False):
         bsdf = {"type": "mask", "opacity": opacity, "bsdf": bsdf}
         description = f"mask({description})"
     return bsdf, description
+
+
+def medium_of(material):
+    """Mitsuba's absorbing interior of coloured glass (KHR_materials_volume with a thickness:
+    σ = −ln(attenuationColor) / attenuationDistance, no scattering), or None."""
+    ext = material.get("extensions", {})
+    volume = ext.get("KHR_materials_volume", {})
+    distance = volume.get("attenuationDistance")
+    transmission = ext.get("KHR_materials_transmission", {}).get("transmissionFactor", 0.0)
+    if transmission <= 0 or volume.get("thicknessFactor", 0.0) <= 0 or not distance or distance <= 0:
+        return None
+    colour = volume.get("attenuationColor", [1.0, 1.0, 1.0])
+    sigma = [-math.log(min(max(c, 1e-6), 1.0)) / distance for c in colour]
+    # Mitsuba's RGB values lie in 0..1: the largest σ goes in `scale`.
+    scale = max(max(sigma), 1e-9)
+    return {"type": "homogeneous", "sigma_t": {"type": "rgb", "value": [c / scale for c in sigma]},
+            "scale": scale, "albedo": {"type": "rgb", "value": [0.0, 0.0, 0.0]}}
 
 
 def emission_of(material, textures=None):
@@ -307,6 +333,12 @@ def build_scene(path, width, height, tmp, max_depth=16):
                 material = materials[prim["material"]] if "material" in prim else {}
                 bsdf, description = bsdf_of(material, textures, colors is not None)
                 shape = {"type": "ply", "filename": ply, "bsdf": bsdf, "face_normals": "NORMAL" not in prim["attributes"]}
+                medium = medium_of(material)
+                if medium:
+                    # Paths inside it lose light along their length: the volumetric path tracer.
+                    shape["interior"] = medium
+                    scene["integrator"]["type"] = "volpath"
+                    description += f" with interior σ {[c * medium['scale'] for c in medium['sigma_t']['value']]}"
                 emitted = emission_of(material, textures)
                 if emitted:
                     shape["emitter"] = {"type": "area", "radiance": emitted}

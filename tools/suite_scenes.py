@@ -6,6 +6,10 @@ of failure:
   a directional sun through a window in one wall, the camera inside;
 - `glass_slab`: a flat-faced glass block (ior 1.5, one-sided faces) on a floor in an open box,
   under a small bright emissive panel: its caustic and total internal reflection;
+- `tinted_glass`: two blocks of coloured glass (`KHR_materials_volume`: absorption along the
+  path inside) on the floor of an open box under a panel: coloured caustics and shadows;
+- `frosted_glass`: a standing pane of rough glass (roughness 0.4) with a red block seen
+  blurred behind it, and a lightly rough glass block (0.15) under a panel;
 - `water_pool`: a static water height field (ior 1.33) in a tiled pool under a large sky quad;
 - `sky_court`: a yard open to a uniform blue sky (`scenes[0].extras.rppm_sky`), red walls in a
   corner, a glass block and a white box.
@@ -79,6 +83,17 @@ class Gltf:
         return self.material([1, 1, 1], roughness=0.0, extensions={
             "KHR_materials_transmission": {"transmissionFactor": 1.0}, "KHR_materials_ior": {"ior": ior}})
 
+    def tinted_glass(self, ior, colour, distance):
+        """Coloured glass: white light keeps `colour` (linear) after `distance` m inside it."""
+        return self.material([1, 1, 1], roughness=0.0, extensions={
+            "KHR_materials_transmission": {"transmissionFactor": 1.0}, "KHR_materials_ior": {"ior": ior},
+            "KHR_materials_volume": {"thicknessFactor": 1.0, "attenuationColor": list(colour),
+                                     "attenuationDistance": distance}})
+
+    def rough_glass(self, ior, roughness):
+        return self.material([1, 1, 1], roughness=roughness, extensions={
+            "KHR_materials_transmission": {"transmissionFactor": 1.0}, "KHR_materials_ior": {"ior": ior}})
+
     def emitter(self, rgb, strength):
         return self.material([0, 0, 0], emissiveFactor=list(rgb), extensions={
             "KHR_materials_emissive_strength": {"emissiveStrength": strength}})
@@ -148,6 +163,26 @@ def box(lo, hi, inward):
     return [f[::-1] for f in faces] if inward else faces
 
 
+def open_box(w=3.0, h=2.4, d=3.0):
+    """A new document, the box's height and the six inward faces of a w × h × d box on y = 0
+    (the camera looks in through the front, which is left out)."""
+    return Gltf(), h, box([-w / 2, 0, -d / 2], [w / 2, h, d / 2], inward=True)
+
+
+def coloured_walls(g, faces, grey, left, right):
+    """Floor, ceiling and back wall in `grey`, the left and right walls in their colours."""
+    floor, ceiling, back, _front, left_wall, right_wall = faces
+    g.quads([floor, ceiling, back], g.material(grey))
+    g.quads([left_wall], g.material(left))
+    g.quads([right_wall], g.material(right))
+
+
+def ceiling_panel(g, y, cx, cz, s, rgb, strength):
+    """An emissive square of half-size s facing down at height y, centred at (cx, cz)."""
+    g.quads([[[cx - s, y, cz - s], [cx + s, y, cz - s], [cx + s, y, cz + s], [cx - s, y, cz + s]]],
+            g.emitter(rgb, strength))
+
+
 def rotate_y(points, angle, centre):
     c, s = math.cos(angle), math.sin(angle)
     return [[centre[0] + c * (p[0] - centre[0]) + s * (p[2] - centre[2]), p[1],
@@ -179,21 +214,49 @@ def sun_room(path):
 
 
 def glass_slab(path):
-    g = Gltf()
-    w, h, d = 3.0, 2.4, 3.0
-    floor, ceiling, back, _front, left, right = box([-w / 2, 0, -d / 2], [w / 2, h, d / 2], inward=True)
-    g.quads([floor, ceiling, back], g.material([0.7, 0.7, 0.68]))
-    g.quads([left], g.material([0.65, 0.2, 0.15]))
-    g.quads([right], g.material([0.2, 0.3, 0.65]))
+    g, h, faces = open_box()
+    coloured_walls(g, faces, [0.7, 0.7, 0.68], [0.65, 0.2, 0.15], [0.2, 0.3, 0.65])
     # A glass block on the floor, turned 25° about y.
     faces = [rotate_y(f, 0.44, [0.1, 0, -0.2]) for f in box([-0.45, 0, -0.45], [0.65, 0.35, 0.05], inward=False)]
     g.quads(faces, g.glass(1.5))
     # A small panel facing down, above and behind the block, 0.4 m square.
-    y, cx, cz, s = h - 0.01, -0.4, -0.8, 0.2
-    g.quads([[[cx - s, y, cz - s], [cx + s, y, cz - s], [cx + s, y, cz + s], [cx - s, y, cz + s]]],
-            g.emitter([1.0, 0.9, 0.75], 40.0))
+    ceiling_panel(g, h - 0.01, -0.4, -0.8, 0.2, [1.0, 0.9, 0.75], 40.0)
     g.camera([0.0, 1.5, 2.9], [0.0, 0.3, -0.4], yfov=0.8)
     g.write(path, "bevy_rppm tools/suite_scenes.py glass_slab")
+
+
+def tinted_glass(path):
+    g, h, faces = open_box()
+    g.quads([f for k, f in enumerate(faces) if k != 3], g.material([0.75, 0.75, 0.72]))  # all but the open front
+    # A green slab lying flat and an amber block standing, both absorbing along their paths
+    # (their colour comes from the length light travels inside, not from their surfaces).
+    # 5 mm above the floor: glass resting on a surface is an ambiguous contact (coplanar faces
+    # that renderers order differently); a thin air gap is not.
+    lift = 0.005
+    g.quads([rotate_y(f, -0.3, [-0.5, 0, 0.0]) for f in box([-1.0, lift, -0.4], [0.0, 0.25, 0.4], inward=False)],
+            g.tinted_glass(1.5, [0.25, 0.75, 0.35], 0.25))
+    g.quads([rotate_y(f, 0.5, [0.7, 0, -0.5]) for f in box([0.45, lift, -0.75], [0.95, 0.9, -0.25], inward=False)],
+            g.tinted_glass(1.5, [0.9, 0.55, 0.15], 0.3))
+    ceiling_panel(g, h - 0.01, 0.0, -0.6, 0.3, [1.0, 0.95, 0.9], 20.0)
+    g.camera([0.0, 1.6, 2.9], [0.0, 0.3, -0.4], yfov=0.8)
+    g.write(path, "bevy_rppm tools/suite_scenes.py tinted_glass")
+
+
+def frosted_glass(path):
+    g, h, faces = open_box()
+    coloured_walls(g, faces, [0.7, 0.7, 0.68], [0.2, 0.55, 0.25], [0.25, 0.3, 0.7])
+    # A red block behind a standing frosted pane (roughness 0.4, 4 cm thick): seen blurred
+    # through it; and a lightly rough glass block (0.15) on the floor under the panel.
+    g.quads([rotate_y(f, 0.3, [-0.5, 0, -0.6]) for f in box([-0.8, 0, -0.9], [-0.2, 0.6, -0.3], inward=False)],
+            g.material([0.7, 0.15, 0.1]))
+    lift = 0.005  # a thin air gap under the glass, as in tinted_glass
+    g.quads([rotate_y(f, 0.15, [-0.4, 0, 0.0]) for f in box([-1.1, lift, -0.02], [0.3, 1.1, 0.02], inward=False)],
+            g.rough_glass(1.5, 0.4))
+    g.quads([rotate_y(f, -0.4, [0.75, 0, -0.2]) for f in box([0.4, lift, -0.55], [1.1, 0.35, 0.15], inward=False)],
+            g.rough_glass(1.5, 0.15))
+    ceiling_panel(g, h - 0.01, 0.2, -0.3, 0.5, [1.0, 0.95, 0.9], 8.0)
+    g.camera([0.2, 1.5, 2.9], [-0.1, 0.4, -0.4], yfov=0.8)
+    g.write(path, "bevy_rppm tools/suite_scenes.py frosted_glass")
 
 
 def water_pool(path):
@@ -258,7 +321,7 @@ def main():
     parser.add_argument("out", help="folder for the .gltf files")
     args = parser.parse_args()
     os.makedirs(args.out, exist_ok=True)
-    for make in (sun_room, glass_slab, water_pool, sky_court):
+    for make in (sun_room, glass_slab, tinted_glass, frosted_glass, water_pool, sky_court):
         path = os.path.join(args.out, f"{make.__name__}.gltf")
         make(path)
         print(f"wrote {path}")

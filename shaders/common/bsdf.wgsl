@@ -124,8 +124,20 @@ fn cosine_lobes_energy(m: Material, f0: vec3<f32>, i: Specular, avg: vec4<f32>) 
     return albedo * (vec3<f32>(1.0) - i.energy) + f0 * i.lost;
 }
 
-// f(wo, wi), without the cosine. wo and wi point away from the surface.
+// f(wo, wi), without the cosine. wo and wi point away from the surface, on n's side (light
+// through rough glass is carried by sampled paths, not evaluated).
 fn bsdf_eval(m: Material, n: vec3<f32>, wo: vec3<f32>, wi: vec3<f32>) -> vec3<f32> {
+#ifdef ROUGH_REFRACTION
+    let glass = rough_glass_share(m);
+    if glass > 0.0 {
+        return glass * rough_glass_reflection(m, n, wo, wi) + (1.0 - glass) * layers_eval(opaque_part(m), n, wo, wi);
+    }
+#endif
+    return layers_eval(m, n, wo, wi);
+}
+
+// The diffuse and specular layers of f(wo, wi).
+fn layers_eval(m: Material, n: vec3<f32>, wo: vec3<f32>, wi: vec3<f32>) -> vec3<f32> {
     let n_dot_l = dot(n, wi);
     let n_dot_v = dot(n, wo);
     if n_dot_l <= 0.0 || n_dot_v <= 0.0 {
@@ -153,8 +165,9 @@ const GLOSSY_STORE_ROUGHNESS: f32 = 0.3;
 // estimation): a diffuse lobe, or a glossy one at least GLOSSY_STORE_ROUGHNESS rough. Camera
 // paths go on through the others: mirrors, clear glass, smooth glossy metals.
 fn stores_photons(m: Material) -> bool {
+    // Not at rough glass: its light comes through it, which the gather's disc cannot see.
     let glossy_store = has_glossy_lobe(m) && m.perceptual_roughness >= GLOSSY_STORE_ROUGHNESS
-        && any(specular_f0(m) > vec3<f32>(0.0));
+        && any(specular_f0(m) > vec3<f32>(0.0)) && m.specular_transmission * (1.0 - m.metallic) <= 0.0;
     return any(diffuse_color(m) > vec3<f32>(0.0)) || glossy_store;
 }
 
@@ -210,7 +223,18 @@ struct Scatter {
 // (mirror metals, Fresnel glass). A lobe is chosen with a probability near what it reflects
 // from wi, else the photon is absorbed, so flux stays unbiased. Lobes no material of the scene
 // has are compiled out (GLOSSY, MIRRORS, REFRACTION).
-fn scatter_photon(m: Material, n: vec3<f32>, wi: vec3<f32>, front: bool, rng: ptr<function, u32>) -> Scatter {
+fn scatter_photon(material: Material, n: vec3<f32>, wi: vec3<f32>, front: bool, rng: ptr<function, u32>) -> Scatter {
+    var m = material;
+#ifdef ROUGH_REFRACTION
+    // Rough glass's share of the surface is its own lobe; the rest, the layers without it.
+    let rough = rough_glass_share(m);
+    if rough > 0.0 {
+        if random(rng) < rough {
+            return scatter_rough_glass(m, n, wi, front, rng);
+        }
+        m = opaque_part(m);
+    }
+#endif
     let f0 = specular_f0(m);
     let mu_i = max(dot(n, wi), 0.0);
     let i = specular_at(m, f0, mu_i);
@@ -264,3 +288,76 @@ fn scatter_photon(m: Material, n: vec3<f32>, wi: vec3<f32>, front: bool, rng: pt
 #endif
     return Scatter(wi, vec3<f32>(0.0));
 }
+
+#ifdef ROUGH_REFRACTION
+// Transmission at roughness from DELTA_ROUGHNESS up: a rough dielectric interface (Walter et
+// al. 2007, GGX of α = roughness², Smith G1·G1), single scattering as Mitsuba's
+// `roughdielectric`, with Fresnel choosing reflection or refraction through each microfacet.
+
+// The share of a surface that is rough glass (0 for smooth glass, a delta lobe).
+fn rough_glass_share(m: Material) -> f32 {
+    return select(m.specular_transmission * (1.0 - m.metallic), 0.0, m.perceptual_roughness < DELTA_ROUGHNESS);
+}
+
+// The material without its glass: the layers that share the surface with it.
+fn opaque_part(m: Material) -> Material {
+    var o = m;
+    o.specular_transmission = 0.0;
+    return o;
+}
+
+// Smith's G1 for GGX.
+fn smith_g1(cos_theta: f32, a: f32) -> f32 {
+    let c2 = max(cos_theta * cos_theta, 1e-8);
+    return 2.0 / (1.0 + sqrt(1.0 + a * a * (1.0 - c2) / c2));
+}
+
+// What the rough interface reflects, f(wo, wi), both on n's side.
+fn rough_glass_reflection(m: Material, n: vec3<f32>, wo: vec3<f32>, wi: vec3<f32>) -> vec3<f32> {
+    let n_dot_l = dot(n, wi);
+    let n_dot_v = dot(n, wo);
+    if n_dot_l <= 0.0 || n_dot_v <= 0.0 {
+        return vec3<f32>(0.0);
+    }
+    let a = m.perceptual_roughness * m.perceptual_roughness;
+    let h = normalize(wi + wo);
+    // Which medium n's side is cannot be told here; reflection from the outside is what
+    // direct light meets (light inside glass reaches no light source without crossing it).
+    let f = fresnel_dielectric(dot(wo, h), 1.0 / m.ior);
+    let g = smith_g1(n_dot_v, a) * smith_g1(n_dot_l, a);
+    return vec3<f32>(f * ggx_d(dot(n, h), a) * g / (4.0 * n_dot_v * n_dot_l));
+}
+
+// Samples the rough interface for light from wi (pointing away from the surface, on n's side;
+// `front` whether that is outside): a microfacet normal by D, then reflection with Fresnel's
+// probability, else refraction. The weight f·cos/pdf is |wi·h| G / (|wi·n| |h·n|) for both.
+fn scatter_rough_glass(m: Material, n: vec3<f32>, wi: vec3<f32>, front: bool, rng: ptr<function, u32>) -> Scatter {
+    let a = m.perceptual_roughness * m.perceptual_roughness;
+    let u = vec2<f32>(random(rng), random(rng));
+    let cos_h = sqrt((1.0 - u.x) / (1.0 + (a * a - 1.0) * u.x));
+    let sin_h = sqrt(max(1.0 - cos_h * cos_h, 0.0));
+    let phi = 2.0 * PI * u.y;
+    let t = select(vec3<f32>(1.0, 0.0, 0.0), vec3<f32>(0.0, 1.0, 0.0), abs(n.x) > 0.9);
+    let x = normalize(cross(t, n));
+    let h = x * (sin_h * cos(phi)) + cross(n, x) * (sin_h * sin(phi)) + n * cos_h;
+    let i_dot_h = dot(wi, h);
+    let i_dot_n = dot(wi, n);
+    if i_dot_h <= 0.0 || i_dot_n <= 0.0 {
+        return Scatter(wi, vec3<f32>(0.0));
+    }
+    let eta = select(m.ior, 1.0 / m.ior, front);
+    var o = reflect(-wi, h);
+    let refracted = refract(-wi, h, eta);
+    let reflects = random(rng) < fresnel_dielectric(i_dot_h, eta) || all(refracted == vec3<f32>(0.0));
+    if !reflects {
+        o = refracted;
+    }
+    let o_dot_n = dot(o, n);
+    // Reflected below the surface, or refracted back above it: the microfacet is shadowed.
+    if (reflects && o_dot_n <= 0.0) || (!reflects && o_dot_n >= 0.0) {
+        return Scatter(o, vec3<f32>(0.0));
+    }
+    let g = smith_g1(i_dot_n, a) * smith_g1(abs(o_dot_n), a);
+    return Scatter(o, vec3<f32>(i_dot_h * g / (i_dot_n * cos_h)));
+}
+#endif

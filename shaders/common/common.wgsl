@@ -70,6 +70,8 @@ struct Material {
     uv_offset: vec4<f32>,
     // Base colour, metallic-roughness, emissive and normal map textures, or NO_TEXTURE.
     textures: vec4<u32>,
+    // Beer–Lambert σ inside the material (m⁻¹, rgb): coloured glass.
+    absorption: vec4<f32>,
 }
 
 // Material flags (MaterialFlags in src/scene/mod.rs).

@@ -10,6 +10,9 @@
 #import bevy_rppm::bsdf::{fresnel_dielectric, scatter_photon, stores_photons}
 #import bevy_rppm::common::{DELTA_ROUGHNESS, luminance}
 #import bevy_rppm::cubemap::{cubemap, trace_ray, NO_HIT}
+#ifdef ABSORPTION
+#import bevy_rppm::scene::medium_after
+#endif
 #endif
 
 @group(2) @binding(0) var gbuffer_position: texture_2d<f32>;
@@ -65,6 +68,13 @@ fn next_bounce(m: Material, d: vec3<f32>, n: vec3<f32>, front: bool, rng: ptr<fu
 #ifdef GLOSSY
     if m.perceptual_roughness >= DELTA_ROUGHNESS {
         let s = scatter_photon(m, n, -d, front, rng);
+#ifdef ROUGH_REFRACTION
+        if dot(s.direction, n) < 0.0 {
+            // Through rough glass: radiance over n², as through smooth glass.
+            let eta = select(m.ior, 1.0 / m.ior, front);
+            return Bounce(s.direction, s.weight * (eta * eta));
+        }
+#endif
         return Bounce(s.direction, s.weight);
     }
 #endif
@@ -83,11 +93,18 @@ fn follow_camera_path(pixel: u32, x0: vec3<f32>, n0: vec3<f32>, m0: Material, tr
     var ignore = triangle;
     var length = distance(params.camera_position.xyz, x0);
     let t_min = params.scene_sphere.w * 1e-6;
+#ifdef ABSORPTION
+    // σ of the coloured glass the path is in (the camera is outside every medium).
+    var medium = medium_after(vec3<f32>(0.0), m0, front0, dot(d, n0) < 0.0);
+#endif
     for (var depth = 2u; depth <= params.max_eye_depth; depth += 1u) {
         let hit = trace_ray(o, d, t_min, 1.0e30, ignore);
         if all(throughput <= vec3<f32>(0.0)) {
             return found;
         }
+#ifdef ABSORPTION
+        throughput *= exp(-medium * hit.t);
+#endif
         if hit.triangle == NO_HIT {
 #ifdef SKY
             found += throughput * params.sky.rgb;
@@ -120,6 +137,9 @@ fn follow_camera_path(pixel: u32, x0: vec3<f32>, n0: vec3<f32>, m0: Material, tr
         found += throughput * surface_light(m, x, n, -d, front, hit.triangle, false, rng);
         bounce = next_bounce(m, d, n, front, rng);
         throughput *= bounce.weight;
+#ifdef ABSORPTION
+        medium = medium_after(medium, m, front, dot(bounce.direction, n) < 0.0);
+#endif
         // Russian roulette past the first vertices, so that paths trapped in glass (total
         // internal reflection) end early on average yet the estimate keeps its mean.
         if depth >= EYE_ROULETTE_DEPTH {

@@ -6,6 +6,9 @@
 #import bevy_rppm::scene::{triangle_at, material_at, as_seen_from, normal_at, interpolated_normal, triangle_point, uniform_barycentrics, lights, emitters, light_cdf, find_source}
 #import bevy_rppm::cubemap::{trace_ray, NO_HIT}
 #import bevy_rppm::bsdf::{stores_photons, scatter_photon}
+#ifdef ABSORPTION
+#import bevy_rppm::scene::medium_after
+#endif
 
 @group(1) @binding(0) var<uniform> params: IterationParams;
 
@@ -120,11 +123,18 @@ fn trace(@builtin(global_invocation_id) id: vec3<u32>) {
     var rng = pcg_hash(id.x ^ pcg_hash(params.iteration * 0x9e3779b9u + 0x632be5abu));
     var ray = emit(&rng);
     let t_min = params.scene_sphere.w * 1e-6;
+#ifdef ABSORPTION
+    // σ of the coloured glass the photon is in (lights are outside every medium).
+    var medium = vec3<f32>(0.0);
+#endif
     for (var depth = 0u; depth < params.max_photon_depth; depth += 1u) {
         let hit = trace_ray(ray.origin, ray.direction, t_min, 1.0e30, ray.ignore);
         if hit.triangle == NO_HIT {
             return;
         }
+#ifdef ABSORPTION
+        ray.flux *= exp(-medium * hit.t);
+#endif
         let t = triangle_at(hit.triangle);
         let x = ray.origin + ray.direction * hit.t;
         let geometric = normalize(cross(t.position_b - t.position_a, t.position_c - t.position_a));
@@ -149,6 +159,9 @@ fn trace(@builtin(global_invocation_id) id: vec3<u32>) {
         if all(s.weight <= vec3<f32>(0.0)) {
             return;
         }
+#ifdef ABSORPTION
+        medium = medium_after(medium, m, front, dot(s.direction, n) < 0.0);
+#endif
         ray.origin = x;
         ray.direction = s.direction;
         ray.flux *= s.weight;

@@ -117,6 +117,17 @@ fn as_seen_from(m: Material, front: bool) -> Material {
     return black;
 }
 
+// The medium a path is in after crossing or leaving a surface of material m: a path that
+// passes through (`crossed`) enters m's volume from its front and leaves it from its back;
+// one reflected stays where it was. Absorbing volumes are closed meshes, so this is exact
+// unless they overlap.
+fn medium_after(medium: vec3<f32>, m: Material, front: bool, crossed: bool) -> vec3<f32> {
+    if !crossed {
+        return medium;
+    }
+    return select(vec3<f32>(0.0), m.absorption.rgb, front);
+}
+
 fn uv_transform(m: Material) -> mat2x2<f32> {
     return mat2x2<f32>(m.uv_transform.xy, m.uv_transform.zw);
 }

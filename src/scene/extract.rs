@@ -7,10 +7,11 @@ use bevy::ecs::entity::EntityHashSet;
 use bevy::platform::collections::{HashMap, HashSet};
 use bevy::prelude::*;
 
+use super::material::material_to_gpu;
 use super::textures::{GpuTexture, MAX_TEXTURE_SIZE, NO_TEXTURE, PackedTexture, TEXEL_BUDGET};
 use super::{
-    GpuEmitter, GpuInstance, GpuMaterial, MaterialFlags, RppmScene, SceneData, SceneMesh, deform,
-    lights, luminance, mesh,
+    GpuEmitter, GpuInstance, MaterialFlags, RppmScene, SceneData, SceneMesh, deform, lights,
+    luminance, mesh,
 };
 use bevy::math::Affine3A;
 
@@ -246,64 +247,6 @@ pub(super) fn extract_scene(
     if !scene.data.same_as(&data) {
         scene.data = Arc::new(data);
         scene.epoch += 1;
-    }
-}
-
-fn material_to_gpu(m: &StandardMaterial, textures: [u32; 4]) -> GpuMaterial {
-    let base = m.base_color.to_linear();
-    let mut flags = MaterialFlags::empty();
-    flags.set(MaterialFlags::DOUBLE_SIDED, m.double_sided);
-    flags.set(MaterialFlags::UNLIT, m.unlit);
-    flags.set(MaterialFlags::FLIP_NORMAL_Y, m.flip_normal_map_y);
-    flags.set(
-        MaterialFlags::TEXTURED,
-        textures.iter().any(|&t| t != NO_TEXTURE) || m.unlit || m.alpha_mode != AlphaMode::Opaque,
-    );
-    let mut alpha_cutoff = 0.0;
-    match m.alpha_mode {
-        AlphaMode::Opaque => {}
-        AlphaMode::Mask(cutoff) => {
-            flags |= MaterialFlags::ALPHA_MASK;
-            alpha_cutoff = if cutoff.is_finite() { cutoff } else { 0.5 };
-        }
-        AlphaMode::Blend
-        | AlphaMode::Premultiplied
-        | AlphaMode::AlphaToCoverage
-        | AlphaMode::Add
-        | AlphaMode::Multiply => flags |= MaterialFlags::ALPHA_HASHED,
-    }
-    let finite = |v: f32, fallback: f32| if v.is_finite() { v } else { fallback };
-    let uv = m.uv_transform;
-    let uv_ok = uv.matrix2.is_finite() && uv.translation.is_finite();
-    let (matrix, offset) = if uv_ok {
-        (uv.matrix2.to_cols_array(), uv.translation)
-    } else {
-        ([1.0, 0.0, 0.0, 1.0], Vec2::ZERO)
-    };
-    let base_color = [base.red, base.green, base.blue, base.alpha];
-    // An albedo past 1 makes light from nothing (and overflows after enough bounces).
-    if base_color.iter().any(|c| !(0.0..=1.0).contains(c)) {
-        warn_once!("bevy_rppm: a base colour {base_color:?} outside 0..=1 is clamped");
-    }
-    GpuMaterial {
-        base_color: base_color.map(|c| finite(c, 0.0).clamp(0.0, 1.0)),
-        emissive: [m.emissive.red, m.emissive.green, m.emissive.blue, 0.0]
-            .map(|c| finite(c, 0.0).max(0.0)),
-        metallic: finite(m.metallic, 0.0).clamp(0.0, 1.0),
-        perceptual_roughness: finite(m.perceptual_roughness, 0.5).clamp(0.0, 1.0),
-        reflectance: finite(m.reflectance, 0.5).clamp(0.0, 1.0),
-        specular_transmission: finite(m.specular_transmission, 0.0).clamp(0.0, 1.0),
-        ior: if m.ior.is_finite() && m.ior >= 1.0 {
-            m.ior
-        } else {
-            1.5
-        },
-        flags: flags.bits(),
-        alpha_cutoff,
-        _pad: 0,
-        uv_transform: matrix,
-        uv_offset: [offset.x, offset.y, 0.0, 0.0],
-        textures,
     }
 }
 

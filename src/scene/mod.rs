@@ -8,6 +8,7 @@ mod deform;
 mod extract;
 mod instances;
 mod lights;
+mod material;
 mod mesh;
 mod packed;
 pub mod place;
@@ -46,6 +47,10 @@ bitflags::bitflags! {
         const REFRACTION = 1 << 2;
         /// A sky ([`RppmSky`]): photons leave it, paths that escape see it.
         const SKY = 1 << 3;
+        /// Coloured glass: paths inside it lose light along their length (Beer–Lambert).
+        const ABSORPTION = 1 << 4;
+        /// Rough glass (a microfacet interface that reflects and refracts).
+        const ROUGH_REFRACTION = 1 << 5;
     }
 }
 
@@ -57,6 +62,8 @@ impl ScatterPaths {
             (Self::MIRRORS, "MIRRORS"),
             (Self::REFRACTION, "REFRACTION"),
             (Self::SKY, "SKY"),
+            (Self::ABSORPTION, "ABSORPTION"),
+            (Self::ROUGH_REFRACTION, "ROUGH_REFRACTION"),
         ]
         .into_iter()
         .filter_map(|(path, def)| self.contains(path).then_some(def))
@@ -99,7 +106,7 @@ impl GpuTriangle {
     }
 }
 
-/// A `StandardMaterial` reduced to what the light transport uses (112 bytes). Texture lookups
+/// A `StandardMaterial` reduced to what the light transport uses (128 bytes). Texture lookups
 /// multiply the factors, as Bevy's own shaders do (`material_at` in shaders/scene/scene.wgsl).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
@@ -126,6 +133,10 @@ pub struct GpuMaterial {
     /// Indices into [`SceneData::textures`] of the base colour, metallic-roughness, emissive
     /// and normal map textures, or [`NO_TEXTURE`].
     pub textures: [u32; 4],
+    /// What light inside the material loses per metre (Beer–Lambert σ, linear RGB, m⁻¹), from
+    /// `attenuation_color` and `attenuation_distance` of a transmissive material with a
+    /// `thickness` (glTF's `KHR_materials_volume`); 0 for thin-walled or clear ones. w unused.
+    pub absorption: [f32; 4],
 }
 
 bitflags::bitflags! {
@@ -279,7 +290,7 @@ impl SceneData {
         ((lo + hi) * 0.5, ((hi - lo) * 0.5).length())
     }
 
-    /// Whether camera paths go on past some surface: a mirror, clear glass, or a smooth
+    /// Whether camera paths go on past some surface: a mirror, glass, or a smooth
     /// glossy metal (roughness under [`GLOSSY_STORE_ROUGHNESS`], no diffuse lobe), where no
     /// photon is stored (`!stores_photons` in shaders/common/bsdf.wgsl).
     /// A texture counts at its darkest, smoothest and most metallic texel.
@@ -298,27 +309,38 @@ impl SceneData {
             };
             let diffuse = (1.0 - metallic) * (1.0 - m.specular_transmission);
             let albedo = luminance([m.base_color[0], m.base_color[1], m.base_color[2]]);
-            roughness < GLOSSY_STORE_ROUGHNESS && (base || diffuse * albedo <= 0.0)
+            // Glass of any roughness stores no photons.
+            let glass = m.specular_transmission * (1.0 - metallic) > 0.0;
+            (roughness < GLOSSY_STORE_ROUGHNESS || glass) && (base || diffuse * albedo <= 0.0)
         })
     }
 
     /// Which scattering lobes the scene's materials have.
     pub fn scatter_paths(&self) -> ScatterPaths {
         let (mut glossy, mut mirrors, mut refraction) = (false, false, false);
+        let (mut absorption, mut rough_refraction) = (false, false);
         for m in &self.materials {
+            absorption |= m.absorption[..3].iter().any(|&s| s > 0.0);
             let colour = m.base_color[..3].iter().any(|&c| c > 0.0);
             if m.perceptual_roughness >= DELTA_ROUGHNESS {
                 glossy |= m.reflectance > 0.0 || (m.metallic > 0.0 && colour);
+                rough_refraction |= m.specular_transmission * (1.0 - m.metallic) > 0.0;
             } else {
                 mirrors |= m.metallic > 0.0 && colour;
                 refraction |= m.specular_transmission * (1.0 - m.metallic) > 0.0;
             }
         }
         let mut paths = ScatterPaths::empty();
-        paths.set(ScatterPaths::GLOSSY, glossy);
+        // Rough glass is sampled as the glossy lobes are (camera paths go on through both).
+        paths.set(ScatterPaths::GLOSSY, glossy || rough_refraction);
         paths.set(ScatterPaths::MIRRORS, mirrors);
         paths.set(ScatterPaths::REFRACTION, refraction);
+        paths.set(ScatterPaths::ROUGH_REFRACTION, rough_refraction);
         paths.set(ScatterPaths::SKY, self.sky[3] > 0.0);
+        paths.set(
+            ScatterPaths::ABSORPTION,
+            absorption && (refraction || rough_refraction),
+        );
         paths
     }
 
@@ -358,7 +380,9 @@ impl SceneData {
                 let f0 = base.map(|c| dielectric + (c - dielectric) * m.metallic);
                 let specular = specular_energy_average(m.perceptual_roughness, f0);
                 let albedo = [0, 1, 2].map(|k| (base[k] * diffuse).max(specular[k]));
-                luminance(albedo).min(1.0)
+                // Rough glass reflects or refracts nearly all it receives.
+                let glass = m.specular_transmission * (1.0 - m.metallic);
+                luminance(albedo).max(glass).min(1.0)
             })
             .fold(0.0, f32::max)
     }

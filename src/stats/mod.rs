@@ -103,6 +103,9 @@ pub struct ViewStats {
     pub scene_extract_ms: f64,
     /// CPU milliseconds of the view's latest BVH build (`RppmTracer::Bvh`; 0 otherwise).
     pub bvh_build_ms: f64,
+    /// Bytes the view's latest BVH build sent to the GPU: the whole hierarchy, since it is
+    /// built again from every world-space triangle when any geometry moves (0 without one).
+    pub bvh_upload_bytes: u64,
 }
 
 /// Stats of every photon-mapping camera, by camera entity.

@@ -64,9 +64,17 @@ fn a_moved_object_sends_its_instance_and_renders_where_it_moved() {
     let last = stats(&app, camera);
     println!(
         "moving one square among {} bytes of triangles: {} bytes sent, extraction {:.2} ms \
-         (the first, which made the meshes: {cold_ms:.1} ms)",
-        last.scene_geometry_bytes, last.scene_upload_bytes, last.scene_extract_ms
+         (the first, which made the meshes: {cold_ms:.1} ms); the BVH: {} bytes, {:.1} ms",
+        last.scene_geometry_bytes,
+        last.scene_upload_bytes,
+        last.scene_extract_ms,
+        last.bvh_upload_bytes,
+        last.bvh_build_ms
     );
+    // The default tracer on a software adapter builds the whole hierarchy again, and says so.
+    let software =
+        bevy_rppm_cli::headless::software_adapter().unwrap_or_else(|hint| panic!("{hint}"));
+    assert_eq!(last.bvh_upload_bytes > 0, software, "{last:?}");
     assert_eq!(last.scene_geometry_bytes, geometry);
     assert!(
         last.scene_upload_bytes * 100 < geometry && last.scene_upload_bytes > 0,

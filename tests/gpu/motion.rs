@@ -12,14 +12,7 @@ const REUSE: RppmHistory = RppmHistory::Reuse { iterations: 8 };
 /// shadow, seen from above through a 32² orthographic camera at `camera_x`.
 fn shadow_scene(history: RppmHistory, x: f32, camera_x: f32) -> (App, Entity, Entity) {
     let mut app = gpu_app();
-    let light = (
-        PointLight {
-            intensity: 1000.0,
-            range: 100.0,
-            ..default()
-        },
-        Transform::from_xyz(0.0, 2.0, 0.0),
-    );
+    let light = point_light_above(1000.0, 2.0);
     let settings = PhotonMapping {
         history,
         photons_per_iteration: PhotonCount::Fixed(65_536),

@@ -38,7 +38,8 @@ fn reference(name: &str) -> RgbImage {
 /// flat glass cube and dark walls; an area light over matte spheres; the same over metal
 /// spheres of roughness 0.1 and 0.25, which camera paths go on through; a box with a checker
 /// floor, vertex colours, a striped emissive panel and a cut-out screen; a dark room lit by a
-/// sun through a window; a glass block under a small panel; a water surface in a pool under
+/// sun through a window; a glass block under a small panel; blocks of coloured glass; a
+/// frosted pane and a rough glass block; a water surface in a pool under
 /// a sky, seen through from above, with one-sided walls seen from behind; a yard lit by a
 /// uniform sky alone, with a glass block). The goal is set at
 /// 256² with the default radius of 4 pixels; at 64² the same gather radius in the scene is
@@ -61,6 +62,8 @@ fn suite_energy_is_right_after_four_iterations() {
         ("textured_metal", 0.08),
         ("sun_room", 0.05),
         ("glass_slab", 0.05),
+        ("tinted_glass", 0.05),
+        ("frosted_glass", 0.08),
         ("water_pool", 0.12),
         ("sky_court", 0.12),
     ] {

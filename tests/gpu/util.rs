@@ -70,19 +70,24 @@ pub fn lit_plane(
     light_height: f32,
     size: u32,
 ) -> (Entity, Entity) {
-    let light = (
-        PointLight {
-            intensity: light_lumens,
-            range: 100.0,
-            ..default()
-        },
-        Transform::from_xyz(0.0, light_height, 0.0),
-    );
+    let light = point_light_above(light_lumens, light_height);
     let settings = PhotonMapping {
         history: bevy_rppm::RppmHistory::Reset,
         ..default()
     };
     plane_scene(app, light, size, settings)
+}
+
+/// A point light of `lumens` at `height` above the origin (range 100 m).
+pub fn point_light_above(lumens: f32, height: f32) -> (PointLight, Transform) {
+    (
+        PointLight {
+            intensity: lumens,
+            range: 100.0,
+            ..default()
+        },
+        Transform::from_xyz(0.0, height, 0.0),
+    )
 }
 
 /// A 10 m white plane (albedo 0.8, no specular layer), `light`, and an orthographic camera

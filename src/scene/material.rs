@@ -1,0 +1,133 @@
+//! A `StandardMaterial` reduced to what the light transport reads ([`GpuMaterial`]).
+
+use bevy::prelude::*;
+
+use super::{GpuMaterial, MaterialFlags, NO_TEXTURE};
+
+pub(super) fn material_to_gpu(m: &StandardMaterial, textures: [u32; 4]) -> GpuMaterial {
+    let base = m.base_color.to_linear();
+    let mut flags = MaterialFlags::empty();
+    flags.set(MaterialFlags::DOUBLE_SIDED, m.double_sided);
+    flags.set(MaterialFlags::UNLIT, m.unlit);
+    flags.set(MaterialFlags::FLIP_NORMAL_Y, m.flip_normal_map_y);
+    flags.set(
+        MaterialFlags::TEXTURED,
+        textures.iter().any(|&t| t != NO_TEXTURE) || m.unlit || m.alpha_mode != AlphaMode::Opaque,
+    );
+    let mut alpha_cutoff = 0.0;
+    match m.alpha_mode {
+        AlphaMode::Opaque => {}
+        AlphaMode::Mask(cutoff) => {
+            flags |= MaterialFlags::ALPHA_MASK;
+            alpha_cutoff = if cutoff.is_finite() { cutoff } else { 0.5 };
+        }
+        AlphaMode::Blend
+        | AlphaMode::Premultiplied
+        | AlphaMode::AlphaToCoverage
+        | AlphaMode::Add
+        | AlphaMode::Multiply => flags |= MaterialFlags::ALPHA_HASHED,
+    }
+    let finite = |v: f32, fallback: f32| if v.is_finite() { v } else { fallback };
+    let uv = m.uv_transform;
+    let uv_ok = uv.matrix2.is_finite() && uv.translation.is_finite();
+    let (matrix, offset) = if uv_ok {
+        (uv.matrix2.to_cols_array(), uv.translation)
+    } else {
+        ([1.0, 0.0, 0.0, 1.0], Vec2::ZERO)
+    };
+    let base_color = [base.red, base.green, base.blue, base.alpha];
+    // An albedo past 1 makes light from nothing (and overflows after enough bounces).
+    if base_color.iter().any(|c| !(0.0..=1.0).contains(c)) {
+        warn_once!("bevy_rppm: a base colour {base_color:?} outside 0..=1 is clamped");
+    }
+    GpuMaterial {
+        base_color: base_color.map(|c| finite(c, 0.0).clamp(0.0, 1.0)),
+        emissive: [m.emissive.red, m.emissive.green, m.emissive.blue, 0.0]
+            .map(|c| finite(c, 0.0).max(0.0)),
+        metallic: finite(m.metallic, 0.0).clamp(0.0, 1.0),
+        perceptual_roughness: finite(m.perceptual_roughness, 0.5).clamp(0.0, 1.0),
+        reflectance: finite(m.reflectance, 0.5).clamp(0.0, 1.0),
+        specular_transmission: finite(m.specular_transmission, 0.0).clamp(0.0, 1.0),
+        ior: if m.ior.is_finite() && m.ior >= 1.0 {
+            m.ior
+        } else {
+            1.5
+        },
+        flags: flags.bits(),
+        alpha_cutoff,
+        _pad: 0,
+        uv_transform: matrix,
+        uv_offset: [offset.x, offset.y, 0.0, 0.0],
+        textures,
+        absorption: absorption(m),
+    }
+}
+
+/// Beer–Lambert σ (m⁻¹) of a transmissive material with a volume: white light keeps
+/// `attenuation_color` after `attenuation_distance`. A `thickness` of 0 is glTF's thin wall,
+/// which has no inside to absorb in.
+fn absorption(m: &StandardMaterial) -> [f32; 4] {
+    let distance = m.attenuation_distance;
+    if !(m.thickness > 0.0
+        && m.specular_transmission > 0.0
+        && distance.is_finite()
+        && distance > 0.0)
+    {
+        return [0.0; 4];
+    }
+    let c = m.attenuation_color.to_linear();
+    // A channel of colour 0 keeps 10⁻⁶ after the distance instead of an infinite σ.
+    let sigma = |c: f32| -(if c.is_finite() { c } else { 1.0 }).clamp(1e-6, 1.0).ln() / distance;
+    [sigma(c.red), sigma(c.green), sigma(c.blue), 0.0]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn absorption_is_beer_lambert_inside_a_volume_only() {
+        let glass = StandardMaterial {
+            specular_transmission: 1.0,
+            thickness: 0.1,
+            attenuation_color: Color::linear_rgb(0.5, 1.0, 0.0),
+            attenuation_distance: 2.0,
+            ..default()
+        };
+        let s = absorption(&glass);
+        // exp(−σ d) = colour: σ = ln 2 / 2 for 0.5, 0 for 1, capped for 0.
+        assert!((s[0] - std::f32::consts::LN_2 / 2.0).abs() < 1e-6);
+        assert_eq!(s[1], 0.0);
+        assert!((s[2] - 1e6f32.ln() / 2.0).abs() < 1e-4);
+        // Thin-walled (thickness 0), opaque, or an infinite or broken distance: no volume.
+        for m in [
+            StandardMaterial {
+                thickness: 0.0,
+                ..glass.clone()
+            },
+            StandardMaterial {
+                specular_transmission: 0.0,
+                ..glass.clone()
+            },
+            StandardMaterial {
+                attenuation_distance: f32::INFINITY,
+                ..glass.clone()
+            },
+            StandardMaterial {
+                attenuation_distance: f32::NAN,
+                ..glass.clone()
+            },
+            StandardMaterial {
+                attenuation_distance: -1.0,
+                ..glass.clone()
+            },
+        ] {
+            assert_eq!(absorption(&m), [0.0; 4]);
+        }
+        let nan = StandardMaterial {
+            attenuation_color: Color::linear_rgb(f32::NAN, 0.5, 0.5),
+            ..glass
+        };
+        assert!(absorption(&nan).iter().all(|v| v.is_finite()));
+    }
+}

@@ -98,6 +98,11 @@ fn specular_average(m: Material, f0: vec3<f32>) -> vec4<f32> {
     return vec4<f32>(min(energy, vec3<f32>(0.999)), lost);
 }
 
+// The share of a surface that is glass (Bevy's specular transmission of a dielectric).
+fn glass_share(m: Material) -> f32 {
+    return m.specular_transmission * (1.0 - m.metallic);
+}
+
 // Bevy's diffuse colour: (1 − metallic)(1 − transmission) × base colour.
 fn diffuse_color(m: Material) -> vec3<f32> {
     return m.base_color.rgb * ((1.0 - m.metallic) * (1.0 - m.specular_transmission));
@@ -167,7 +172,7 @@ const GLOSSY_STORE_ROUGHNESS: f32 = 0.3;
 fn stores_photons(m: Material) -> bool {
     // Not at rough glass: its light comes through it, which the gather's disc cannot see.
     let glossy_store = has_glossy_lobe(m) && m.perceptual_roughness >= GLOSSY_STORE_ROUGHNESS
-        && any(specular_f0(m) > vec3<f32>(0.0)) && m.specular_transmission * (1.0 - m.metallic) <= 0.0;
+        && any(specular_f0(m) > vec3<f32>(0.0)) && glass_share(m) <= 0.0;
     return any(diffuse_color(m) > vec3<f32>(0.0)) || glossy_store;
 }
 
@@ -176,18 +181,24 @@ fn has_glossy_lobe(m: Material) -> bool {
     return m.perceptual_roughness >= DELTA_ROUGHNESS;
 }
 
-// Samples the GGX lobe by its normal distribution around n for light arriving from `v`
-// (pointing away from the surface): returns the scattered direction (xyz) and the weight
-// f·cos/pdf (w, scalar part; multiply by Fresnel), or w = 0 when it leaves below the surface.
-fn sample_ggx(m: Material, n: vec3<f32>, v: vec3<f32>, u: vec2<f32>) -> vec4<f32> {
-    let a = m.perceptual_roughness * m.perceptual_roughness;
+// A microfacet normal drawn from GGX's D(h)·(n·h) around n, for α = a.
+fn ggx_normal(n: vec3<f32>, a: f32, u: vec2<f32>) -> vec3<f32> {
     let cos_h = sqrt((1.0 - u.x) / (1.0 + (a * a - 1.0) * u.x));
     let sin_h = sqrt(max(1.0 - cos_h * cos_h, 0.0));
     let phi = 2.0 * PI * u.y;
     let t = select(vec3<f32>(1.0, 0.0, 0.0), vec3<f32>(0.0, 1.0, 0.0), abs(n.x) > 0.9);
     let x = normalize(cross(t, n));
     let y = cross(n, x);
-    let h = x * (sin_h * cos(phi)) + y * (sin_h * sin(phi)) + n * cos_h;
+    return x * (sin_h * cos(phi)) + y * (sin_h * sin(phi)) + n * cos_h;
+}
+
+// Samples the GGX lobe by its normal distribution around n for light arriving from `v`
+// (pointing away from the surface): returns the scattered direction (xyz) and the weight
+// f·cos/pdf (w, scalar part; multiply by Fresnel), or w = 0 when it leaves below the surface.
+fn sample_ggx(m: Material, n: vec3<f32>, v: vec3<f32>, u: vec2<f32>) -> vec4<f32> {
+    let a = m.perceptual_roughness * m.perceptual_roughness;
+    let h = ggx_normal(n, a, u);
+    let cos_h = dot(n, h);
     let l = reflect(-v, h);
     let n_dot_l = dot(n, l);
     let n_dot_v = dot(n, v);
@@ -274,7 +285,7 @@ fn scatter_photon(material: Material, n: vec3<f32>, wi: vec3<f32>, front: bool, 
     u -= p_mirror;
 #endif
 #ifdef REFRACTION
-    let glass = select(0.0, m.specular_transmission * (1.0 - m.metallic), delta);
+    let glass = select(0.0, glass_share(m), delta);
     let p_glass = min(glass, left);
     if u < p_glass {
         let eta = select(m.ior, 1.0 / m.ior, front);
@@ -296,7 +307,7 @@ fn scatter_photon(material: Material, n: vec3<f32>, wi: vec3<f32>, front: bool, 
 
 // The share of a surface that is rough glass (0 for smooth glass, a delta lobe).
 fn rough_glass_share(m: Material) -> f32 {
-    return select(m.specular_transmission * (1.0 - m.metallic), 0.0, m.perceptual_roughness < DELTA_ROUGHNESS);
+    return select(glass_share(m), 0.0, m.perceptual_roughness < DELTA_ROUGHNESS);
 }
 
 // The material without its glass: the layers that share the surface with it.
@@ -333,13 +344,8 @@ fn rough_glass_reflection(m: Material, n: vec3<f32>, wo: vec3<f32>, wi: vec3<f32
 // probability, else refraction. The weight f·cos/pdf is |wi·h| G / (|wi·n| |h·n|) for both.
 fn scatter_rough_glass(m: Material, n: vec3<f32>, wi: vec3<f32>, front: bool, rng: ptr<function, u32>) -> Scatter {
     let a = m.perceptual_roughness * m.perceptual_roughness;
-    let u = vec2<f32>(random(rng), random(rng));
-    let cos_h = sqrt((1.0 - u.x) / (1.0 + (a * a - 1.0) * u.x));
-    let sin_h = sqrt(max(1.0 - cos_h * cos_h, 0.0));
-    let phi = 2.0 * PI * u.y;
-    let t = select(vec3<f32>(1.0, 0.0, 0.0), vec3<f32>(0.0, 1.0, 0.0), abs(n.x) > 0.9);
-    let x = normalize(cross(t, n));
-    let h = x * (sin_h * cos(phi)) + cross(n, x) * (sin_h * sin(phi)) + n * cos_h;
+    let h = ggx_normal(n, a, vec2<f32>(random(rng), random(rng)));
+    let cos_h = dot(n, h);
     let i_dot_h = dot(wi, h);
     let i_dot_n = dot(wi, n);
     if i_dot_h <= 0.0 || i_dot_n <= 0.0 {

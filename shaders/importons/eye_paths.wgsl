@@ -7,7 +7,7 @@
 #import bevy_rppm::scene::{triangle_at, gbuffer_material, resolve_surface, kernel_normal, material_at, as_seen_from, normal_at, interpolated_normal}
 #import bevy_rppm::lighting::{params, surface_light}
 #ifdef IMPORTONS
-#import bevy_rppm::bsdf::{fresnel_dielectric, scatter_photon, stores_photons}
+#import bevy_rppm::bsdf::{fresnel_dielectric, glass_share, scatter_photon, stores_photons}
 #import bevy_rppm::common::{DELTA_ROUGHNESS, luminance}
 #import bevy_rppm::cubemap::{cubemap, trace_ray, NO_HIT}
 #ifdef ABSORPTION
@@ -41,7 +41,7 @@ struct Bounce {
 // of glass. `n` faces the incoming side; `front` tells which side of the surface that is.
 fn specular_bounce(m: Material, d: vec3<f32>, n: vec3<f32>, front: bool, rng: ptr<function, u32>) -> Bounce {
     let mirror = luminance(m.base_color.rgb) * m.metallic;
-    let glass = m.specular_transmission * (1.0 - m.metallic);
+    let glass = glass_share(m);
     let total = max(mirror + glass, 1e-6);
 #ifdef MIRRORS
     if random(rng) * total < mirror {
@@ -54,27 +54,30 @@ fn specular_bounce(m: Material, d: vec3<f32>, n: vec3<f32>, front: bool, rng: pt
     if random(rng) < fresnel_dielectric(dot(-d, n), eta) || all(refracted == vec3<f32>(0.0)) {
         return Bounce(reflect(d, n), vec3<f32>(total));
     }
-    // Radiance over n² is what crossing keeps: light leaving water for air is 1/1.33² as
-    // bright (photons carry flux and need no such factor). Cancels through closed glass.
-    return Bounce(refracted, vec3<f32>(total * eta * eta));
+    return Bounce(refracted, vec3<f32>(total));
 #else
     return Bounce(d, vec3<f32>(0.0));
 #endif
 }
 
 // The camera path's next direction at a surface it goes on through: a delta lobe, or the
-// glossy lobes sampled as photons sample them (the BSDF is reciprocal).
+// glossy lobes sampled as photons sample them (the BSDF is reciprocal but for refraction).
 fn next_bounce(m: Material, d: vec3<f32>, n: vec3<f32>, front: bool, rng: ptr<function, u32>) -> Bounce {
+    var bounce = lobe_bounce(m, d, n, front, rng);
+    if dot(bounce.direction, n) < 0.0 {
+        // Through glass, smooth or rough, radiance over n² is what crossing keeps: light
+        // leaving water for air is 1/1.33² as bright (photons carry flux and need no such
+        // factor). Cancels through closed glass.
+        let eta = select(m.ior, 1.0 / m.ior, front);
+        bounce.weight *= eta * eta;
+    }
+    return bounce;
+}
+
+fn lobe_bounce(m: Material, d: vec3<f32>, n: vec3<f32>, front: bool, rng: ptr<function, u32>) -> Bounce {
 #ifdef GLOSSY
     if m.perceptual_roughness >= DELTA_ROUGHNESS {
         let s = scatter_photon(m, n, -d, front, rng);
-#ifdef ROUGH_REFRACTION
-        if dot(s.direction, n) < 0.0 {
-            // Through rough glass: radiance over n², as through smooth glass.
-            let eta = select(m.ior, 1.0 / m.ior, front);
-            return Bounce(s.direction, s.weight * (eta * eta));
-        }
-#endif
         return Bounce(s.direction, s.weight);
     }
 #endif

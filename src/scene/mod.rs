@@ -139,6 +139,14 @@ pub struct GpuMaterial {
     pub absorption: [f32; 4],
 }
 
+impl GpuMaterial {
+    /// The share of the surface that is glass: Bevy's specular transmission of a dielectric
+    /// (`glass_share` in shaders/common/bsdf.wgsl).
+    pub fn glass_share(&self) -> f32 {
+        self.specular_transmission * (1.0 - self.metallic)
+    }
+}
+
 bitflags::bitflags! {
     /// The flags of a [`GpuMaterial`], mirrored by the `MATERIAL_*` constants of
     /// shaders/common/common.wgsl.
@@ -310,7 +318,7 @@ impl SceneData {
             let diffuse = (1.0 - metallic) * (1.0 - m.specular_transmission);
             let albedo = luminance([m.base_color[0], m.base_color[1], m.base_color[2]]);
             // Glass of any roughness stores no photons.
-            let glass = m.specular_transmission * (1.0 - metallic) > 0.0;
+            let glass = GpuMaterial { metallic, ..*m }.glass_share() > 0.0;
             (roughness < GLOSSY_STORE_ROUGHNESS || glass) && (base || diffuse * albedo <= 0.0)
         })
     }
@@ -324,10 +332,10 @@ impl SceneData {
             let colour = m.base_color[..3].iter().any(|&c| c > 0.0);
             if m.perceptual_roughness >= DELTA_ROUGHNESS {
                 glossy |= m.reflectance > 0.0 || (m.metallic > 0.0 && colour);
-                rough_refraction |= m.specular_transmission * (1.0 - m.metallic) > 0.0;
+                rough_refraction |= m.glass_share() > 0.0;
             } else {
                 mirrors |= m.metallic > 0.0 && colour;
-                refraction |= m.specular_transmission * (1.0 - m.metallic) > 0.0;
+                refraction |= m.glass_share() > 0.0;
             }
         }
         let mut paths = ScatterPaths::empty();
@@ -372,8 +380,7 @@ impl SceneData {
                 let base = [m.base_color[0], m.base_color[1], m.base_color[2]];
                 let diffuse = (1.0 - m.metallic) * (1.0 - m.specular_transmission);
                 if m.perceptual_roughness < DELTA_ROUGHNESS {
-                    let delta =
-                        luminance(base) * m.metallic + m.specular_transmission * (1.0 - m.metallic);
+                    let delta = luminance(base) * m.metallic + m.glass_share();
                     return (diffuse * luminance(base) + delta).min(1.0);
                 }
                 let dielectric = 0.16 * m.reflectance * m.reflectance;
@@ -381,8 +388,7 @@ impl SceneData {
                 let specular = specular_energy_average(m.perceptual_roughness, f0);
                 let albedo = [0, 1, 2].map(|k| (base[k] * diffuse).max(specular[k]));
                 // Rough glass reflects or refracts nearly all it receives.
-                let glass = m.specular_transmission * (1.0 - m.metallic);
-                luminance(albedo).max(glass).min(1.0)
+                luminance(albedo).max(m.glass_share()).min(1.0)
             })
             .fold(0.0, f32::max)
     }

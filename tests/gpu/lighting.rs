@@ -272,16 +272,7 @@ fn coloured_glass_absorbs_along_the_path_inside() {
     let clear = plane_under_glass(None);
     let tinted = plane_under_glass(Some(Color::linear_rgb(tint[0], tint[1], tint[2])));
     // Under the slab's middle (±0.5 m), and beyond its shadow (|x| > 1.5 m).
-    let mean =
-        |image: &RgbImage, rows: std::ops::Range<usize>, cols: std::ops::Range<usize>, c: usize| {
-            let mut sum = 0.0f64;
-            for y in rows.clone() {
-                for x in cols.clone() {
-                    sum += image.at(x, y)[c] as f64;
-                }
-            }
-            sum / (rows.len() * cols.len()) as f64
-        };
+    let mean = region_channel_mean;
     let mut failures = Vec::new();
     for (c, t) in tint.iter().enumerate() {
         let under = mean(&tinted, 12..20, 12..20, c) / mean(&clear, 12..20, 12..20, c);

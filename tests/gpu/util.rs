@@ -249,15 +249,26 @@ pub fn region_mean(
     rows: std::ops::Range<usize>,
     cols: std::ops::Range<usize>,
 ) -> f64 {
+    (0..3)
+        .map(|c| region_channel_mean(image, rows.clone(), cols.clone(), c))
+        .sum::<f64>()
+        / 3.0
+}
+
+/// The mean of one colour channel over a block of pixels.
+pub fn region_channel_mean(
+    image: &RgbImage,
+    rows: std::ops::Range<usize>,
+    cols: std::ops::Range<usize>,
+    channel: usize,
+) -> f64 {
     let mut sum = 0.0;
-    let mut n = 0;
-    for y in rows {
+    for y in rows.clone() {
         for x in cols.clone() {
-            sum += image.at(x, y).iter().map(|&v| v as f64).sum::<f64>();
-            n += 3;
+            sum += image.at(x, y)[channel] as f64;
         }
     }
-    sum / n as f64
+    sum / (rows.len() * cols.len()) as f64
 }
 
 #[derive(Resource, Default)]

@@ -208,10 +208,14 @@ pub(crate) fn prepare_views(
             continue; // a zero-sized target renders nothing; keep the state for when it returns
         };
         let settings = &rppm.settings;
-        // A state made anew below keeps the controller.
+        // A state made anew below keeps the controller and the store's counts.
         let mut photon_count = existing
             .as_deref()
             .map(|s| s.photon_count)
+            .unwrap_or_default();
+        let (store_fit, store_now) = existing
+            .as_deref()
+            .map(|s| (s.store_fit, s.key.photon_capacity))
             .unwrap_or_default();
         let photons =
             photon_count.count(device_photon_count(settings.photons_per_iteration, &device));
@@ -219,7 +223,9 @@ pub(crate) fn prepare_views(
             size,
             slots: settings.iterations_per_frame,
             shadow_resolution: settings.shadow_map_resolution,
-            photon_capacity: store_capacity(settings, photons, scene, &device),
+            photon_capacity: store_capacity(
+                settings, photons, scene, &device, &store_fit, store_now,
+            ),
             importon_tiles: importon_tiles(settings, &scene.data),
             subsampling: settings.indirect_subsampling,
             history: settings.history.window().is_some(),
@@ -263,6 +269,7 @@ pub(crate) fn prepare_views(
             }
         }
         state.photon_count = photon_count;
+        state.store_fit = store_fit;
         if state.scene_epoch != scene.epoch {
             state.rebind_scene(
                 &device,

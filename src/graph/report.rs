@@ -148,13 +148,18 @@ pub(crate) fn report_views(
             }));
         }
         let second = |bytes: Vec<u8>| bytemuck::cast_slice::<u8, u32>(&bytes)[1];
-        let stored = state
-            .store
-            .as_ref()
-            .filter(|_| waiting)
-            .and_then(|store| read_back(&device, &queue, &store.count));
-        if let Some(bytes) = stored {
-            state.photons_stored = second(bytes);
+        // The store's count, all frames: what the store is sized from.
+        let counted = state.store.as_ref().and_then(|store| {
+            if waiting {
+                store.read_count(&device, &queue)
+            } else {
+                store.poll_count(&device)
+            }
+        });
+        if let Some((stored, emitted)) = counted {
+            let capacity = state.key.photon_capacity;
+            state.photons_stored = stored.min(capacity);
+            state.store_fit.observe(stored, emitted, capacity);
         }
         let made = (waiting && state.importons)
             .then(|| read_back(&device, &queue, &state.eye_paths.stats))
@@ -193,6 +198,7 @@ pub(crate) fn report_views(
                 cubemap_nodes: state.cubemap.nodes.0,
                 photons_per_iteration: state.photons,
                 photons_stored: state.photons_stored,
+                photons_lost: state.store_fit.lost,
                 importons: state.importons_made,
                 passes: passes(&state),
                 splat_radius_pixels: state.radius2.sqrt(),

@@ -12,7 +12,7 @@ use crate::gbuffer::GBuffer;
 use crate::importons::{EyePathPipeline, EyePaths};
 use crate::indirect_splat::{self, IndirectSplatPipeline};
 use crate::output::{self, OutputPipeline};
-use crate::photons::{PhotonController, PhotonPipeline, PhotonStore};
+use crate::photons::{PhotonController, PhotonPipeline, PhotonStore, StoreFit};
 use crate::scene::SceneBuffers;
 use crate::settings::{RppmDebugView, RppmMode};
 use crate::shadows::ShadowMaps;
@@ -83,6 +83,8 @@ pub struct RppmViewState {
     pub photons: u32,
     /// Where the photon count's controller stands.
     pub photon_count: PhotonController,
+    /// The stores counted, which size the photon store.
+    pub store_fit: StoreFit,
     /// When the view's last frame was reported (its interval times an iteration).
     pub last_report: Option<std::time::Instant>,
     /// Whether camera paths go past the G-buffer this frame (importon tracing and indirect
@@ -186,6 +188,7 @@ impl RppmViewState {
             fast_forward: None,
             photons: 0,
             photon_count: PhotonController::default(),
+            store_fit: StoreFit::default(),
             last_report: None,
             importons: false,
             traced_shadows: false,

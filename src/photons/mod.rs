@@ -4,6 +4,7 @@
 //! scattering paths.
 
 mod budget;
+mod store;
 
 use bevy::prelude::*;
 use bevy::render::render_resource::binding_types::storage_buffer_sized;
@@ -11,47 +12,18 @@ use bevy::render::render_resource::*;
 use bevy::render::renderer::RenderDevice;
 use bevy::render::{RenderApp, RenderStartup};
 
-use crate::cubemap::{TracingGroups, tracing_pipeline};
-use crate::ppm::photon_store_capacity;
-use crate::scene::{ScatterPaths, SceneBuffers, texture_defs};
-use crate::settings::{PhotonCount, PhotonMapping, RppmDebugView};
+use crate::cubemap::tracing_pipeline;
+use crate::scene::{ScatterPaths, texture_defs};
+use crate::settings::PhotonCount;
 use crate::shaders::RppmShaders;
-use crate::stats::timing::{Stage, StageTimer};
 use crate::view::ViewLayouts;
 
 pub use budget::{FrameCost, MIN_PHOTONS, PhotonController, START_PHOTONS};
-
-/// Bytes of one stored photon (`Photon` in common.wgsl).
-pub const PHOTON_BYTES: u64 = 64;
-
-/// Photons a view's store must hold for `photons` a iteration (see
-/// [`photon_store_capacity`]), capped by the GPU's largest storage binding; 0 when nothing
-/// emits or no photon can be stored.
-pub(crate) fn store_capacity(
-    settings: &PhotonMapping,
-    photons: u32,
-    scene: &SceneBuffers,
-    device: &RenderDevice,
-) -> u32 {
-    let direct = settings.debug_view == RppmDebugView::DirectPhotons;
-    let stores = if direct {
-        1
-    } else {
-        settings.max_photon_depth - 1
-    };
-    if scene.data.light_cdf.is_empty() || photons == 0 || stores == 0 {
-        return 0;
-    }
-    let wanted = photon_store_capacity(photons, stores, scene.max_scatter, direct);
-    let limit = device.limits().max_storage_buffer_binding_size / PHOTON_BYTES;
-    // The indirect splat dispatches one thread per stored photon, in one dimension.
-    (wanted.ceil() as u64)
-        .min(limit)
-        .min(dispatch_limit(device) as u64) as u32
-}
+pub(crate) use store::store_capacity;
+pub use store::{PhotonStore, StoreFit};
 
 /// The most threads one dimension of a 64-wide compute dispatch can have on this device.
-fn dispatch_limit(device: &RenderDevice) -> u32 {
+pub(crate) fn dispatch_limit(device: &RenderDevice) -> u32 {
     device
         .limits()
         .max_compute_workgroups_per_dimension
@@ -152,65 +124,4 @@ fn init_photon_pipeline(
         &shaders.photon_trace,
     );
     commands.insert_resource(PhotonPipeline { store_layout, base });
-}
-
-/// One camera's photon store, when the scene has lights to emit from.
-pub struct PhotonStore {
-    pub photons: Buffer,
-    /// Draw-indirect arguments whose instance count is the number of photons stored.
-    pub count: Buffer,
-    group: BindGroup,
-}
-
-impl PhotonStore {
-    /// Room for `capacity` photons.
-    pub fn new(
-        device: &RenderDevice,
-        cache: &PipelineCache,
-        pipeline: &PhotonPipeline,
-        capacity: u32,
-    ) -> Self {
-        let photons = device.create_buffer(&BufferDescriptor {
-            label: Some("rppm_photons"),
-            size: capacity as u64 * PHOTON_BYTES,
-            usage: BufferUsages::STORAGE,
-            mapped_at_creation: false,
-        });
-        let count = device.create_buffer_with_data(&BufferInitDescriptor {
-            label: Some("rppm_photon_count"),
-            contents: bytemuck::cast_slice(&[6u32, 0, 0, 0]),
-            usage: BufferUsages::STORAGE
-                | BufferUsages::INDIRECT
-                | BufferUsages::COPY_DST
-                | BufferUsages::COPY_SRC,
-        });
-        let group = device.create_bind_group(
-            "rppm_photon_store_group",
-            &cache.get_bind_group_layout(&pipeline.store_layout),
-            &BindGroupEntries::sequential((photons.as_entire_binding(), count.as_entire_binding())),
-        );
-        Self {
-            photons,
-            count,
-            group,
-        }
-    }
-
-    /// Photon tracing for one iteration.
-    pub fn encode_trace(
-        &self,
-        encoder: &mut CommandEncoder,
-        pipeline: &ComputePipeline,
-        groups: &TracingGroups,
-        photons: u32,
-        timer: &mut StageTimer,
-    ) {
-        encoder.clear_buffer(&self.count, 4, Some(4));
-        let mut pass = encoder.begin_compute_pass(&ComputePassDescriptor {
-            label: Some("rppm_photon_trace"),
-            timestamp_writes: timer.compute_pass(Stage::PhotonTrace),
-        });
-        groups.bind(&mut pass, pipeline, &self.group);
-        pass.dispatch_workgroups(photons.div_ceil(64), 1, 1);
-    }
 }

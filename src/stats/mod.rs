@@ -86,6 +86,9 @@ pub struct ViewStats {
     /// stored by the last iteration read back.
     pub photons_per_iteration: u32,
     pub photons_stored: u32,
+    /// Photons that iteration found no room for in the store (which then grows): 0 but after
+    /// a sudden change of the scene. The store is sized from these counts.
+    pub photons_lost: u32,
     /// Importons (camera paths past specular surfaces) made by the last iteration read back.
     pub importons: u32,
     /// The passes each iteration runs: only those the scene and settings need.

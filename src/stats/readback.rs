@@ -63,15 +63,18 @@ impl AsyncReadback {
         }
     }
 
-    /// Records a copy of `source`, unless an earlier copy is still on its way back.
-    pub fn encode_copy(&self, encoder: &mut CommandEncoder, source: &Buffer) {
+    /// Records a copy of `source`, unless an earlier copy is still on its way back; whether
+    /// it did.
+    pub fn encode_copy(&self, encoder: &mut CommandEncoder, source: &Buffer) -> bool {
         let Ok(mut state) = self.state.lock() else {
-            return;
+            return false;
         };
-        if matches!(*state, Probe::Idle) {
+        let idle = matches!(*state, Probe::Idle);
+        if idle {
             encoder.copy_buffer_to_buffer(source, 0, &self.staging, 0, self.staging.size());
             *state = Probe::Copied;
         }
+        idle
     }
 
     /// After submission: starts mapping the last copy, or returns its bytes once mapped.

@@ -174,7 +174,7 @@ fn only_the_passes_and_code_paths_the_scene_needs_run() {
         !plain.contains(&"importon_tracing".to_string()),
         "{plain:?}"
     );
-    // Matte albedo 0.8: the store holds Σ 0.8ʲ ≈ 4 photons per emitted one, not 7.
+    // Matte albedo 0.8: the store holds at most Σ 0.8ʲ ≈ 4 photons per emitted one, not 15.
     let store = memory["photons"] as f64 / (262_144.0 * 64.0);
     assert!(
         store < 5.0,

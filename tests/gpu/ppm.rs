@@ -92,3 +92,51 @@ fn radius_and_mean_stay_finite_fast_forwarded_to_1e8_iterations() {
         }
     }
 }
+
+/// A glass ball makes the worst case every bounce (Σ pʲ with p = 1: 15 stores per photon);
+/// the store starts there, so the first iteration loses nothing, then holds what the
+/// iterations counted (a matte plane keeps under one per photon), read back with or without
+/// waiting for the GPU (a game's frames do not wait).
+#[test]
+fn the_photon_store_holds_what_the_iterations_stored() {
+    for wait in [true, false] {
+        let mut app = gpu_app();
+        let settings = PhotonMapping {
+            photons_per_iteration: PhotonCount::Fixed(16_384),
+            ..default()
+        };
+        let (camera, _) = plane_scene(&mut app, point_light_above(800.0, 1.5), 16, settings);
+        let world = app.world_mut();
+        if !wait {
+            world.entity_mut(camera).remove::<RppmReadback>();
+        }
+        let glass = world
+            .resource_mut::<Assets<StandardMaterial>>()
+            .add(StandardMaterial {
+                specular_transmission: 1.0,
+                perceptual_roughness: 0.0,
+                ..default()
+            });
+        let ball = world.resource_mut::<Assets<Mesh>>().add(Sphere::new(0.4));
+        world.spawn((
+            Mesh3d(ball),
+            MeshMaterial3d(glass),
+            Transform::from_xyz(0.0, 0.5, 0.0),
+        ));
+        let stats = |app: &App| app.world().resource::<RppmStats>().views[&camera].clone();
+        let capacity = |app: &App| stats(app).memory["photons"] / 64;
+        until_iterations(&mut app, camera, 1);
+        let first = capacity(&app);
+        assert!(first >= 15 * 16_384, "the first store holds {first}");
+        frames(&mut app, 8);
+        let s = stats(&app);
+        let held = capacity(&app);
+        assert!(s.photons_stored > 0, "wait {wait}: {s:?}");
+        assert_eq!(s.photons_lost, 0, "wait {wait}");
+        assert!(
+            held < first / 4 && (held as f64) < 1.5 * s.photons_stored as f64 + 2048.0,
+            "wait {wait}: the store holds {held} for {} stored (first {first})",
+            s.photons_stored
+        );
+    }
+}

@@ -83,65 +83,99 @@ fn lobe_bounce(m: Material, d: vec3<f32>, n: vec3<f32>, front: bool, rng: ptr<fu
 #endif
     return specular_bounce(m, d, n, front, rng);
 }
+#endif
 
-// Follows the camera path from a G-buffer point it goes on through; returns the light it
-// finds (emission and punctual lights at glossy vertices on the way, all light at its end)
-// and leaves an importon at its first vertex that stores photons.
-fn follow_camera_path(pixel: u32, x0: vec3<f32>, n0: vec3<f32>, m0: Material, triangle: u32, front0: bool, wo0: vec3<f32>, rng: ptr<function, u32>) -> vec3<f32> {
-    var bounce = next_bounce(m0, -wo0, n0, front0, rng);
-    var throughput = bounce.weight;
+// A vertex of the camera path: the surface point, its shading normal and material as seen
+// from the side the path arrives on, and the direction back along the path.
+struct Vertex {
+    x: vec3<f32>,
+    n: vec3<f32>,
+    m: Material,
+    front: bool,
+    triangle: u32,
+    wo: vec3<f32>,
+}
+
+// The light the camera path from the G-buffer vertex `first` brings back: emission and direct
+// light at its end; with IMPORTONS a path that meets a surface storing no photons goes on
+// (emission and punctual lights at glossy vertices on the way) and leaves an importon at its
+// first vertex past the G-buffer that stores photons. One loop for every vertex, so that the
+// lighting and the ray walk are compiled once.
+fn camera_path(pixel: u32, first: Vertex, rng: ptr<function, u32>) -> vec3<f32> {
+    var v = first;
     var found = vec3<f32>(0.0);
-    var o = x0;
-    var d = bounce.direction;
-    var ignore = triangle;
-    var length = distance(params.camera_position.xyz, x0);
+    var throughput = vec3<f32>(1.0);
+#ifdef IMPORTONS
+    var bounce = Bounce(vec3<f32>(0.0), vec3<f32>(1.0));
+    var length = distance(params.camera_position.xyz, v.x);
     let t_min = params.scene_sphere.w * 1e-6;
 #ifdef ABSORPTION
     // σ of the coloured glass the path is in (the camera is outside every medium).
-    var medium = medium_after(vec3<f32>(0.0), m0, front0, dot(d, n0) < 0.0);
+    var medium = vec3<f32>(0.0);
 #endif
-    for (var depth = 2u; depth <= params.max_eye_depth; depth += 1u) {
-        let hit = trace_ray(o, d, t_min, 1.0e30, ignore);
-        if all(throughput <= vec3<f32>(0.0)) {
-            return found;
-        }
+#endif
+    for (var depth = 1u; depth <= params.max_eye_depth; depth += 1u) {
+#ifdef IMPORTONS
+        if depth > 1u {
+            if all(throughput <= vec3<f32>(0.0)) {
+                return found;
+            }
+            let d = bounce.direction;
+            let hit = trace_ray(v.x, d, t_min, 1.0e30, v.triangle);
 #ifdef ABSORPTION
-        throughput *= exp(-medium * hit.t);
+            throughput *= exp(-medium * hit.t);
 #endif
-        if hit.triangle == NO_HIT {
+            if hit.triangle == NO_HIT {
 #ifdef SKY
-            found += throughput * params.sky.rgb;
+                found += throughput * params.sky.rgb;
 #endif
+                return found;
+            }
+            let t = triangle_at(hit.triangle);
+            length += hit.t;
+            let geometric = cross(t.position_b - t.position_a, t.position_c - t.position_a);
+            let front = dot(geometric, d) < 0.0;
+            var interpolated = interpolated_normal(t, hit.uv);
+            var n = normal_at(hit.triangle, hit.uv, interpolated, 0.0);
+            if !front {
+                n = -n;
+                interpolated = -interpolated;
+            }
+            v = Vertex(
+                v.x + d * hit.t,
+                n,
+                as_seen_from(material_at(hit.triangle, hit.uv, 0.0), front),
+                front,
+                hit.triangle,
+                -d,
+            );
+            if stores_photons(v.m) {
+                let footprint = params.pixel_spread * select(length, 1.0, params.orthographic != 0u);
+                let radius = gather_radius(params, params.splat_radius, footprint);
+                importons[pixel] = Importon(v.x, v.triangle, interpolated, 0u, throughput, radius, v.wo, 0u);
+                atomicAdd(&importon_stats[1], 1u);
+                atomicMax(&importon_stats[4], (params.photon_capacity + 63u) / 64u);
+                atomicMax(&importon_stats[8], (params.size.x * params.size.y + 63u) / 64u);
+            }
+        }
+        let ends = stores_photons(v.m);
+#else
+        let ends = true;
+#endif
+        // Mode Indirect: Bevy renders the first hit's emission and direct light itself.
+        // Emitters are found by the path itself past a glossy vertex, so only punctual lights
+        // are sampled where it goes on.
+        if depth > 1u || params.indirect_only == 0u {
+            found += throughput * surface_light(v.m, v.x, v.n, v.wo, v.front, v.triangle, ends, rng);
+        }
+        if ends {
             return found;
         }
-        let t = triangle_at(hit.triangle);
-        let x = o + d * hit.t;
-        length += hit.t;
-        let geometric = cross(t.position_b - t.position_a, t.position_c - t.position_a);
-        let front = dot(geometric, d) < 0.0;
-        let m = as_seen_from(material_at(hit.triangle, hit.uv, 0.0), front);
-        var interpolated = interpolated_normal(t, hit.uv);
-        var n = normal_at(hit.triangle, hit.uv, interpolated, 0.0);
-        if !front {
-            n = -n;
-            interpolated = -interpolated;
-        }
-        if stores_photons(m) {
-            let footprint = params.pixel_spread * select(length, 1.0, params.orthographic != 0u);
-            let radius = gather_radius(params, params.splat_radius, footprint);
-            importons[pixel] = Importon(x, hit.triangle, interpolated, 0u, throughput, radius, -d, 0u);
-            atomicAdd(&importon_stats[1], 1u);
-            atomicMax(&importon_stats[4], (params.photon_capacity + 63u) / 64u);
-            atomicMax(&importon_stats[8], (params.size.x * params.size.y + 63u) / 64u);
-            return found + throughput * surface_light(m, x, n, -d, front, hit.triangle, true, rng);
-        }
-        // Emitters are found by the path itself past a glossy vertex, so only punctual
-        // lights are sampled there.
-        found += throughput * surface_light(m, x, n, -d, front, hit.triangle, false, rng);
-        bounce = next_bounce(m, d, n, front, rng);
+#ifdef IMPORTONS
+        bounce = next_bounce(v.m, -v.wo, v.n, v.front, rng);
         throughput *= bounce.weight;
 #ifdef ABSORPTION
-        medium = medium_after(medium, m, front, dot(bounce.direction, n) < 0.0);
+        medium = medium_after(medium, v.m, v.front, dot(bounce.direction, v.n) < 0.0);
 #endif
         // Russian roulette past the first vertices, so that paths trapped in glass (total
         // internal reflection) end early on average yet the estimate keeps its mean.
@@ -152,13 +186,10 @@ fn follow_camera_path(pixel: u32, x0: vec3<f32>, n0: vec3<f32>, m0: Material, tr
             }
             throughput /= survive;
         }
-        o = x;
-        d = bounce.direction;
-        ignore = hit.triangle;
+#endif
     }
     return found;
 }
-#endif
 
 @compute @workgroup_size(8, 8, 1)
 fn main(@builtin(global_invocation_id) id: vec3<u32>) {
@@ -173,28 +204,14 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     importons[pixel].triangle = NO_IMPORTON;
 #endif
     if gp.w != 0.0 {
-        let triangle = u32(abs(gp.w)) - 1u;
         let gn = textureLoad(gbuffer_normal, vec2<i32>(id.xy), 0);
-        let n = gn.xyz;
         let m = gbuffer_material(gp, gn.w);
 #ifdef TEXTURED
-        surfaces[pixel] = resolve_surface(m, kernel_normal(gp, n), n);
+        surfaces[pixel] = resolve_surface(m, kernel_normal(gp, gn.xyz), gn.xyz);
 #endif
         let wo = normalize(params.camera_position.xyz - gp.xyz);
-        // Mode Indirect: Bevy renders the first hit's emission and direct light itself.
-#ifdef IMPORTONS
-        let onward = !stores_photons(m);
-#else
-        let onward = false;
-#endif
-        if params.indirect_only == 0u {
-            sample = surface_light(m, gp.xyz, n, wo, gp.w > 0.0, triangle, !onward, &rng);
-        }
-#ifdef IMPORTONS
-        if onward {
-            sample += follow_camera_path(pixel, gp.xyz, n, m, triangle, gp.w > 0.0, wo, &rng);
-        }
-#endif
+        let first = Vertex(gp.xyz, gn.xyz, m, gp.w > 0.0, u32(abs(gp.w)) - 1u, wo);
+        sample = camera_path(pixel, first, &rng);
     }
 #ifdef SKY
     else if params.indirect_only == 0u {

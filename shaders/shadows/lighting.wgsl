@@ -70,82 +70,158 @@ fn visibility(x: vec3<f32>, dir: vec3<f32>, distance: f32, origin_triangle: u32)
 // average over iterations the same.
 const MANY_LIGHTS: u32 = 8u;
 
-// Direct light from the punctual lights; `rng` draws a point on the spheres of lights with a
-// radius (traced shadows only: shadow maps see their centre).
-fn direct_light(m: Material, x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, origin_triangle: u32, rng: ptr<function, u32>) -> vec3<f32> {
-    var sum = vec3<f32>(0.0);
-#ifdef TRACED_SHADOWS
-    if params.light_count > MANY_LIGHTS {
-        let total = light_cdf[params.light_count - 1u];
-        for (var k = 0u; k < MANY_LIGHTS; k += 1u) {
-            let i = find_source(random(rng) * total, 0u, params.light_count - 1u);
-            let p = (light_cdf[i] - select(0.0, light_cdf[max(i, 1u) - 1u], i > 0u)) / total;
-            sum += one_light(lights[i], m, x, n, wo, origin_triangle, rng) / (f32(MANY_LIGHTS) * max(p, 1e-12));
-        }
-        return sum;
-    }
-#endif
-    for (var i = 0u; i < params.light_count; i += 1u) {
-        sum += one_light(lights[i], m, x, n, wo, origin_triangle, rng);
-    }
-    return sum;
+// Light arriving at x from one sample of a light: from direction `wi`, `distance` away (1e30:
+// a direction), `li` the radiance times the sample's weight. The BSDF and the cosine are
+// applied by the caller, or only the cosine's sign where the sample was drawn by cosine.
+struct LightSample {
+    wi: vec3<f32>,
+    distance: f32,
+    li: vec3<f32>,
+    cosine_drawn: bool,
 }
 
-// Light `l` reflected at x toward wo, shadowed.
-fn one_light(l: Light, m: Material, x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, origin_triangle: u32, rng: ptr<function, u32>) -> vec3<f32> {
-    var wi: vec3<f32>;
-    var li: vec3<f32>;
-    // How far the light is (1e30: a direction).
-    var distance = 1.0e30;
+fn no_light() -> LightSample {
+    return LightSample(vec3<f32>(0.0, 0.0, 1.0), 1.0e30, vec3<f32>(0.0), false);
+}
+
+// Punctual light `l` seen from x; `rng` draws a point on the sphere of a light with a radius
+// (traced shadows only: shadow maps see its centre).
+fn punctual_sample(l: Light, x: vec3<f32>, rng: ptr<function, u32>) -> LightSample {
     if l.kind == LIGHT_DIRECTIONAL {
-        wi = -l.direction.xyz;
-        li = l.radiance.rgb;
-    } else {
-        let to_light = l.position.xyz - x;
-        let d2 = max(dot(to_light, to_light), 1e-12);
-        distance = sqrt(d2);
-        wi = to_light / distance;
-        li = l.radiance.rgb / d2;
-        if l.kind == LIGHT_SPOT {
-            let c = dot(-wi, l.direction.xyz);
-            let a = clamp((c - l.cos_outer) / max(l.cos_inner - l.cos_outer, 1e-6), 0.0, 1.0);
-            li *= select(a * a, select(0.0, 1.0, c >= l.cos_outer), l.cos_inner <= l.cos_outer);
-        }
+        return LightSample(-l.direction.xyz, 1.0e30, l.radiance.rgb, false);
+    }
+    let to_light = l.position.xyz - x;
+    let d2 = max(dot(to_light, to_light), 1e-12);
+    var s = LightSample(to_light / sqrt(d2), sqrt(d2), l.radiance.rgb / d2, false);
+    if l.kind == LIGHT_SPOT {
+        let c = dot(-s.wi, l.direction.xyz);
+        let a = clamp((c - l.cos_outer) / max(l.cos_inner - l.cos_outer, 1e-6), 0.0, 1.0);
+        s.li *= select(a * a, select(0.0, 1.0, c >= l.cos_outer), l.cos_inner <= l.cos_outer);
+    }
 #ifdef TRACED_SHADOWS
-        let radius = l.position.w;
-        if radius > 0.0 && d2 > radius * radius * 1.0001 {
-            // A direction in the cone the sphere subtends, uniform in solid angle Ω: the
-            // sphere's radiance I/(πR²) times Ω averages to I/d² (and the spot's falloff
-            // stays that of the centre).
-            let sin2 = radius * radius / d2;
-            let cos_max = sqrt(1.0 - sin2);
-            let one_minus = sin2 / (1.0 + cos_max);
-            let cos_t = 1.0 - random(rng) * one_minus;
-            let sin_t = sqrt(max(1.0 - cos_t * cos_t, 0.0));
-            let phi = 2.0 * PI * random(rng);
-            let dir = basis_around(wi) * vec3<f32>(sin_t * cos(phi), sin_t * sin(phi), cos_t);
-            li *= 2.0 * one_minus / sin2;
-            let b = dot(dir, l.position.xyz - x);
-            distance = b - sqrt(max(b * b - (d2 - radius * radius), 0.0));
-            wi = dir;
-        }
+    let radius = l.position.w;
+    if radius > 0.0 && d2 > radius * radius * 1.0001 {
+        // A direction in the cone the sphere subtends, uniform in solid angle Ω: the sphere's
+        // radiance I/(πR²) times Ω averages to I/d² (and the spot's falloff stays that of
+        // the centre).
+        let sin2 = radius * radius / d2;
+        let cos_max = sqrt(1.0 - sin2);
+        let one_minus = sin2 / (1.0 + cos_max);
+        let cos_t = 1.0 - random(rng) * one_minus;
+        let sin_t = sqrt(max(1.0 - cos_t * cos_t, 0.0));
+        let phi = 2.0 * PI * random(rng);
+        let dir = basis_around(s.wi) * vec3<f32>(sin_t * cos(phi), sin_t * sin(phi), cos_t);
+        s.li *= 2.0 * one_minus / sin2;
+        let b = dot(dir, to_light);
+        s.distance = b - sqrt(max(b * b - (d2 - radius * radius), 0.0));
+        s.wi = dir;
+    }
 #endif
-    }
-    let lit = bsdf_eval(m, n, wo, wi) * li * max(dot(n, wi), 0.0);
-    // No shadow test where nothing would arrive (behind the surface, outside a cone, a
-    // delta lobe).
-    if all(lit <= vec3<f32>(0.0)) {
-        return vec3<f32>(0.0);
-    }
+    return s;
+}
+
 #ifdef TRACED_SHADOWS
-    return lit * visibility(x, wi, distance, origin_triangle);
+// The emissive triangles seen from x: one triangle drawn by power, one point on it by area.
+fn emitter_sample(x: vec3<f32>, origin_triangle: u32, rng: ptr<function, u32>) -> LightSample {
+    // The emitters' entries of the source CDF: past the lights, before the sky.
+    let end = params.source_count - u32(params.sky.w > 0.5);
+    if end <= params.light_count {
+        return no_light();
+    }
+    let first = select(0.0, light_cdf[params.light_count - 1u], params.light_count > 0u);
+    let share = light_cdf[end - 1u] - first;
+    if share <= 0.0 {
+        return no_light();
+    }
+    let index = find_source(first + random(rng) * share, params.light_count, end - 1u);
+    let previous = select(0.0, light_cdf[index - 1u], index > 0u);
+    let p = max(light_cdf[index] - previous, 1e-12) / share;
+    let e = emitters[index - params.light_count];
+    let t = triangle_at(e.triangle);
+    let u = random(rng);
+    let b = uniform_barycentrics(u, random(rng));
+    let y = triangle_point(t, b);
+    let to_light = y - x;
+    let d2 = max(dot(to_light, to_light), 1e-12);
+    let wi = to_light * inverseSqrt(d2);
+    let cos_y = -dot(normalize(cross(t.position_b - t.position_a, t.position_c - t.position_a)), wi);
+    if cos_y <= 0.0 || e.triangle == origin_triangle {
+        return no_light();
+    }
+    let radiance = material_at(e.triangle, b, 0.0).emissive.rgb;
+    return LightSample(wi, sqrt(d2), radiance * (cos_y * e.area / (d2 * p)), false);
+}
+#endif
+
+// Radiance leaving x (on triangle `origin_triangle`) towards wo by emission (front faces only)
+// and direct light, from the emitters and the sky too when `emitters` (camera paths that go on
+// past x find them themselves); `rng` draws the samples.
+fn surface_light(m: Material, x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, front: bool, origin_triangle: u32, emitters: bool, rng: ptr<function, u32>) -> vec3<f32> {
+    let emitted = select(vec3<f32>(0.0), m.emissive.rgb, front);
+    if params.direct_photons != 0u {
+        return emitted;
+    }
+    var sum = emitted;
+#ifdef TRACED_SHADOWS
+    // One loop, one shadow ray and one BSDF in the code for every kind of light: each copy
+    // of a ray walk costs seconds of shader compilation on a CPU rasteriser. Its samples: the
+    // punctual lights (or MANY_LIGHTS of them drawn by power), then the sky, then an emitter.
+    let many = params.light_count > MANY_LIGHTS;
+    let punctual = select(params.light_count, MANY_LIGHTS, many);
+    let samples = punctual + select(0u, 2u, emitters);
+    for (var k = 0u; k < samples; k += 1u) {
+        var s = no_light();
+        if k < punctual {
+            var i = k;
+            var weight = 1.0;
+            if many {
+                let total = light_cdf[params.light_count - 1u];
+                i = find_source(random(rng) * total, 0u, params.light_count - 1u);
+                let p = (light_cdf[i] - select(0.0, light_cdf[max(i, 1u) - 1u], i > 0u)) / total;
+                weight = 1.0 / (f32(MANY_LIGHTS) * max(p, 1e-12));
+            }
+            s = punctual_sample(lights[i], x, rng);
+            s.li *= weight;
+        } else if k == punctual {
+#ifdef SKY
+            // One direction drawn by cosine around n (pdf cos/π), a ray to infinity.
+            let wi = cosine_direction(n, vec2<f32>(random(rng), random(rng)));
+            s = LightSample(wi, 1.0e30, params.sky.rgb * PI, true);
+#endif
+        } else {
+            s = emitter_sample(x, origin_triangle, rng);
+        }
+        if all(s.li <= vec3<f32>(0.0)) {
+            continue;
+        }
+        let c = max(dot(n, s.wi), 0.0);
+        let lit = bsdf_eval(m, n, wo, s.wi) * s.li * select(c, sign(c), s.cosine_drawn);
+        // No shadow ray where nothing would arrive (behind the surface, outside a cone, a
+        // delta lobe).
+        if any(lit > vec3<f32>(0.0)) {
+            sum += lit * visibility(x, s.wi, s.distance, origin_triangle);
+        }
+    }
 #else
-    if l.kind == LIGHT_DIRECTIONAL {
-        let view = shadow_views[l.shadow_layer];
-        return lit * shadow_visibility(l.shadow_layer, l.shadow_layer, x + n * 2.0 * view.texel);
+    for (var i = 0u; i < params.light_count; i += 1u) {
+        let l = lights[i];
+        let s = punctual_sample(l, x, rng);
+        let lit = bsdf_eval(m, n, wo, s.wi) * s.li * max(dot(n, s.wi), 0.0);
+        if all(lit <= vec3<f32>(0.0)) {
+            continue;
+        }
+        if l.kind == LIGHT_DIRECTIONAL {
+            let view = shadow_views[l.shadow_layer];
+            sum += lit * shadow_visibility(l.shadow_layer, l.shadow_layer, x + n * 2.0 * view.texel);
+        } else {
+            sum += lit * cube_visibility(l.shadow_layer, l.shadow_layer, l.position.xyz, x, n);
+        }
     }
-    return lit * cube_visibility(l.shadow_layer, l.shadow_layer, l.position.xyz, x, n);
+    if emitters {
+        sum += area_light(m, x, n, wo);
+    }
 #endif
+    return sum;
 }
 
 // This iteration's sample on the emissive surfaces: a point light-like term weighted by the
@@ -165,80 +241,4 @@ fn area_light(m: Material, x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>) -> vec3<f3
     }
     let v = cube_visibility(params.area_view, params.area_layer, y, x, n);
     return bsdf_eval(m, n, wo, wi) * params.area_weight.rgb * (cos_x * cos_y * v / d2);
-}
-
-#ifdef TRACED_SHADOWS
-// Light from the emissive triangles: one triangle drawn by power, one point on it by area,
-// a shadow ray to it.
-fn emitter_light(m: Material, x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, origin_triangle: u32, rng: ptr<function, u32>) -> vec3<f32> {
-    // The emitters' entries of the source CDF: past the lights, before the sky.
-    let end = params.source_count - u32(params.sky.w > 0.5);
-    if end <= params.light_count {
-        return vec3<f32>(0.0);
-    }
-    let first = select(0.0, light_cdf[params.light_count - 1u], params.light_count > 0u);
-    let share = light_cdf[end - 1u] - first;
-    if share <= 0.0 {
-        return vec3<f32>(0.0);
-    }
-    let index = find_source(first + random(rng) * share, params.light_count, end - 1u);
-    let previous = select(0.0, light_cdf[index - 1u], index > 0u);
-    let p = max(light_cdf[index] - previous, 1e-12) / share;
-    let e = emitters[index - params.light_count];
-    let t = triangle_at(e.triangle);
-    let u = random(rng);
-    let b = uniform_barycentrics(u, random(rng));
-    let y = triangle_point(t, b);
-    let to_light = y - x;
-    let d2 = max(dot(to_light, to_light), 1e-12);
-    let wi = to_light * inverseSqrt(d2);
-    let cos_x = dot(n, wi);
-    let cos_y = -dot(normalize(cross(t.position_b - t.position_a, t.position_c - t.position_a)), wi);
-    if cos_x <= 0.0 || cos_y <= 0.0 || e.triangle == origin_triangle {
-        return vec3<f32>(0.0);
-    }
-    let radiance = material_at(e.triangle, b, 0.0).emissive.rgb;
-    let lit = bsdf_eval(m, n, wo, wi) * radiance * (cos_x * cos_y * e.area / (d2 * p));
-    if all(lit <= vec3<f32>(0.0)) {
-        return lit;
-    }
-    return lit * visibility(x, wi, sqrt(d2), origin_triangle);
-}
-#endif
-
-#ifdef SKY
-// Light from the sky: one direction drawn by cosine around n (pdf cos/π), a shadow ray to
-// infinity.
-fn sky_light(m: Material, x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, origin_triangle: u32, rng: ptr<function, u32>) -> vec3<f32> {
-    let u = vec2<f32>(random(rng), random(rng));
-    let wi = cosine_direction(n, u);
-    let lit = bsdf_eval(m, n, wo, wi) * params.sky.rgb * PI;
-    if all(lit <= vec3<f32>(0.0)) || dot(n, wi) <= 0.0 {
-        return vec3<f32>(0.0);
-    }
-    return lit * visibility(x, wi, 1.0e30, origin_triangle);
-}
-#endif
-
-// Radiance leaving x (on triangle `origin_triangle`) towards wo by emission (front faces only)
-// and direct light, from the emitters too when `emitters` (camera paths that go on past x find
-// them themselves); `rng` draws the emitter sample.
-fn surface_light(m: Material, x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, front: bool, origin_triangle: u32, emitters: bool, rng: ptr<function, u32>) -> vec3<f32> {
-    let emitted = select(vec3<f32>(0.0), m.emissive.rgb, front);
-    if params.direct_photons != 0u {
-        return emitted;
-    }
-    let punctual = emitted + direct_light(m, x, n, wo, origin_triangle, rng);
-    if !emitters {
-        return punctual;
-    }
-#ifdef TRACED_SHADOWS
-    var sky = vec3<f32>(0.0);
-#ifdef SKY
-    sky = sky_light(m, x, n, wo, origin_triangle, rng);
-#endif
-    return punctual + emitter_light(m, x, n, wo, origin_triangle, rng) + sky;
-#else
-    return punctual + area_light(m, x, n, wo);
-#endif
 }

@@ -18,7 +18,13 @@ pub struct ViewBvh {
     pub buffers: BvhBuffers,
     epoch: u64,
     geometry: Geometry,
+    /// Frames since the geometry last changed.
+    still: u32,
 }
+
+/// Frames a geometry must stay before a refitted hierarchy is built again (a build walks
+/// faster; it costs the whole scene, once).
+const SETTLE_FRAMES: u32 = 16;
 
 /// What a hierarchy was built from: the meshes (by identity) and where each instance places
 /// which of them.
@@ -148,23 +154,41 @@ impl ViewCubemap {
             return Ok(());
         };
         cubemap.set_centre(ctx.queue, centre);
-        // Looked at when the scene changed, and rebuilt only when its geometry did (not for a
-        // light or a material).
-        if self.bvh.as_ref().is_some_and(|b| b.epoch == scene.epoch) {
+        // Looked at when the scene changed, and updated only when its geometry did (not for a
+        // light or a material): refitted while it moves, built again once it stays.
+        let device = ctx.device;
+        let build = |cubemap: &mut DeepCubemap| {
+            let buffers = BvhBuffers::build(device, &scene.data);
+            cubemap.bind_bvh(device, &layout(), &buffers);
+            buffers
+        };
+        let Some(b) = &mut self.bvh else {
+            self.bvh = Some(ViewBvh {
+                buffers: build(cubemap),
+                epoch: scene.epoch,
+                geometry: Geometry::of(&scene.data),
+                still: 0,
+            });
             return Ok(());
+        };
+        let moved = b.epoch != scene.epoch && {
+            let geometry = Geometry::of(&scene.data);
+            let moved = b.geometry != geometry;
+            b.geometry = geometry;
+            moved
+        };
+        b.epoch = scene.epoch;
+        if moved {
+            b.still = 0;
+            if b.buffers.refit(ctx.queue, &scene.data).is_none() {
+                b.buffers = build(cubemap);
+            }
+        } else {
+            b.still = b.still.saturating_add(1);
+            if b.still == SETTLE_FRAMES && b.buffers.refitted() {
+                b.buffers = build(cubemap);
+            }
         }
-        let geometry = Geometry::of(&scene.data);
-        if let Some(b) = self.bvh.as_mut().filter(|b| b.geometry == geometry) {
-            b.epoch = scene.epoch;
-            return Ok(());
-        }
-        let buffers = BvhBuffers::build(ctx.device, &scene.data);
-        cubemap.bind_bvh(ctx.device, &layout(), &buffers);
-        self.bvh = Some(ViewBvh {
-            buffers,
-            epoch: scene.epoch,
-            geometry,
-        });
         Ok(())
     }
 

@@ -212,7 +212,11 @@ pub(crate) fn report_views(
                     .bvh
                     .as_ref()
                     .map_or(0.0, |b| b.buffers.build_ms),
-                bvh_upload_bytes: state.cubemap.bvh.as_ref().map_or(0, |b| b.buffers.bytes),
+                bvh_upload_bytes: state
+                    .cubemap
+                    .bvh
+                    .as_ref()
+                    .map_or(0, |b| b.buffers.upload_bytes),
             }),
         ));
     }

@@ -104,10 +104,10 @@ pub struct ViewStats {
     pub scene_geometry_bytes: u64,
     /// CPU milliseconds of the scene's latest extraction in the main world.
     pub scene_extract_ms: f64,
-    /// CPU milliseconds of the view's latest BVH build (`RppmTracer::Bvh`; 0 otherwise).
+    /// CPU milliseconds of the view's latest BVH update (`RppmTracer::Bvh`; 0 otherwise).
     pub bvh_build_ms: f64,
-    /// Bytes the view's latest BVH build sent to the GPU: the whole hierarchy, since it is
-    /// built again from every world-space triangle when any geometry moves (0 without one).
+    /// Bytes the view's latest BVH update sent to the GPU: the levels of meshes that are new
+    /// or posed anew, the level over the instances and their records (0 without a BVH).
     pub bvh_upload_bytes: u64,
 }
 

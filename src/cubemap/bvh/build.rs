@@ -35,26 +35,33 @@ pub struct Bvh {
     pub indices: Vec<u32>,
 }
 
-#[derive(Clone, Copy)]
-struct Bounds {
-    min: Vec3,
-    max: Vec3,
+#[derive(Clone, Copy, PartialEq)]
+pub(super) struct Bounds {
+    pub min: Vec3,
+    pub max: Vec3,
 }
 
 impl Bounds {
-    const EMPTY: Self = Self {
+    pub const EMPTY: Self = Self {
         min: Vec3::splat(f32::INFINITY),
         max: Vec3::splat(f32::NEG_INFINITY),
     };
 
-    fn grow(self, other: Self) -> Self {
+    pub fn of([a, b, c]: [Vec3; 3]) -> Self {
+        Self {
+            min: a.min(b).min(c),
+            max: a.max(b).max(c),
+        }
+    }
+
+    pub fn grow(self, other: Self) -> Self {
         Self {
             min: self.min.min(other.min),
             max: self.max.max(other.max),
         }
     }
 
-    fn half_area(self) -> f32 {
+    pub fn half_area(self) -> f32 {
         let e = (self.max - self.min).max(Vec3::ZERO);
         e.x * e.y + e.y * e.z + e.z * e.x
     }

@@ -144,20 +144,7 @@ fn only_the_passes_and_code_paths_the_scene_needs_run() {
             settings,
         );
         if glass {
-            let world = app.world_mut();
-            let material = world
-                .resource_mut::<Assets<StandardMaterial>>()
-                .add(StandardMaterial {
-                    specular_transmission: 1.0,
-                    perceptual_roughness: 0.0,
-                    ..default()
-                });
-            let ball = world.resource_mut::<Assets<Mesh>>().add(Sphere::new(0.4));
-            world.spawn((
-                Mesh3d(ball),
-                MeshMaterial3d(material),
-                Transform::from_xyz(0.0, 0.5, 0.0),
-            ));
+            spawn_glass_ball(app.world_mut());
         }
         until_iterations(&mut app, camera, 2);
         let stats = app.world().resource::<RppmStats>().views[&camera].clone();

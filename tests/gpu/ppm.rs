@@ -110,19 +110,7 @@ fn the_photon_store_holds_what_the_iterations_stored() {
         if !wait {
             world.entity_mut(camera).remove::<RppmReadback>();
         }
-        let glass = world
-            .resource_mut::<Assets<StandardMaterial>>()
-            .add(StandardMaterial {
-                specular_transmission: 1.0,
-                perceptual_roughness: 0.0,
-                ..default()
-            });
-        let ball = world.resource_mut::<Assets<Mesh>>().add(Sphere::new(0.4));
-        world.spawn((
-            Mesh3d(ball),
-            MeshMaterial3d(glass),
-            Transform::from_xyz(0.0, 0.5, 0.0),
-        ));
+        spawn_glass_ball(world);
         let stats = |app: &App| app.world().resource::<RppmStats>().views[&camera].clone();
         let capacity = |app: &App| stats(app).memory["photons"] / 64;
         until_iterations(&mut app, camera, 1);

@@ -486,6 +486,23 @@ pub fn spawn_occluder(app: &mut App, half: f32, y: f32, material: StandardMateri
 }
 
 /// `mesh` with `material` at `transform`.
+/// A smooth glass ball of radius 0.4 m, 0.5 m above the origin.
+pub fn spawn_glass_ball(world: &mut World) {
+    let glass = world
+        .resource_mut::<Assets<StandardMaterial>>()
+        .add(StandardMaterial {
+            specular_transmission: 1.0,
+            perceptual_roughness: 0.0,
+            ..default()
+        });
+    let ball = world.resource_mut::<Assets<Mesh>>().add(Sphere::new(0.4));
+    world.spawn((
+        Mesh3d(ball),
+        MeshMaterial3d(glass),
+        Transform::from_xyz(0.0, 0.5, 0.0),
+    ));
+}
+
 pub fn spawn_mesh(
     world: &mut World,
     mesh: impl Into<Mesh>,

@@ -181,11 +181,11 @@ fn split(span: &mut [u32], bounds: &[Bounds]) -> Option<usize> {
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use super::*;
 
     /// Möller–Trumbore distance, or none.
-    fn hit(o: Vec3, d: Vec3, [a, b, c]: [Vec3; 3]) -> Option<f32> {
+    pub(in crate::cubemap::bvh) fn hit(o: Vec3, d: Vec3, [a, b, c]: [Vec3; 3]) -> Option<f32> {
         let (e1, e2) = (b - a, c - a);
         let p = d.cross(e2);
         let det = e1.dot(p);

@@ -117,20 +117,8 @@ fn box_of(n: &super::BvhNode) -> Bounds {
 
 #[cfg(test)]
 mod tests {
+    use super::super::build::tests::hit;
     use super::*;
-
-    fn hit(o: Vec3, d: Vec3, [a, b, c]: [Vec3; 3]) -> Option<f32> {
-        let (e1, e2) = (b - a, c - a);
-        let p = d.cross(e2);
-        let det = e1.dot(p);
-        if det.abs() < 1e-12 {
-            return None;
-        }
-        let s = o - a;
-        let (u, q) = (s.dot(p) / det, s.cross(e1));
-        let (v, t) = (d.dot(q) / det, e2.dot(q) / det);
-        (u >= 0.0 && v >= 0.0 && u + v <= 1.0 && t > 1e-6).then_some(t)
-    }
 
     /// Nearest hit by walking every leaf whose box and ancestors' boxes the ray enters.
     fn walk(r: &Refittable, o: Vec3, d: Vec3, node: usize) -> Option<f32> {

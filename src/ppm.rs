@@ -37,6 +37,12 @@ pub(crate) fn halton(mut i: u32, base: u32) -> f32 {
     r
 }
 
+/// Room for the entries a GPU list asked for (cubemap list nodes, stored photons), with a
+/// quarter to spare.
+pub(crate) fn grown_capacity(used: u32) -> u32 {
+    (used as u64 * 5 / 4).min(u32::MAX as u64 / 2) as u32
+}
+
 /// Photons a store must hold. A photon is stored at each non-specular hit after its first
 /// (direct light is the local stage's), at most `stores` times, and goes on after a hit with
 /// probability at most `max_scatter` (the scene's largest albedo), so the store holds the

@@ -7,6 +7,7 @@ use bevy::render::renderer::{RenderDevice, RenderQueue};
 
 use super::bvh::BvhBuffers;
 use super::{BIG_TRIANGLES, BuildContext, CubemapConfig, CubemapParams, CubemapPipelines};
+use crate::ppm::grown_capacity;
 use crate::scene::SceneBuffers;
 use crate::scene::place::dispatch_size;
 use crate::stats::readback::{AsyncReadback, read_back};
@@ -450,11 +451,6 @@ pub struct Fit {
     pub used: u32,
     /// GPU ms of the last build.
     pub build_ms: f64,
-}
-
-/// Room for the entries a build asked for, with a quarter to spare.
-pub fn grown_capacity(used: u32) -> u32 {
-    (used as u64 * 5 / 4).min(u32::MAX as u64 / 2) as u32
 }
 
 /// Depth below which geometry is not recorded: a millionth of the scene's size.

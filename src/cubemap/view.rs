@@ -1,23 +1,21 @@
 //! A camera's deep cubemap across frames: made, kept or dropped as the iteration needs one,
 //! centred on the camera, and its lists grown when a build overflowed. Under
 //! `RppmTracer::Bvh` its lists stay empty and unbuilt (photon binning still uses its tiles)
-//! and the view's hierarchy, rebuilt when the scene changes, is bound with it.
-
-use std::sync::Arc;
+//! and the view's hierarchy, refitted while geometry moves and rebuilt once it stays, is
+//! bound with it.
 
 use bevy::prelude::*;
 use bevy::render::renderer::{RenderDevice, RenderQueue};
 
-use super::bvh::BvhBuffers;
-use super::deep::{binding_limit, grown_capacity};
+use super::bvh::{BvhBuffers, Follow};
+use super::deep::binding_limit;
 use super::{BuildContext, CubemapConfig, DeepCubemap};
-use crate::scene::SceneData;
+use crate::ppm::grown_capacity;
 
-/// A view's hierarchy, and the scene (epoch, geometry) it was built from or checked against.
+/// A view's hierarchy, and the scene epoch it was built from or checked against.
 pub struct ViewBvh {
     pub buffers: BvhBuffers,
     epoch: u64,
-    geometry: Geometry,
     /// Frames since the geometry last changed.
     still: u32,
 }
@@ -25,31 +23,6 @@ pub struct ViewBvh {
 /// Frames a geometry must stay before a refitted hierarchy is built again (a build walks
 /// faster; it costs the whole scene, once).
 const SETTLE_FRAMES: u32 = 16;
-
-/// What a hierarchy was built from: the meshes (by identity) and where each instance places
-/// which of them.
-#[derive(PartialEq)]
-struct Geometry {
-    meshes: Vec<usize>,
-    instances: Vec<([[f32; 4]; 3], u32)>,
-}
-
-impl Geometry {
-    fn of(data: &SceneData) -> Self {
-        Self {
-            meshes: data
-                .meshes
-                .iter()
-                .map(|m| Arc::as_ptr(m) as usize)
-                .collect(),
-            instances: data
-                .instances
-                .iter()
-                .map(|i| (i.rows, i.first_local))
-                .collect(),
-        }
-    }
-}
 
 /// One camera's deep cubemap, when a stage that traces rays needs one.
 #[derive(Default)]
@@ -166,23 +139,20 @@ impl ViewCubemap {
             self.bvh = Some(ViewBvh {
                 buffers: build(cubemap),
                 epoch: scene.epoch,
-                geometry: Geometry::of(&scene.data),
                 still: 0,
             });
             return Ok(());
         };
         let moved = b.epoch != scene.epoch && {
-            let geometry = Geometry::of(&scene.data);
-            let moved = b.geometry != geometry;
-            b.geometry = geometry;
-            moved
+            let follow = b.buffers.follow(ctx.queue, &scene.data);
+            if follow == Follow::Build {
+                b.buffers = build(cubemap);
+            }
+            follow != Follow::Same
         };
         b.epoch = scene.epoch;
         if moved {
             b.still = 0;
-            if b.buffers.refit(ctx.queue, &scene.data).is_none() {
-                b.buffers = build(cubemap);
-            }
         } else {
             b.still = b.still.saturating_add(1);
             if b.still == SETTLE_FRAMES && b.buffers.refitted() {

@@ -10,7 +10,7 @@ use bevy::render::renderer::{RenderDevice, RenderQueue};
 use super::PhotonPipeline;
 use super::dispatch_limit;
 use crate::cubemap::TracingGroups;
-use crate::ppm::photon_store_capacity;
+use crate::ppm::{grown_capacity, photon_store_capacity};
 use crate::scene::SceneBuffers;
 use crate::settings::{PhotonMapping, RppmDebugView};
 use crate::stats::readback::{AsyncReadback, read_back};
@@ -56,9 +56,8 @@ impl StoreFit {
             return worst.ceil() as u32;
         };
         let stores = photons as f64 * per_photon;
-        let wanted = (stores * 1.25 + 4.0 * stores.sqrt() + 1024.0)
-            .min(worst)
-            .ceil();
+        let spared = grown_capacity(stores.ceil() as u32) as f64;
+        let wanted = (spared + 4.0 * stores.sqrt() + 1024.0).min(worst).ceil();
         let kept = current as f64;
         if kept >= wanted && kept <= 2.0 * wanted {
             current

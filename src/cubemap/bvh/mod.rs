@@ -33,8 +33,8 @@ pub struct BvhBuffers {
     /// Bytes the last build or refit sent to the GPU.
     pub upload_bytes: u64,
     hierarchy: Refittable,
-    /// Each instance as the hierarchy holds it: its mesh (by identity) and transform.
-    placed: Vec<(usize, GpuInstance)>,
+    /// Each instance as the hierarchy holds it: what tells a moved one.
+    placed: Vec<Placed>,
 }
 
 impl BvhBuffers {
@@ -80,34 +80,40 @@ impl BvhBuffers {
         self.hierarchy.refitted
     }
 
-    /// Follows moved geometry by a refit where the instances are the same ones (a transform
-    /// or a pose changed), sending only the nodes that changed; none where a build is wanted
-    /// instead (instances came or went, a box grew too much).
-    pub fn refit(&mut self, queue: &RenderQueue, data: &SceneData) -> Option<()> {
+    /// Follows the scene's geometry: nothing where no instance moved, a refit where the
+    /// instances are the same ones (a transform or a pose changed), sending only the nodes
+    /// that changed; a build is wanted where instances came or went, or a box grew too much.
+    pub fn follow(&mut self, queue: &RenderQueue, data: &SceneData) -> Follow {
         let start = Instant::now();
         let now = placed(data);
         let same_shape = now.len() == self.placed.len()
-            && now.iter().zip(&self.placed).all(|((_, a), (_, b))| {
-                (a.first_world, a.triangle_count) == (b.first_world, b.triangle_count)
+            && now.iter().zip(&self.placed).all(|(a, b)| {
+                (a.instance.first_world, a.instance.triangle_count)
+                    == (b.instance.first_world, b.instance.triangle_count)
             });
-        if !same_shape || self.hierarchy.triangle_count() != data.triangle_count() {
-            return None;
+        if !same_shape {
+            return Follow::Build;
         }
         let mut moved: Vec<(usize, [Vec3; 3])> = Vec::new();
-        for (&(mesh, instance), old) in now.iter().zip(&self.placed) {
-            if (mesh, instance.rows) == (old.0, old.1.rows) {
+        for (p, old) in now.iter().zip(&self.placed) {
+            if (p.mesh, p.instance.rows) == (old.mesh, old.instance.rows) {
                 continue;
             }
-            let local = &data.meshes[instance.mesh as usize].triangles;
-            let first = instance.first_world as usize;
+            let local = &data.meshes[p.instance.mesh as usize].triangles;
+            let first = p.instance.first_world as usize;
             moved.extend(
                 local
                     .iter()
                     .enumerate()
-                    .map(|(k, t)| (first + k, instance.place(t).positions())),
+                    .map(|(k, t)| (first + k, p.instance.place(t).positions())),
             );
         }
-        let changed = self.hierarchy.refit(&moved)?;
+        if moved.is_empty() {
+            return Follow::Same;
+        }
+        let Some(changed) = self.hierarchy.refit(&moved) else {
+            return Follow::Build;
+        };
         self.placed = now;
         // Runs of neighbouring nodes go in one write.
         let nodes = &self.hierarchy.bvh.nodes;
@@ -126,20 +132,36 @@ impl BvhBuffers {
         }
         self.upload_bytes = sent;
         self.build_ms = start.elapsed().as_secs_f64() * 1e3;
-        Some(())
+        Follow::Refitted
     }
 }
 
-/// Each instance with its mesh's identity.
-fn placed(data: &SceneData) -> Vec<(usize, GpuInstance)> {
+/// What [`BvhBuffers::follow`] did with a changed scene.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Follow {
+    /// No triangle moved (a light or a material changed): nothing done.
+    Same,
+    /// Moved triangles were refitted and their nodes sent.
+    Refitted,
+    /// A build is wanted instead; the hierarchy is not to be used as it is.
+    Build,
+}
+
+/// An instance as the hierarchy holds it, with its mesh's identity.
+struct Placed {
+    mesh: usize,
+    instance: GpuInstance,
+}
+
+fn placed(data: &SceneData) -> Vec<Placed> {
     data.instances
         .iter()
-        .map(|i| {
-            let mesh = data
+        .map(|i| Placed {
+            mesh: data
                 .meshes
                 .get(i.mesh as usize)
-                .map_or(0, |m| Arc::as_ptr(m) as usize);
-            (mesh, *i)
+                .map_or(0, |m| Arc::as_ptr(m) as usize),
+            instance: *i,
         })
         .collect()
 }

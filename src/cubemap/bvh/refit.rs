@@ -58,10 +58,6 @@ impl Refittable {
         }
     }
 
-    pub fn triangle_count(&self) -> usize {
-        self.triangles.len()
-    }
-
     /// Moves triangles (by id) and refits: the nodes whose boxes changed, in order; none when
     /// a build is wanted instead (a moved triangle not finite, or one the build left out; a
     /// box past `GROWTH` times its built area). The hierarchy is then not to be used.
@@ -75,9 +71,9 @@ impl Refittable {
             self.triangles[id] = t;
             dirty.insert(leaf);
         }
-        let mut changed = BTreeSet::new();
+        let mut changed = Vec::new();
         // Deepest first: a node's children come after it, so the largest index is never an
-        // ancestor of another in the set.
+        // ancestor of another in the set (and each node is met once).
         while let Some(k) = dirty.pop_last() {
             let n = self.bvh.nodes[k as usize];
             let b = if n.count == INNER {
@@ -98,13 +94,14 @@ impl Refittable {
             let node = &mut self.bvh.nodes[k as usize];
             node.min = b.min.to_array();
             node.max = b.max.to_array();
-            changed.insert(k);
+            changed.push(k);
             if self.parent[k as usize] != NONE {
                 dirty.insert(self.parent[k as usize]);
             }
         }
         self.refitted |= !changed.is_empty();
-        Some(changed.into_iter().collect())
+        changed.reverse();
+        Some(changed)
     }
 }
 

@@ -77,17 +77,15 @@ pub enum RppmHistory {
     /// the accuracy tests use it).
     #[default]
     Reset,
-    /// Keep the estimate through motion (experimental: see the README's measurements; it
-    /// helps where motion changes indirect light, such as the pool's caustics, and can lag
-    /// behind fast-moving objects and cameras). After a change, each pixel keeps at most
-    /// `iterations` iterations of history while the change settles (an exponential window,
-    /// for `iterations` more iterations); after a change in the scene, none of its direct
-    /// light, which is traced anew each iteration, so moving shadows follow at once, and the
-    /// gather radius starts again. After a camera move the history is reprojected to where
-    /// each pixel's surface was. A pixel starts
-    /// again where its surface changed (disocclusion, a moved object) and where its indirect
-    /// light departs from its history by more than its own noise explains. A still scene
-    /// converges as with `Reset`. Range of `iterations` 1..=1024.
+    /// Keep the estimate through motion (see the README's measurements: it helps most where
+    /// motion changes indirect light, such as the pool's caustics, and blurs a walking
+    /// character). After any change each pixel keeps at most `iterations` iterations of
+    /// history (an exponential window) for `iterations` more iterations. After a camera move
+    /// the history is reprojected to where each pixel's surface was, and dropped where the
+    /// pixel sees another surface (disocclusion). After a change in the scene, indirect light
+    /// is clamped to mean ± σ of this iteration's samples around the pixel, so a caustic that
+    /// moved does not linger, and direct light starts again (shadows follow at once). A still
+    /// scene converges as with `Reset`. Range of `iterations` 1..=1024.
     Reuse { iterations: u32 },
 }
 

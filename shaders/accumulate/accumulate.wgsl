@@ -17,9 +17,9 @@
 @group(1) @binding(5) var gbuffer_position: texture_2d<f32>;
 @group(1) @binding(6) var gbuffer_normal: texture_2d<f32>;
 #ifdef HISTORY
-// Per pixel, in three blocks of one vec4 a pixel: the surface it saw, the running mean of its
-// direct light (local illumination; w its count) and the second moment of its indirect light's
-// luminance (x). `radiance` holds their total: direct plus indirect (w the indirect count).
+// Per pixel, in two blocks of one vec4 a pixel: the surface it saw, and the running mean of its
+// direct light (local illumination; w its count). `radiance` holds their total: direct plus
+// indirect (w the indirect count).
 @group(1) @binding(7) var<storage, read_write> history: array<vec4<f32>>;
 // Last frame's estimate and history, for reprojection.
 @group(1) @binding(8) var<storage, read> previous_radiance: array<vec4<f32>>;
@@ -29,6 +29,7 @@
 const REPROJECT: u32 = 1u;
 const CHECK_SURFACE: u32 = 2u;
 const CHECK_LIGHT: u32 = 4u;
+const NEW_DIRECT: u32 = 8u;
 
 // A G-buffer texel as kept in `surface`: position, and the normal packed with a marker byte
 // (0: no surface).
@@ -37,9 +38,10 @@ fn packed_surface(position: vec4<f32>, normal: vec3<f32>) -> vec4<f32> {
     return vec4<f32>(position.xyz, bitcast<f32>(packed));
 }
 
-// Whether a kept surface is the one this pixel sees now: both empty, or a point within three
-// footprints (the jitter moves it by up to one and a half) on the same plane, with a normal
-// within ~25°: a moving object's pixels start again.
+// Whether a kept surface is the one this pixel sees now: both empty, or a point on the same
+// plane, within three footprints across the view (the jitter moves it by up to one and a
+// half; more along a surface seen at a grazing angle), with a normal within ~25°: a moving
+// object's pixels start again.
 fn same_surface(kept: vec4<f32>, position: vec4<f32>, normal: vec4<f32>) -> bool {
     let packed = bitcast<u32>(kept.w);
     let had = (packed >> 24u) != 0u;
@@ -49,29 +51,101 @@ fn same_surface(kept: vec4<f32>, position: vec4<f32>, normal: vec4<f32>) -> bool
     let kept_normal = unpack4x8snorm(packed).xyz;
     let d = position.xyz - kept.xyz;
     let slack = 1e-4 * length(position.xyz);
-    let near = length(d) <= 3.0 * normal.w + slack && abs(dot(d, normal.xyz)) <= normal.w + slack;
+    let facing = abs(dot(normal.xyz, normalize(params.camera_position.xyz - position.xyz)));
+    let across = 3.0 * normal.w / max(facing, 0.2);
+    let near = length(d) <= across + slack && abs(dot(d, normal.xyz)) <= normal.w + slack;
     return near && dot(kept_normal, normal.xyz) > 0.9;
 }
 
-fn luminance(c: vec3<f32>) -> f32 {
-    return dot(c, vec3<f32>(0.2126, 0.7152, 0.0722));
+// Whether this pixel or one of its eight neighbours sees the kept surface now.
+fn surface_nearby(kept: vec4<f32>, pixel: vec2<u32>) -> bool {
+    var found = false;
+    for (var k = 0; k < 9; k += 1) {
+        let at = vec2<i32>(pixel) + vec2<i32>(k % 3 - 1, k / 3 - 1);
+        let p = clamp(at, vec2<i32>(0), vec2<i32>(params.size) - 1);
+        let position = textureLoad(gbuffer_position, p, 0);
+        let normal = textureLoad(gbuffer_normal, p, 0);
+        found = found || same_surface(kept, position, normal);
+    }
+    return found;
 }
 
-// Where this pixel's surface was in last frame's image, or -1 outside it.
-fn reprojected(position: vec4<f32>) -> i32 {
-    if position.w == 0.0 {
-        return -1;
+// The neighbourhood of each pixel whose samples bound its history while a change settles:
+// (2 RADIUS + 1)² pixels, read from a workgroup tile of this iteration's samples.
+const RADIUS: u32 = 2u;
+const TILE: u32 = 8u + 2u * RADIUS;
+var<workgroup> tile_direct: array<vec3<f32>, TILE * TILE>;
+var<workgroup> tile_indirect: array<vec3<f32>, TILE * TILE>;
+
+// Width of the box history is clamped to, in standard deviations of the neighbourhood's
+// samples (variance clipping, Salvi 2016): light that left or came is clamped to this
+// iteration's, while noise, which spreads the neighbourhood as much, passes.
+const GAMMA: f32 = 1.0;
+
+// Fills the tile around workgroup `group` (pixels outside the image repeat its edge).
+fn fill_tile(group: vec2<u32>, thread: u32) {
+    let origin = vec2<i32>(group * 8u) - i32(RADIUS);
+    for (var k = thread; k < TILE * TILE; k += 64u) {
+        let at = origin + vec2<i32>(i32(k % TILE), i32(k / TILE));
+        let pixel = vec2<u32>(clamp(at, vec2<i32>(0), vec2<i32>(params.size) - 1));
+        let direct = samples[pixel.y * params.size.x + pixel.x].rgb;
+        tile_direct[k] = direct;
+        tile_indirect[k] = iteration_sample(pixel) - direct;
     }
-    let clip = params.previous_clip_from_world * vec4<f32>(position.xyz, 1.0);
+}
+
+// The box history is clamped to, per channel: for direct light, the least and most of the
+// 3×3 pixels around (it has little noise; an edge or a highlight keeps its value where it
+// still is); for indirect light, mean ± GAMMA σ of the whole neighbourhood.
+struct Bounds {
+    direct_low: vec3<f32>,
+    direct_high: vec3<f32>,
+    indirect_low: vec3<f32>,
+    indirect_high: vec3<f32>,
+}
+
+fn neighbourhood(local: vec2<u32>) -> Bounds {
+    var low = vec3<f32>(1e30);
+    var high = vec3<f32>(-1e30);
+    var sum = vec3<f32>(0.0);
+    var squares = vec3<f32>(0.0);
+    for (var y = 0u; y <= 2u * RADIUS; y += 1u) {
+        for (var x = 0u; x <= 2u * RADIUS; x += 1u) {
+            let k = (local.y + y) * TILE + local.x + x;
+            sum += tile_indirect[k];
+            squares += tile_indirect[k] * tile_indirect[k];
+            if max(abs(i32(x) - i32(RADIUS)), abs(i32(y) - i32(RADIUS))) <= 1 {
+                low = min(low, tile_direct[k]);
+                high = max(high, tile_direct[k]);
+            }
+        }
+    }
+    let n = f32((2u * RADIUS + 1u) * (2u * RADIUS + 1u));
+    let mean = sum / n;
+    let spread = GAMMA * sqrt(max(squares / n - mean * mean, vec3<f32>(0.0)));
+    return Bounds(low, high, mean - spread, mean + spread);
+}
+
+// Where this pixel's surface was in last frame's image, or -1 outside it. A pixel that sees
+// nothing follows its direction (a point at infinity), so a silhouette's coverage moves too.
+fn reprojected(position: vec4<f32>, pixel: vec2<u32>) -> i32 {
+    var point = vec4<f32>(position.xyz, 1.0);
+    if position.w == 0.0 {
+        let ndc = (vec2<f32>(pixel) + 0.5) / vec2<f32>(params.size) * vec2<f32>(2.0, -2.0)
+            + vec2<f32>(-1.0, 1.0);
+        let near = params.world_from_clip * vec4<f32>(ndc, 1.0, 1.0);
+        point = vec4<f32>(near.xyz / near.w - params.camera_position.xyz, 0.0);
+    }
+    let clip = params.previous_clip_from_world * point;
     if clip.w <= 0.0 {
         return -1;
     }
     let uv = vec2<f32>(0.5, -0.5) * clip.xy / clip.w + 0.5;
-    let pixel = vec2<i32>(floor(uv * vec2<f32>(params.size)));
-    if any(pixel < vec2<i32>(0)) || any(pixel >= vec2<i32>(params.size)) {
+    let source = vec2<i32>(floor(uv * vec2<f32>(params.size)));
+    if any(source < vec2<i32>(0)) || any(source >= vec2<i32>(params.size)) {
         return -1;
     }
-    return pixel.y * i32(params.size.x) + pixel.x;
+    return source.y * i32(params.size.x) + source.x;
 }
 #endif
 
@@ -114,76 +188,101 @@ fn upsampled_light(pixel: vec2<u32>, x: vec3<f32>, n: vec3<f32>, footprint: f32)
 }
 #endif
 
-@compute @workgroup_size(8, 8, 1)
-fn main(@builtin(global_invocation_id) id: vec3<u32>) {
-    if any(id.xy >= params.size) {
-        return;
-    }
-    let index = id.y * params.size.x + id.x;
+// This iteration's sample of a pixel: its local light plus its splatted photons.
+fn iteration_sample(pixel: vec2<u32>) -> vec3<f32> {
+    let index = pixel.y * params.size.x + pixel.x;
     var sample = samples[index].rgb;
 #ifdef SUBSAMPLED
-    let gp = textureLoad(gbuffer_position, vec2<i32>(id.xy), 0);
+    let gp = textureLoad(gbuffer_position, vec2<i32>(pixel), 0);
     if gp.w != 0.0 {
-        let gn = textureLoad(gbuffer_normal, vec2<i32>(id.xy), 0);
+        let gn = textureLoad(gbuffer_normal, vec2<i32>(pixel), 0);
         let m = gbuffer_material(gp, gn.w);
         let wo = normalize(params.camera_position.xyz - gp.xyz);
-        let light = upsampled_light(id.xy, gp.xyz, gn.xyz, gn.w);
+        let light = upsampled_light(pixel, gp.xyz, gn.xyz, gn.w);
         sample += bsdf_eval(m, gn.xyz, wo, gn.xyz) * light;
     }
 #else
-    sample += textureLoad(splats, vec2<i32>(id.xy), 0).rgb;
+    sample += textureLoad(splats, vec2<i32>(pixel), 0).rgb;
 #endif
 #ifdef IMPORTONS
     sample += importon_radiance[index].rgb;
 #endif
+    return sample;
+}
+
+@compute @workgroup_size(8, 8, 1)
+fn main(
+    @builtin(global_invocation_id) id: vec3<u32>,
+    @builtin(local_invocation_id) local: vec3<u32>,
+    @builtin(local_invocation_index) thread: u32,
+    @builtin(workgroup_id) group: vec3<u32>,
+) {
+#ifdef HISTORY
+    let settling = (params.history_flags & CHECK_LIGHT) != 0u;
+    if settling {
+        fill_tile(group.xy, thread);
+    }
+    workgroupBarrier();
+#endif
+    if any(id.xy >= params.size) {
+        return;
+    }
+    let index = id.y * params.size.x + id.x;
+    let sample = iteration_sample(id.xy);
     var kept = select(radiance[index], vec4<f32>(0.0), params.iteration == 0u);
 #ifdef HISTORY
     let pixels = params.size.x * params.size.y;
     let position = textureLoad(gbuffer_position, vec2<i32>(id.xy), 0);
     let normal = textureLoad(gbuffer_normal, vec2<i32>(id.xy), 0);
     var kept_direct = select(history[pixels + index], vec4<f32>(0.0), params.iteration == 0u);
-    var moment = history[2u * pixels + index].x;
     if (params.history_flags & CHECK_SURFACE) != 0u && params.iteration != 0u {
         var kept_surface = history[index];
         if (params.history_flags & REPROJECT) != 0u {
-            let reprojection = reprojected(position);
+            let reprojection = reprojected(position, id.xy);
             let source = u32(max(reprojection, 0));
             let found = reprojection >= 0;
             kept = select(vec4<f32>(0.0), previous_radiance[source], found);
             kept_surface = select(vec4<f32>(0.0), previous_history[source], found);
             kept_direct = select(vec4<f32>(0.0), previous_history[pixels + source], found);
-            moment = select(0.0, previous_history[2u * pixels + source].x, found);
         }
-        if !same_surface(kept_surface, position, normal) {
+        // A still camera's jitter moves a pixel's samples across an edge, where a neighbour
+        // that sees the kept surface keeps the pixel's history (its coverage). Under a
+        // camera move the samples stay at the pixel's centre.
+        let kept_here = select(
+            surface_nearby(kept_surface, id.xy),
+            same_surface(kept_surface, position, normal),
+            (params.history_flags & REPROJECT) != 0u,
+        );
+        if !kept_here {
             kept = vec4<f32>(0.0);
             kept_direct = vec4<f32>(0.0);
         }
     }
     // Direct light (this iteration's local sample) and indirect light (its splats) are kept
-    // apart. While a change in the scene settles, direct light, traced anew each iteration
-    // with little noise, keeps no history, so moving shadows follow at once; indirect light
-    // keeps the window, and starts again where it departs from its history by more than 4 σ
-    // of its own iterations (and 5 %): a change, not noise.
+    // apart, each a running mean. While a change in the scene settles, each keeps at most the
+    // window, clamped to what this iteration's neighbourhood saw of it, so a shadow or a
+    // caustic that moved does not linger where it was.
     let direct_sample = samples[index].rgb;
     let indirect_sample = sample - direct_sample;
-    var indirect = kept.rgb - kept_direct.rgb;
-    if (params.history_flags & CHECK_LIGHT) != 0u && kept.w >= 2.0 {
-        let mean = luminance(indirect);
-        let sigma = sqrt(max(moment - mean * mean, 0.0));
-        let departure = abs(luminance(indirect_sample) - mean);
-        kept.w = select(kept.w, 0.0, departure > 4.0 * sigma + 0.05 * mean + 1e-6);
+    var indirect = select(kept.rgb - kept_direct.rgb, vec3<f32>(0.0), kept.w == 0.0);
+    var direct = select(kept_direct.rgb, vec3<f32>(0.0), kept_direct.w == 0.0);
+    if settling {
+        let bounds = neighbourhood(local.xy);
+        indirect = clamp(indirect, bounds.indirect_low, bounds.indirect_high);
+        direct = clamp(direct, bounds.direct_low, bounds.direct_high);
+    }
+    // After a scene change direct light, traced anew each iteration with little noise, starts
+    // again, so shadows and highlights follow at once.
+    if (params.history_flags & NEW_DIRECT) != 0u {
+        kept_direct.w = 0.0;
+        direct = vec3<f32>(0.0);
     }
     kept.w = min(kept.w, f32(params.history_cap));
-    kept_direct.w = select(0.0, kept_direct.w, params.history_cap == 0xffffffffu);
-    let l = luminance(indirect_sample);
-    moment = select(moment + (l * l - moment) / (kept.w + 1.0), l * l, kept.w == 0.0);
-    indirect = select(indirect, vec3<f32>(0.0), kept.w == 0.0);
+    kept_direct.w = min(kept_direct.w, f32(params.history_cap));
     indirect += (indirect_sample - indirect) / (kept.w + 1.0);
-    var direct = select(kept_direct.rgb, vec3<f32>(0.0), kept_direct.w == 0.0);
     direct += (direct_sample - direct) / (kept_direct.w + 1.0);
     history[index] = packed_surface(position, normal.xyz);
     history[pixels + index] = vec4<f32>(direct, kept_direct.w + 1.0);
-    history[2u * pixels + index] = vec4<f32>(moment, 0.0, 0.0, 0.0);
     radiance[index] = vec4<f32>(direct + indirect, kept.w + 1.0);
 #else
     let previous = select(kept.rgb, vec3<f32>(0.0), params.iteration == 0u);

@@ -10,8 +10,12 @@ bitflags::bitflags! {
         const REPROJECT = 1;
         /// The first iteration after a change: drop history whose surface is not this one.
         const CHECK_SURFACE = 2;
-        /// A change is settling: drop history the new light departs from beyond its noise.
+        /// A scene change is settling: history is clamped to what the pixel's neighbourhood
+        /// sees this iteration (the cap to the window comes with any change).
         const CHECK_LIGHT = 4;
+        /// The scene changed: direct light, traced anew each iteration with little noise,
+        /// starts again (shadows and highlights follow at once). A camera move keeps it.
+        const NEW_DIRECT = 8;
     }
 }
 
@@ -37,11 +41,15 @@ pub struct HistoryClock {
     /// at most, and each frame's new sample is taken as `Reset` takes it).
     pub held: u32,
     /// Iterations left in which a change settles: each pixel's history is capped to the
-    /// window and its light checked against the noise of its history.
+    /// window.
     settling: u32,
+    /// Iterations left in which a scene change settles: each pixel's history is also clamped
+    /// to what its neighbourhood sees (a camera move alone does not change the light).
+    light_settling: u32,
     /// The next iteration checks each pixel's surface, reprojecting when the camera moved.
     check_surface: bool,
     reproject: bool,
+    new_direct: bool,
 }
 
 impl HistoryClock {
@@ -57,8 +65,12 @@ impl HistoryClock {
                 // Old light fades (a scene change), and a reprojected history does not blur
                 // without end (a camera move).
                 self.settling = window;
+                if changes.scene {
+                    self.light_settling = window;
+                }
                 self.check_surface = true;
                 self.reproject |= changes.moved;
+                self.new_direct |= changes.scene;
                 false
             }
             _ => self.iteration == 0,
@@ -84,7 +96,8 @@ impl HistoryClock {
             HistoryFlags::REPROJECT,
             self.check_surface && self.reproject,
         );
-        flags.set(HistoryFlags::CHECK_LIGHT, self.settling > 0);
+        flags.set(HistoryFlags::CHECK_LIGHT, self.light_settling > 0);
+        flags.set(HistoryFlags::NEW_DIRECT, self.new_direct);
         let cap = match window {
             Some(window) if self.settling > 0 => window,
             _ => u32::MAX,
@@ -97,8 +110,10 @@ impl HistoryClock {
         self.iteration += 1;
         self.held += 1;
         self.settling = self.settling.saturating_sub(1);
+        self.light_settling = self.light_settling.saturating_sub(1);
         self.check_surface = false;
         self.reproject = false;
+        self.new_direct = false;
     }
 }
 
@@ -141,7 +156,10 @@ mod tests {
         assert_eq!((clock.iteration, clock.held), (20, 0));
         assert_eq!(
             clock.next(Some(8)),
-            (8, HistoryFlags::CHECK_SURFACE | HistoryFlags::CHECK_LIGHT)
+            (
+                8,
+                HistoryFlags::CHECK_SURFACE | HistoryFlags::CHECK_LIGHT | HistoryFlags::NEW_DIRECT
+            )
         );
         clock.advance();
         assert_eq!(clock.next(Some(8)), (8, HistoryFlags::CHECK_LIGHT));
@@ -158,6 +176,8 @@ mod tests {
         assert!(!clock.begin_frame(MOVED, Some(16)));
         let (cap, flags) = clock.next(Some(16));
         assert!(flags.contains(HistoryFlags::REPROJECT | HistoryFlags::CHECK_SURFACE));
+        // A camera move keeps direct light (a diffuse surface's does not change with the view).
+        assert!(!flags.intersects(HistoryFlags::NEW_DIRECT | HistoryFlags::CHECK_LIGHT));
         assert_eq!((cap, clock.held), (16, 0));
         clock.advance();
         assert!(!clock.next(Some(16)).1.contains(HistoryFlags::REPROJECT));

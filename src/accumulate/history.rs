@@ -1,14 +1,14 @@
-//! A view's history kept through motion (`RppmHistory::Reuse`): each pixel's surface, the
-//! running mean of its direct light and the second moment of its indirect light, and last
-//! frame's copies of those and of the estimate, which a camera move reprojects from.
+//! A view's history kept through motion (`RppmHistory::Reuse`): each pixel's surface and the
+//! running mean of its direct light, and last frame's copies of those and of the estimate,
+//! which a camera move reprojects from.
 
 use bevy::prelude::*;
 use bevy::render::render_resource::*;
 use bevy::render::renderer::RenderDevice;
 
 pub struct History {
-    /// Three blocks of one vec4 a pixel: surface (position, packed normal), direct light
-    /// (mean, count), indirect light's second moment (`shaders/accumulate/`).
+    /// Two blocks of one vec4 a pixel: surface (position, packed normal) and direct light
+    /// (mean, count) (`shaders/accumulate/`).
     pub history: Buffer,
     pub previous_radiance: Buffer,
     pub previous_history: Buffer,
@@ -26,9 +26,9 @@ impl History {
             })
         };
         Self {
-            history: buffer("rppm_history", 48, BufferUsages::COPY_SRC),
+            history: buffer("rppm_history", 32, BufferUsages::COPY_SRC),
             previous_radiance: buffer("rppm_previous_radiance", 16, BufferUsages::COPY_DST),
-            previous_history: buffer("rppm_previous_history", 48, BufferUsages::COPY_DST),
+            previous_history: buffer("rppm_previous_history", 32, BufferUsages::COPY_DST),
         }
     }
 

@@ -410,9 +410,11 @@ fn prepare_view(
     state.reprojects = count > 0 && first_flags.contains(HistoryFlags::REPROJECT);
     for slot in 0..count.max(1) {
         let iteration = base + slot;
-        // The jitter follows the radius's index: a moving view's frames start their pixels
-        // from the centre, as `Reset`'s do.
-        let jitter = state.clock.held;
+        // Under `Reuse` the jitter goes on through a scene's motion: a pixel's history
+        // averages positions across it (its edges anti-aliased), as a still estimate's
+        // iterations do. A frame whose camera moved starts at the centre again, as `Reset`
+        // does: history reprojected from where an edge was cannot tell its coverage.
+        let jitter = if state.reprojects { slot } else { iteration };
         let mut params = camera_params(
             frame.view,
             frame.camera,

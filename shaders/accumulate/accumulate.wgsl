@@ -70,60 +70,48 @@ fn surface_nearby(kept: vec4<f32>, pixel: vec2<u32>) -> bool {
     return found;
 }
 
-// The neighbourhood of each pixel whose samples bound its history while a change settles:
-// (2 RADIUS + 1)² pixels, read from a workgroup tile of this iteration's samples.
+// The neighbourhood of each pixel whose indirect samples bound its history while a scene
+// change settles: (2 RADIUS + 1)² pixels, read from a workgroup tile of this iteration's.
 const RADIUS: u32 = 2u;
 const TILE: u32 = 8u + 2u * RADIUS;
-var<workgroup> tile_direct: array<vec3<f32>, TILE * TILE>;
-var<workgroup> tile_indirect: array<vec3<f32>, TILE * TILE>;
+var<workgroup> tile: array<vec3<f32>, TILE * TILE>;
 
 // Width of the box history is clamped to, in standard deviations of the neighbourhood's
 // samples (variance clipping, Salvi 2016): light that left or came is clamped to this
 // iteration's, while noise, which spreads the neighbourhood as much, passes.
 const GAMMA: f32 = 1.0;
 
-// Fills the tile around workgroup `group` (pixels outside the image repeat its edge).
+// Fills the tile around workgroup `group` with indirect samples (pixels outside the image
+// repeat its edge).
 fn fill_tile(group: vec2<u32>, thread: u32) {
     let origin = vec2<i32>(group * 8u) - i32(RADIUS);
     for (var k = thread; k < TILE * TILE; k += 64u) {
         let at = origin + vec2<i32>(i32(k % TILE), i32(k / TILE));
         let pixel = vec2<u32>(clamp(at, vec2<i32>(0), vec2<i32>(params.size) - 1));
-        let direct = samples[pixel.y * params.size.x + pixel.x].rgb;
-        tile_direct[k] = direct;
-        tile_indirect[k] = iteration_sample(pixel) - direct;
+        tile[k] = iteration_sample(pixel) - samples[pixel.y * params.size.x + pixel.x].rgb;
     }
 }
 
-// The box history is clamped to, per channel: for direct light, the least and most of the
-// 3×3 pixels around (it has little noise; an edge or a highlight keeps its value where it
-// still is); for indirect light, mean ± GAMMA σ of the whole neighbourhood.
-struct Bounds {
-    direct_low: vec3<f32>,
-    direct_high: vec3<f32>,
-    indirect_low: vec3<f32>,
-    indirect_high: vec3<f32>,
+fn tile_index(local: vec2<u32>) -> u32 {
+    return (local.y + RADIUS) * TILE + local.x + RADIUS;
 }
 
-fn neighbourhood(local: vec2<u32>) -> Bounds {
-    var low = vec3<f32>(1e30);
-    var high = vec3<f32>(-1e30);
+// Indirect history clamped to mean ± GAMMA σ of the neighbourhood's samples, per channel.
+// (Direct light needs no clamp: a scene change starts it again, a camera move keeps it.)
+fn clamped(history: vec3<f32>, local: vec2<u32>) -> vec3<f32> {
     var sum = vec3<f32>(0.0);
     var squares = vec3<f32>(0.0);
     for (var y = 0u; y <= 2u * RADIUS; y += 1u) {
         for (var x = 0u; x <= 2u * RADIUS; x += 1u) {
-            let k = (local.y + y) * TILE + local.x + x;
-            sum += tile_indirect[k];
-            squares += tile_indirect[k] * tile_indirect[k];
-            if max(abs(i32(x) - i32(RADIUS)), abs(i32(y) - i32(RADIUS))) <= 1 {
-                low = min(low, tile_direct[k]);
-                high = max(high, tile_direct[k]);
-            }
+            let sample = tile[(local.y + y) * TILE + local.x + x];
+            sum += sample;
+            squares += sample * sample;
         }
     }
     let n = f32((2u * RADIUS + 1u) * (2u * RADIUS + 1u));
     let mean = sum / n;
     let spread = GAMMA * sqrt(max(squares / n - mean * mean, vec3<f32>(0.0)));
-    return Bounds(low, high, mean - spread, mean + spread);
+    return clamp(history, mean - spread, mean + spread);
 }
 
 // Where this pixel's surface was in last frame's image, or -1 outside it. A pixel that sees
@@ -228,7 +216,17 @@ fn main(
         return;
     }
     let index = id.y * params.size.x + id.x;
+#ifdef HISTORY
+    // While settling the tile holds this pixel's indirect sample already.
+    var sample: vec3<f32>;
+    if settling {
+        sample = samples[index].rgb + tile[tile_index(local.xy)];
+    } else {
+        sample = iteration_sample(id.xy);
+    }
+#else
     let sample = iteration_sample(id.xy);
+#endif
     var kept = select(radiance[index], vec4<f32>(0.0), params.iteration == 0u);
 #ifdef HISTORY
     let pixels = params.size.x * params.size.y;
@@ -247,32 +245,30 @@ fn main(
         }
         // A still camera's jitter moves a pixel's samples across an edge, where a neighbour
         // that sees the kept surface keeps the pixel's history (its coverage). Under a
-        // camera move the samples stay at the pixel's centre.
-        let kept_here = select(
-            surface_nearby(kept_surface, id.xy),
-            same_surface(kept_surface, position, normal),
-            (params.history_flags & REPROJECT) != 0u,
-        );
+        // camera move the samples keep one sub-pixel position: the pixel's own test.
+        var kept_here: bool;
+        if (params.history_flags & REPROJECT) != 0u {
+            kept_here = same_surface(kept_surface, position, normal);
+        } else {
+            kept_here = surface_nearby(kept_surface, id.xy);
+        }
         if !kept_here {
             kept = vec4<f32>(0.0);
             kept_direct = vec4<f32>(0.0);
         }
     }
     // Direct light (this iteration's local sample) and indirect light (its splats) are kept
-    // apart, each a running mean. While a change in the scene settles, each keeps at most the
-    // window, clamped to what this iteration's neighbourhood saw of it, so a shadow or a
-    // caustic that moved does not linger where it was.
+    // apart, each a running mean of at most the window while a change settles. After a scene
+    // change, indirect light is clamped to what this iteration's neighbourhood saw of it, so
+    // a caustic that moved does not linger where it was, and direct light, traced anew each
+    // iteration with little noise, starts again, so shadows and highlights follow at once.
     let direct_sample = samples[index].rgb;
     let indirect_sample = sample - direct_sample;
     var indirect = select(kept.rgb - kept_direct.rgb, vec3<f32>(0.0), kept.w == 0.0);
     var direct = select(kept_direct.rgb, vec3<f32>(0.0), kept_direct.w == 0.0);
     if settling {
-        let bounds = neighbourhood(local.xy);
-        indirect = clamp(indirect, bounds.indirect_low, bounds.indirect_high);
-        direct = clamp(direct, bounds.direct_low, bounds.direct_high);
+        indirect = clamped(indirect, local.xy);
     }
-    // After a scene change direct light, traced anew each iteration with little noise, starts
-    // again, so shadows and highlights follow at once.
     if (params.history_flags & NEW_DIRECT) != 0u {
         kept_direct.w = 0.0;
         direct = vec3<f32>(0.0);

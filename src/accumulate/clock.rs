@@ -36,9 +36,9 @@ pub struct HistoryClock {
     /// Iterations since the estimate last started again (seeds and jitter never repeat
     /// within it; the stats' count).
     pub iteration: u32,
-    /// The index of the Knaus–Zwicker radius and of the sub-pixel jitter: `iteration` until a
-    /// change under `Reuse`, then 0 again (a moving scene's pixels hold a window of iterations
-    /// at most, and each frame's new sample is taken as `Reset` takes it).
+    /// The index of the Knaus–Zwicker radius: `iteration` until a change under `Reuse`, then 0
+    /// again (a moving scene's pixels hold a window of iterations at most, and each frame's
+    /// new sample is gathered as `Reset` gathers it).
     pub held: u32,
     /// Iterations left in which a change settles: each pixel's history is capped to the
     /// window.

@@ -412,7 +412,7 @@ fn prepare_view(
         let iteration = base + slot;
         // Under `Reuse` the jitter goes on through a scene's motion: a pixel's history
         // averages positions across it (its edges anti-aliased), as a still estimate's
-        // iterations do. A frame whose camera moved starts at the centre again, as `Reset`
+        // iterations do. A frame whose camera moved starts the sequence again, as `Reset`
         // does: history reprojected from where an edge was cannot tell its coverage.
         let jitter = if state.reprojects { slot } else { iteration };
         let mut params = camera_params(

@@ -16,7 +16,8 @@ macro_rules! wgsl {
 /// Handles of every stage's shader.
 #[derive(Resource, Clone)]
 pub struct RppmShaders {
-    /// Import-only libraries (`bevy_rppm::common`, `scene`, `bsdf`, `cubemap`, `lighting`),
+    /// Import-only libraries (`bevy_rppm::common`, `scene`, `bsdf`, `cubemap`, `lighting`,
+    /// `photon_lists`),
     /// held so they stay loaded.
     _libraries: Vec<Handle<Shader>>,
     pub place: Handle<Shader>,
@@ -46,6 +47,7 @@ impl RppmShaders {
                 wgsl!(shaders, "scene/scene.wgsl"),
                 wgsl!(shaders, "cubemap/trace.wgsl"),
                 wgsl!(shaders, "shadows/lighting.wgsl"),
+                wgsl!(shaders, "photons/lists.wgsl"),
             ],
             place: wgsl!(shaders, "scene/place.wgsl"),
             shadow_map: wgsl!(shaders, "shadows/shadow_map.wgsl"),

@@ -4,7 +4,7 @@
 // (the furnace test, tests/gpu/bsdf.rs).
 #define_import_path bevy_rppm::bsdf
 
-#import bevy_rppm::common::{Material, PI, DELTA_ROUGHNESS, luminance, random, cosine_direction}
+#import bevy_rppm::common::{Material, Outgoing, PI, DELTA_ROUGHNESS, luminance, random, cosine_direction}
 #import bevy_rppm::scene::ggx_albedo
 
 // Below DELTA_ROUGHNESS (common.wgsl) the specular lobe is a perfect mirror: it carries no
@@ -132,32 +132,55 @@ fn cosine_lobes_energy(m: Material, f0: vec3<f32>, i: Specular, avg: vec4<f32>) 
 // f(wo, wi), without the cosine. wo and wi point away from the surface, on n's side (light
 // through rough glass is carried by sampled paths, not evaluated).
 fn bsdf_eval(m: Material, n: vec3<f32>, wo: vec3<f32>, wi: vec3<f32>) -> vec3<f32> {
+    return bsdf_toward(m, bsdf_from(m, n, wo), n, wo, wi);
+}
+
+// What f(wo, ·) needs of the material and wo alone (`Outgoing`, in common.wgsl): found once
+// for the many directions a gather weighs (`bsdf_toward`).
+// The material whose layers reflect: rough glass's reflecting (opaque) part, or m.
+fn layered(m: Material) -> Material {
+#ifdef ROUGH_REFRACTION
+    if rough_glass_share(m) > 0.0 {
+        return opaque_part(m);
+    }
+#endif
+    return m;
+}
+
+fn bsdf_from(m: Material, n: vec3<f32>, wo: vec3<f32>) -> Outgoing {
+    let l = layered(m);
+    let f0 = specular_f0(l);
+    let n_dot_v = dot(n, wo);
+    let o = specular_at(l, f0, n_dot_v);
+    return Outgoing(f0, n_dot_v, o.single, o.lost, o.energy, specular_average(l, f0));
+}
+
+// f(wo, wi) from `out = bsdf_from(m, n, wo)`.
+fn bsdf_toward(m: Material, out: Outgoing, n: vec3<f32>, wo: vec3<f32>, wi: vec3<f32>) -> vec3<f32> {
 #ifdef ROUGH_REFRACTION
     let glass = rough_glass_share(m);
     if glass > 0.0 {
-        return glass * rough_glass_reflection(m, n, wo, wi) + (1.0 - glass) * layers_eval(opaque_part(m), n, wo, wi);
+        return glass * rough_glass_reflection(m, n, wo, wi) + (1.0 - glass) * layers_toward(opaque_part(m), out, n, wo, wi);
     }
 #endif
-    return layers_eval(m, n, wo, wi);
+    return layers_toward(m, out, n, wo, wi);
 }
 
 // The diffuse and specular layers of f(wo, wi).
-fn layers_eval(m: Material, n: vec3<f32>, wo: vec3<f32>, wi: vec3<f32>) -> vec3<f32> {
+fn layers_toward(m: Material, out: Outgoing, n: vec3<f32>, wo: vec3<f32>, wi: vec3<f32>) -> vec3<f32> {
     let n_dot_l = dot(n, wi);
-    let n_dot_v = dot(n, wo);
-    if n_dot_l <= 0.0 || n_dot_v <= 0.0 {
+    if n_dot_l <= 0.0 || out.n_dot_v <= 0.0 {
         return vec3<f32>(0.0);
     }
-    let f0 = specular_f0(m);
-    let o = specular_at(m, f0, n_dot_v);
-    let i = specular_at(m, f0, n_dot_l);
-    var f = cosine_lobes(m, f0, o, i, specular_average(m, f0)) / PI;
+    let i = specular_at(m, out.fresnel, n_dot_l);
+    let o = Specular(out.single, out.lost, out.energy);
+    var f = cosine_lobes(m, out.fresnel, o, i, out.average) / PI;
     if has_glossy_lobe(m) {
         let a = m.perceptual_roughness * m.perceptual_roughness;
         let h = normalize(wi + wo);
         let d = ggx_d(max(dot(n, h), 0.0), a);
-        let v = smith_visibility(n_dot_v, n_dot_l, a);
-        f += d * v * fresnel_schlick(f0, specular_f90(f0), dot(wo, h));
+        let v = smith_visibility(out.n_dot_v, n_dot_l, a);
+        f += d * v * fresnel_schlick(out.fresnel, specular_f90(out.fresnel), dot(wo, h));
     }
     return f;
 }

@@ -196,10 +196,25 @@ struct IterationParams {
     sky: vec4<f32>,
 }
 
+// What f(wo, ·) needs of a material and wo alone (bsdf.wgsl's `bsdf_from`), found once for
+// the many directions a gather weighs. Here, not in bsdf.wgsl: naga_oil passes a struct
+// between modules as one type only when a third module defines it.
+struct Outgoing {
+    // F0, specular_f0 (naga_oil takes no digit in an imported struct's field name).
+    fresnel: vec3<f32>,
+    n_dot_v: f32,
+    // `specular_at` wo: single, lost, energy.
+    single: vec3<f32>,
+    lost: f32,
+    energy: vec3<f32>,
+    average: vec4<f32>,
+}
+
 // A stored photon (64 bytes, the RPPM budget).
 struct Photon {
     position: vec3<f32>,
-    pad_a: u32,
+    // The next photon listed in the same cubemap tile, as index + 1 (0 ends the list).
+    next: u32,
     // Flux the photon carries (W), linear RGB.
     flux: vec3<f32>,
     pad_b: u32,
@@ -378,4 +393,88 @@ fn cubemap_tile(d: CubemapParams, p: vec3<f32>) -> CubemapTile {
     let cell = clamp(vec2<f32>((s.x + 1.0) * 0.5 * g, (1.0 - s.y) * 0.5 * g), vec2<f32>(0.0), vec2<f32>(g - 1.0));
     let c = vec2<u32>(cell);
     return CubemapTile((f * d.grid + c.y) * d.grid + c.x, f, cell, l.z);
+}
+
+// The slope s / c of direction (s, c) in a face's (a, z) plane when the face sees it
+// (|s| <= c); else -2 or 2 for the side it passed (below -45°, above 45°).
+fn face_slope(s: f32, c: f32) -> f32 {
+    if c > 0.0 && abs(s) <= c {
+        return s / c;
+    }
+    return select(-2.0, 2.0, s > 0.0 || (s == 0.0 && c < 0.0));
+}
+
+// The range of s = a / z a face's coordinate takes over a sphere of radius r centred at
+// (a, z) in the face's frame, clipped to the face (|s| <= 1): between the tangents from the
+// cubemap's centre to its disc on the (a, z) plane (no trigonometry: llvmpipe runs it
+// lane by lane). Empty (x > y) when outside the face; the whole face when the tangents are
+// 90° or more apart.
+fn face_span(a: f32, z: f32, r: f32) -> vec2<f32> {
+    let d2 = a * a + z * z;
+    if d2 <= 2.0 * r * r {
+        return vec2<f32>(-1.0, 1.0);
+    }
+    // The centre's direction (sin t, cos t) turned by ±p, sin p = r / d.
+    let d = sqrt(d2);
+    let sin_t = a / d;
+    let cos_t = z / d;
+    let sin_p = r / d;
+    let cos_p = sqrt(d2 - r * r) / d;
+    let lo = face_slope(sin_t * cos_p - cos_t * sin_p, cos_t * cos_p + sin_t * sin_p);
+    let hi = face_slope(sin_t * cos_p + cos_t * sin_p, cos_t * cos_p - sin_t * sin_p);
+    if lo > 1.5 || hi < -1.5 {
+        return vec2<f32>(1.0, -1.0);
+    }
+    return vec2<f32>(max(lo, -1.0), min(hi, 1.0));
+}
+
+// The photon lists' heads (photons/trace.wgsl) hold, after one head per tile, one flag per
+// block of LIST_BLOCK² tiles, set when a photon is listed in the block: a gather skips empty
+// regions without reading each tile's head (a sunlit patch leaves most of a room empty).
+const LIST_BLOCK: u32 = 8u;
+
+// The index of the flag of the block holding tile (x, y) of `face`.
+fn list_block(d: CubemapParams, face: u32, x: u32, y: u32) -> u32 {
+    let blocks = (d.grid + LIST_BLOCK - 1u) / LIST_BLOCK;
+    return 6u * d.grid * d.grid + (face * blocks + y / LIST_BLOCK) * blocks + x / LIST_BLOCK;
+}
+
+// Whether a sphere of radius r around p lies within the view of the one face that holds p
+// (its spans there are not clipped): then no other face lists a photon it reaches.
+fn within_one_face(d: CubemapParams, p: vec3<f32>, r: f32) -> bool {
+    let v = p - d.centre.xyz;
+    let l = transpose(face_basis(face_of(v))) * v;
+    let sx = face_span(l.x, l.z, r);
+    let sy = face_span(l.y, l.z, r);
+    return sx.x > -1.0 && sx.y < 1.0 && sy.x > -1.0 && sy.y < 1.0;
+}
+
+// The faces a gather around p of radius r visits: p's own first, the rest only when the
+// sphere crosses out of its view. `i`-th of `faces_reached` faces.
+fn faces_reached(d: CubemapParams, p: vec3<f32>, r: f32) -> u32 {
+    return select(6u, 1u, within_one_face(d, p, r));
+}
+
+fn nth_face(d: CubemapParams, p: vec3<f32>, i: u32) -> u32 {
+    return (face_of(p - d.centre.xyz) + i) % 6u;
+}
+
+// The tiles of cubemap face `face` that a sphere of radius r around p reaches, numbered as
+// cubemap_tile numbers them (x grows with s.x, y falls with s.y): (x0, x1, y0, y1), empty
+// (x0 > x1) when the sphere misses the face. Photon tracing lists each photon in its tile.
+fn face_tiles(d: CubemapParams, p: vec3<f32>, r: f32, face: u32) -> vec4<i32> {
+    let l = transpose(face_basis(face)) * (p - d.centre.xyz);
+    let sx = face_span(l.x, l.z, r);
+    let sy = face_span(l.y, l.z, r);
+    if sx.x > sx.y || sy.x > sy.y {
+        return vec4<i32>(1, 0, 1, 0);
+    }
+    let g = f32(d.grid);
+    let last = i32(d.grid) - 1;
+    return vec4<i32>(
+        clamp(i32(floor((sx.x + 1.0) * 0.5 * g)), 0, last),
+        clamp(i32(floor((sx.y + 1.0) * 0.5 * g)), 0, last),
+        clamp(i32(floor((1.0 - sy.y) * 0.5 * g)), 0, last),
+        clamp(i32(floor((1.0 - sy.x) * 0.5 * g)), 0, last),
+    );
 }

@@ -24,10 +24,9 @@
 #endif
 #ifdef IMPORTONS
 @group(2) @binding(4) var<storage, read_write> importons: array<Importon>;
-// [1]: importons made (read back as `ViewStats::importons`); the indirect splat's dispatches,
-// their x set here once an importon exists: [4..7] binning photons, [8..11] gathering them
-// per pixel.
-@group(2) @binding(5) var<storage, read_write> importon_stats: array<atomic<u32>, 12>;
+// [1]: importons made (read back as `ViewStats::importons`); [4..7] the indirect splat's
+// dispatch, its x set here once an importon exists.
+@group(2) @binding(5) var<storage, read_write> importon_stats: array<atomic<u32>, 8>;
 
 // Camera-path vertex from which Russian roulette may end a path.
 const EYE_ROULETTE_DEPTH: u32 = 3u;
@@ -154,8 +153,7 @@ fn camera_path(pixel: u32, first: Vertex, rng: ptr<function, u32>) -> vec3<f32> 
                 let radius = gather_radius(params, params.splat_radius, footprint);
                 importons[pixel] = Importon(v.x, v.triangle, interpolated, 0u, throughput, radius, v.wo, 0u);
                 atomicAdd(&importon_stats[1], 1u);
-                atomicMax(&importon_stats[4], (params.photon_capacity + 63u) / 64u);
-                atomicMax(&importon_stats[8], (params.size.x * params.size.y + 63u) / 64u);
+                atomicMax(&importon_stats[4], (params.size.x * params.size.y + 63u) / 64u);
             }
         }
         let ends = stores_photons(v.m);

@@ -2,9 +2,9 @@
 // cubemap; a photon is stored at every diffuse or rough-glossy hit after its first bounce
 // (direct light is the local-illumination stage's), then scattered by the material
 // (bsdf.wgsl's scatter_photon: diffuse, GGX glossy, mirror, Fresnel glass) or absorbed.
-#import bevy_rppm::common::{Light, Photon, IterationParams, PI, LIGHT_POINT, LIGHT_SPOT, LIGHT_DIRECTIONAL, random, pcg_hash, basis_around, cosine_direction}
+#import bevy_rppm::common::{Light, Photon, IterationParams, PI, cubemap_tile, list_block, LIGHT_POINT, LIGHT_SPOT, LIGHT_DIRECTIONAL, random, pcg_hash, basis_around, cosine_direction}
 #import bevy_rppm::scene::{triangle_at, material_at, as_seen_from, normal_at, interpolated_normal, triangle_point, uniform_barycentrics, lights, emitters, light_cdf, find_source}
-#import bevy_rppm::cubemap::{trace_ray, NO_HIT}
+#import bevy_rppm::cubemap::{cubemap, trace_ray, NO_HIT}
 #import bevy_rppm::bsdf::{stores_photons, scatter_photon}
 #ifdef ABSORPTION
 #import bevy_rppm::scene::medium_after
@@ -13,8 +13,11 @@
 @group(1) @binding(0) var<uniform> params: IterationParams;
 
 @group(2) @binding(0) var<storage, read_write> photons: array<Photon>;
-// A draw-indirect argument block: [vertices per splat quad, photons stored, 0, 0].
+// [-, photons stored (placed or not), -, -].
 @group(2) @binding(1) var<storage, read_write> photon_count: array<atomic<u32>, 4>;
+// Per cubemap tile, the head of the list of the photons stored in it (index + 1), which
+// both splats gather from; then the blocks' flags (`list_block`).
+@group(2) @binding(2) var<storage, read_write> photon_heads: array<atomic<u32>>;
 
 struct Ray {
     origin: vec3<f32>,
@@ -111,7 +114,14 @@ fn emit(rng: ptr<function, u32>) -> Ray {
 fn store(x: vec3<f32>, ray: Ray, n: vec3<f32>) {
     let slot = atomicAdd(&photon_count[1], 1u);
     if slot < params.photon_capacity {
-        photons[slot] = Photon(x, 0u, ray.flux, 0u, -ray.direction, 0u, n, 0u);
+        let tile = cubemap_tile(cubemap, x);
+        let next = atomicExchange(&photon_heads[tile.index], slot + 1u);
+        let block = list_block(cubemap, tile.face, u32(tile.cell.x), u32(tile.cell.y));
+        // Read first: a flag set once stays shared between the cores' caches.
+        if atomicLoad(&photon_heads[block]) == 0u {
+            atomicStore(&photon_heads[block], 1u);
+        }
+        photons[slot] = Photon(x, next, ray.flux, 0u, -ray.direction, 0u, n, 0u);
     }
 }
 

@@ -1,89 +1,118 @@
-// Direct splatting: every stored photon is drawn as a screen-space quad around its projection,
-// as wide as the gather radius; each fragment adds the photon to its pixel's importon (the
-// camera G-buffer point) when the photon lies inside that importon's radius, on its surface.
-// The estimate per pixel is Σ f(wo, wi) Φ / (π r²), summed by additive blending.
+// Direct splatting, as a gather: each pixel's G-buffer point (its importon at the camera)
+// visits the deep cubemap tiles its gather sphere reaches, where photon tracing listed the
+// stored photons, and adds those inside its kernel: a disc of the gather radius on its
+// surface, flattened along its normal. The estimate is Σ f(wo, wi) Φ / (π r²), summed in
+// registers, one thread a pixel: no quad per photon, no blending, and the work is the
+// photons near visible surfaces.
 // SUBSAMPLED (ISPM): the target has one texel per n×n pixels, gathered at one representative
 // pixel of the block, and holds incident light Σ Φ / (π r²) for the joint-bilateral upsampling
 // in shaders/accumulate/accumulate.wgsl, which applies each full-resolution pixel's own BSDF.
-#import bevy_rppm::common::{Photon, IterationParams, PI, gather_radius, splat_survives, splat_weight, subsample_representative}
+#import bevy_rppm::common::{Material, Outgoing, Photon, IterationParams, PI, face_tiles, faces_reached, nth_face, gather_radius, splat_survives, splat_weight, subsample_representative}
 #import bevy_rppm::scene::{gbuffer_material, resolved_material, resolved_kernel_normal, kernel_normal}
-#import bevy_rppm::bsdf::bsdf_eval
+#import bevy_rppm::bsdf::{bsdf_from, bsdf_toward}
+#import bevy_rppm::cubemap::cubemap
+#import bevy_rppm::photon_lists::{photons, listed, list_head}
 
 @group(1) @binding(0) var<uniform> params: IterationParams;
-@group(1) @binding(1) var<storage, read> photons: array<Photon>;
-@group(1) @binding(2) var gbuffer_position: texture_2d<f32>;
-@group(1) @binding(3) var gbuffer_normal: texture_2d<f32>;
-#ifdef TEXTURED
-// Each pixel's textures, looked up once by local illumination (`resolve_surface`).
-@group(1) @binding(4) var<storage, read> surfaces: array<vec4<u32>>;
-#endif
 
-struct VertexOut {
-    @builtin(position) clip: vec4<f32>,
-    @location(0) @interpolate(flat) photon: u32,
+// Bindings 0 and 1: the photons and their lists (photons/lists.wgsl).
+@group(2) @binding(2) var gbuffer_position: texture_2d<f32>;
+@group(2) @binding(3) var gbuffer_normal: texture_2d<f32>;
+// Each pixel's textures, looked up once by local illumination (`resolve_surface`); a
+// stand-in when the scene has none.
+@group(2) @binding(4) var<storage, read> surfaces: array<vec4<u32>>;
+@group(2) @binding(5) var splats: texture_storage_2d<rgba32float, write>;
+
+// What one pixel's kernel needs of its G-buffer point.
+struct Kernel {
+    position: vec3<f32>,
+    radius: f32,
+    // The plane the kernel lies in (the interpolated normal where a normal map bends the
+    // shading normal).
+    plane: vec3<f32>,
+    index: u32,
 }
 
-@vertex
-fn vertex(@builtin(vertex_index) vertex: u32, @builtin(instance_index) photon: u32) -> VertexOut {
-    var out: VertexOut;
-    out.photon = photon;
-    out.clip = vec4<f32>(2.0, 2.0, 0.0, 1.0);
-    if photon >= params.photon_capacity {
-        return out;
-    }
-    let clip = params.clip_from_world * vec4<f32>(photons[photon].position, 1.0);
-    if clip.w <= 0.0 {
-        return out;
-    }
-    let corner = array<vec2<f32>, 6>(vec2(-1.0, -1.0), vec2(1.0, -1.0), vec2(-1.0, 1.0), vec2(-1.0, 1.0), vec2(1.0, -1.0), vec2(1.0, 1.0))[vertex];
-    // Half a quad in pixels: the radius, plus one (target) pixel for the pixel's own extent.
-    let half = (params.splat_radius + f32(params.indirect_subsampling)) * 2.0 / vec2<f32>(params.size);
-    out.clip = vec4<f32>(clip.xy / clip.w + corner * half, 0.0, 1.0);
-    return out;
-}
-
-@fragment
-fn fragment(in: VertexOut) -> @location(0) vec4<f32> {
+// The photons of one tile's list inside pixel kernel `k`: Σ f(wo, wi) Φ on material `m`
+// (`out` its bsdf_from) with shading normal `shading` (Σ Φ, subsampled).
+fn gather_list(k: Kernel, m: Material, out: Outgoing, shading: vec3<f32>, wo: vec3<f32>, head: u32) -> vec3<f32> {
+    var sum = vec3<f32>(0.0);
+    var node = head;
+    let r = k.radius;
+    let bent = any(k.plane != shading);
+    for (var guard = 0u; node != 0u && guard < arrayLength(&photons); guard += 1u) {
+        let photon = node - 1u;
+        node = photons[photon].next;
+        let offset = photons[photon].position - k.position;
+        // Inside the gather disc, on this surface: near its plane and facing the same way
+        // (read field by field: most photons fail the first test).
+        if dot(offset, offset) > r * r || abs(dot(offset, k.plane)) > params.kernel_flattening * r {
+            continue;
+        }
+        let p = photons[photon];
+        if dot(p.normal, k.plane) < 0.5 {
+            continue;
+        }
+        if !splat_survives(params, photon, k.index) {
+            continue;
+        }
 #ifdef SUBSAMPLED
-    let pixel = subsample_representative(params, vec2<u32>(in.clip.xy));
+        sum += p.flux;
 #else
-    let pixel = vec2<i32>(in.clip.xy);
+        // The photons' density is irradiance on the kernel's plane; a normal map's bent
+        // normal receives it by its own cosine instead.
+        let bend = select(1.0, dot(shading, p.incoming) / max(dot(k.plane, p.incoming), 0.05), bent);
+        sum += bsdf_toward(m, out, shading, wo, p.incoming) * (bend * p.flux);
+#endif
+    }
+    return sum;
+}
+
+@compute @workgroup_size(8, 8, 1)
+fn gather(@builtin(global_invocation_id) id: vec3<u32>) {
+    let texel = vec2<i32>(id.xy);
+    if any(id.xy >= textureDimensions(splats)) {
+        return;
+    }
+#ifdef SUBSAMPLED
+    let pixel = subsample_representative(params, id.xy);
+#else
+    let pixel = texel;
 #endif
     let gp = textureLoad(gbuffer_position, pixel, 0);
     if gp.w == 0.0 {
-        discard;
+        textureStore(splats, texel, vec4<f32>(0.0));
+        return;
     }
     let gn = textureLoad(gbuffer_normal, pixel, 0);
-    let p = photons[in.photon];
-    let radius = gather_radius(params, params.splat_radius, gn.w);
-    let offset = p.position - gp.xyz;
+    let index = u32(pixel.y) * params.size.x + u32(pixel.x);
 #ifdef TEXTURED
-    let surface = surfaces[u32(pixel.y) * params.size.x + u32(pixel.x)];
-    let plane = resolved_kernel_normal(surface, gn.xyz);
+    let plane = resolved_kernel_normal(surfaces[index], gn.xyz);
 #else
     let plane = kernel_normal(gp, gn.xyz);
 #endif
-    // Inside the gather disc, on this surface: near its plane and facing the same way.
-    if dot(offset, offset) > radius * radius || abs(dot(offset, plane)) > params.kernel_flattening * radius || dot(p.normal, plane) < 0.5 {
-        discard;
-    }
-    if !splat_survives(params, in.photon, u32(pixel.y) * params.size.x + u32(pixel.x)) {
-        discard;
-    }
-    let density = splat_weight(params) / (PI * radius * radius);
-#ifdef SUBSAMPLED
-    return vec4<f32>(p.flux * density, 0.0);
-#else
+    let k = Kernel(gp.xyz, gather_radius(params, params.splat_radius, gn.w), plane, index);
 #ifdef TEXTURED
-    let m = resolved_material(gp, surface);
+    let m = resolved_material(gp, surfaces[index]);
 #else
     let m = gbuffer_material(gp, gn.w);
 #endif
     let wo = normalize(params.camera_position.xyz - gp.xyz);
-    // The photons' density is irradiance on the kernel's plane; a normal map's bent normal
-    // receives it by its own cosine instead.
-    let bend = select(1.0, dot(gn.xyz, p.incoming) / max(dot(plane, p.incoming), 0.05), any(plane != gn.xyz));
-    let f = bsdf_eval(m, gn.xyz, wo, p.incoming) * bend;
-    return vec4<f32>(f * p.flux * density, 0.0);
-#endif
+    let out = bsdf_from(m, gn.xyz, wo);
+    var sum = vec3<f32>(0.0);
+    let faces = faces_reached(cubemap, k.position, k.radius);
+    for (var i = 0u; i < faces; i += 1u) {
+        let face = nth_face(cubemap, k.position, i);
+        let tiles = face_tiles(cubemap, k.position, k.radius, face);
+        if tiles.x > tiles.y || !listed(face, tiles) {
+            continue;
+        }
+        for (var y = tiles.z; y <= tiles.w; y += 1) {
+            for (var x = tiles.x; x <= tiles.y; x += 1) {
+                sum += gather_list(k, m, out, gn.xyz, wo, list_head(face, x, y));
+            }
+        }
+    }
+    let density = splat_weight(params) / (PI * k.radius * k.radius);
+    textureStore(splats, texel, vec4<f32>(sum * density, 0.0));
 }

@@ -25,7 +25,7 @@ use bevy::render::renderer::{RenderDevice, RenderQueue};
 
 pub use config::{BIG_TRIANGLES, CubemapConfig, CubemapParams};
 pub use deep::{DeepCubemap, Fit};
-pub use view::ViewCubemap;
+pub use view::{ViewCubemap, fitted};
 
 use crate::scene::SceneBuffers;
 use crate::shaders::RppmShaders;

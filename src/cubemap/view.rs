@@ -59,10 +59,7 @@ impl ViewCubemap {
             self.bvh = None;
             return Ok(());
         };
-        let fitted = config.fitted(
-            binding_limit(device),
-            device.limits().max_texture_dimension_2d,
-        );
+        let fitted = fitted(config, device);
         if fitted != config {
             warn_once!(
                 "bevy_rppm: a {}² deep cubemap with {} bins does not fit this GPU's buffers; \
@@ -184,4 +181,12 @@ impl ViewCubemap {
             }
         }
     }
+}
+
+/// `config` as this GPU can hold it (a smaller resolution where its lists would not fit).
+pub fn fitted(config: CubemapConfig, device: &RenderDevice) -> CubemapConfig {
+    config.fitted(
+        binding_limit(device),
+        device.limits().max_texture_dimension_2d,
+    )
 }

@@ -87,13 +87,15 @@ pub struct GBuffer {
     depth: TextureView,
 }
 
-/// A 2D target that shaders read back as a texture, from the cache.
+/// A 2D target that shaders read back as a texture, from the cache, drawn into or (with
+/// `extra` `STORAGE_BINDING`) written by a compute pass.
 pub fn target(
     cache: &mut TextureCache,
     device: &RenderDevice,
     label: &'static str,
     size: UVec2,
     format: TextureFormat,
+    extra: TextureUsages,
 ) -> TextureView {
     cache
         .get(
@@ -109,7 +111,7 @@ pub fn target(
                 sample_count: 1,
                 dimension: TextureDimension::D2,
                 format,
-                usage: TextureUsages::RENDER_ATTACHMENT | TextureUsages::TEXTURE_BINDING,
+                usage: TextureUsages::RENDER_ATTACHMENT | TextureUsages::TEXTURE_BINDING | extra,
                 view_formats: &[],
             },
         )
@@ -118,7 +120,8 @@ pub fn target(
 
 impl GBuffer {
     pub fn new(cache: &mut TextureCache, device: &RenderDevice, size: UVec2) -> Self {
-        let mut target = |label, format| target(cache, device, label, size, format);
+        let mut target =
+            |label, format| target(cache, device, label, size, format, TextureUsages::empty());
         Self {
             position: target("rppm_gbuffer_position", GBUFFER_FORMAT),
             normal: target("rppm_gbuffer_normal", GBUFFER_FORMAT),

@@ -23,8 +23,8 @@ struct NodePipelines<'a> {
     gbuffer: &'a RenderPipeline,
     eye_paths: &'a ComputePipeline,
     photon: Option<&'a ComputePipeline>,
-    splat: Option<&'a RenderPipeline>,
-    indirect_splat: Option<[&'a ComputePipeline; 2]>,
+    splat: Option<&'a ComputePipeline>,
+    indirect_splat: Option<&'a ComputePipeline>,
     accumulate: &'a ComputePipeline,
 }
 
@@ -57,13 +57,10 @@ pub(crate) fn rppm_node(
         gbuffer,
         eye_paths,
         photon: stages.trace.and_then(|id| cache.get_compute_pipeline(id)),
-        splat: stages.splat.and_then(|id| cache.get_render_pipeline(id)),
-        indirect_splat: stages.indirect_splat.and_then(|[bin, gather]| {
-            Some([
-                cache.get_compute_pipeline(bin)?,
-                cache.get_compute_pipeline(gather)?,
-            ])
-        }),
+        splat: stages.splat.and_then(|id| cache.get_compute_pipeline(id)),
+        indirect_splat: stages
+            .indirect_splat
+            .and_then(|id| cache.get_compute_pipeline(id)),
         accumulate,
     };
     let ViewTimer(timer, wall) = &mut *timer;
@@ -212,31 +209,23 @@ fn encode_estimate(
 ) {
     let cubemap = state.cubemap.cubemap.as_ref();
     let traced = state.photons > 0 && cubemap.is_some() && node.photon.is_some();
-    let splat = if traced { node.splat } else { None };
-    state.splats.encode(
-        encoder,
-        splat,
-        state.store.as_ref(),
-        &state.scene_group,
+    let groups = cubemap.filter(|_| traced).map(|cubemap| TracingGroups {
+        scene: &state.scene_group,
+        params: &state.params_group,
         offset,
-        state.key.size,
-        timer,
-    );
+        cubemap: &cubemap.trace_group,
+    });
+    state
+        .splats
+        .encode(encoder, node.splat, groups.as_ref(), timer);
     mark(checkpoints, encoder, Stage::Splat);
-    if let (true, true, Some(cubemap), Some(indirect), Some(group)) = (
-        traced,
+    if let (true, Some(groups), Some(indirect), Some(group)) = (
         state.importons,
-        cubemap,
+        &groups,
         node.indirect_splat,
         &state.indirect_group,
     ) {
-        let groups = TracingGroups {
-            scene: &state.scene_group,
-            params: &state.params_group,
-            offset,
-            cubemap: &cubemap.trace_group,
-        };
-        crate::indirect_splat::encode(encoder, indirect, &groups, group, &state.eye_paths, timer);
+        crate::indirect_splat::encode(encoder, indirect, groups, group, &state.eye_paths, timer);
         mark(checkpoints, encoder, Stage::IndirectSplat);
     }
     state.estimate.encode(

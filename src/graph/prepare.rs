@@ -13,12 +13,12 @@ use super::state::{
     ResourceKey, RppmViewState, StageIds, StagePipelines, ViewTimer, readiness, stages_ready,
 };
 use crate::accumulate::{AccumulateKey, AccumulatePipeline, Changes, HistoryFlags};
-use crate::cubemap::{BuildContext, CubemapConfig, CubemapPipelines};
+use crate::cubemap::{self, BuildContext, CubemapConfig, CubemapPipelines};
 use crate::gbuffer::GBufferPipeline;
 use crate::importons::{EyePathKey, EyePathPipeline};
 use crate::indirect_splat::IndirectSplatPipeline;
 use crate::output::{OutputPipeline, output_key};
-use crate::photons::{PhotonKey, PhotonPipeline, device_photon_count, store_capacity};
+use crate::photons::{PhotonKey, PhotonPipeline, device_photon_count, list_heads, store_capacity};
 use crate::ppm::{next_radius2, radius2_after};
 use crate::scene::{ScatterPaths, SceneBuffers, SceneData};
 use crate::settings::{PhotonMapping, RppmDebugView, RppmMode};
@@ -42,7 +42,7 @@ pub(crate) struct Pipelines<'w> {
     photons: Res<'w, PhotonPipeline>,
     photon_variants: ResMut<'w, SpecializedComputePipelines<PhotonPipeline>>,
     splat: Res<'w, SplatPipeline>,
-    splat_variants: ResMut<'w, SpecializedRenderPipelines<SplatPipeline>>,
+    splat_variants: ResMut<'w, SpecializedComputePipelines<SplatPipeline>>,
     indirect_splat: ResMut<'w, IndirectSplatPipeline>,
     accumulate: Res<'w, AccumulatePipeline>,
     accumulate_variants: ResMut<'w, SpecializedComputePipelines<AccumulatePipeline>>,
@@ -69,13 +69,9 @@ impl Pipelines<'_> {
     }
 }
 
-/// Tiles of the view's cubemap, when camera paths go past the G-buffer; else 0.
-fn importon_tiles(settings: &PhotonMapping, scene: &SceneData) -> u32 {
-    if settings.max_eye_depth < 2 || !scene.has_path_surfaces() {
-        return 0;
-    }
-    let grid = cubemap_config(settings).grid();
-    6 * grid * grid
+/// Whether camera paths go past the G-buffer (importons).
+fn makes_importons(settings: &PhotonMapping, scene: &SceneData) -> bool {
+    settings.max_eye_depth >= 2 && scene.has_path_surfaces()
 }
 
 fn cubemap_config(settings: &PhotonMapping) -> CubemapConfig {
@@ -135,7 +131,7 @@ fn select_stages(
             )
         }),
         indirect_splat: (traced && state.importons)
-            .then(|| pipelines.indirect_splat.ids(cache, textured)),
+            .then(|| pipelines.indirect_splat.id(cache, textured)),
         accumulate: pipelines.accumulate_variants.specialize(
             cache,
             &pipelines.accumulate,
@@ -226,7 +222,8 @@ pub(crate) fn prepare_views(
             photon_capacity: store_capacity(
                 settings, photons, scene, &device, &store_fit, store_now,
             ),
-            importon_tiles: importon_tiles(settings, &scene.data),
+            importons: makes_importons(settings, &scene.data),
+            photon_lists: list_heads(cubemap::fitted(cubemap_config(settings), &device).grid()),
             subsampling: settings.indirect_subsampling,
             history: settings.history.window().is_some(),
             bvh: settings
@@ -360,7 +357,7 @@ fn prepare_view(
     state.debug_view = settings.debug_view;
     state.profile = settings.profile_stages;
     state.error = frame.error;
-    state.importons = key.importon_tiles > 0 && settings.debug_view == RppmDebugView::None;
+    state.importons = key.importons && settings.debug_view == RppmDebugView::None;
     // Shadow rays need the cubemap too: it is built whenever something lights the scene.
     let lit = estimate && !scene.data.light_cdf.is_empty();
     let traces = state.photons > 0

@@ -30,8 +30,10 @@ pub struct ResourceKey {
     pub shadow_resolution: u32,
     /// Room for stored photons; 0 without lights.
     pub photon_capacity: u32,
-    /// Cubemap tiles importons register in; 0 when camera paths end at the G-buffer.
-    pub importon_tiles: u32,
+    /// Camera paths go past the G-buffer: importons are held.
+    pub importons: bool,
+    /// Heads of the photon lists (one a cubemap tile, one a block of them).
+    pub photon_lists: u32,
     /// Photons splat on every n-th pixel (the splat target's size follows).
     pub subsampling: u32,
     /// History is kept through motion (`RppmHistory::Reuse`): its buffers are held.
@@ -48,9 +50,8 @@ pub struct StageIds {
     pub gbuffer: CachedRenderPipelineId,
     pub eye_paths: CachedComputePipelineId,
     pub trace: Option<CachedComputePipelineId>,
-    pub splat: Option<CachedRenderPipelineId>,
-    /// Binning and gathering.
-    pub indirect_splat: Option<[CachedComputePipelineId; 2]>,
+    pub splat: Option<CachedComputePipelineId>,
+    pub indirect_splat: Option<CachedComputePipelineId>,
     pub accumulate: CachedComputePipelineId,
     pub output: Option<CachedRenderPipelineId>,
 }
@@ -154,8 +155,8 @@ impl RppmViewState {
             usage: BufferUsages::UNIFORM | BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
-        let eye_paths = EyePaths::new(device, size, key.importon_tiles, key.textured);
-        let splats = SplatTarget::new(textures, device, pipelines.splat, size, key.subsampling);
+        let eye_paths = EyePaths::new(device, size, key.importons, key.textured);
+        let splats = SplatTarget::new(textures, device, size, key.subsampling);
         let estimate = Estimate::new(device, size, key.history);
         let (store, indirect_group) = photon_store(key, device, cache, pipelines, &eye_paths);
         let params_group = device.create_bind_group(
@@ -230,13 +231,7 @@ impl RppmViewState {
     ) {
         let size = self.key.size;
         let gbuffer = GBuffer::new(textures, device, size);
-        let splats = SplatTarget::new(
-            textures,
-            device,
-            pipelines.splat,
-            size,
-            self.key.subsampling,
-        );
+        let splats = SplatTarget::new(textures, device, size, self.key.subsampling);
         // The cache hands back last frame's textures while nothing else took them: then the
         // groups that hold them stay as they are.
         if gbuffer.same_textures(&self.gbuffer) && splats.view.id() == self.splats.view.id() {
@@ -267,7 +262,6 @@ impl RppmViewState {
                 device,
                 cache,
                 pipelines.splat,
-                params.clone(),
                 store,
                 &self.gbuffer,
                 &self.eye_paths.surfaces,
@@ -339,6 +333,7 @@ impl RppmViewState {
         memory.push(("splats", self.splats.bytes()));
         if let Some(store) = &self.store {
             memory.push(("photons", store.photons.size()));
+            memory.push(("photon_heads", store.heads.size()));
         }
         memory.extend([
             ("gbuffer", GBuffer::bytes(pixels)),
@@ -371,14 +366,18 @@ fn photon_store(
     pipelines: &StagePipelines,
     eye_paths: &EyePaths,
 ) -> (Option<PhotonStore>, Option<BindGroup>) {
-    let store = (key.photon_capacity > 0)
-        .then(|| PhotonStore::new(device, cache, pipelines.photons, key.photon_capacity));
-    let group = store
-        .as_ref()
-        .filter(|_| key.importon_tiles > 0)
-        .map(|store| {
-            indirect_splat::bind_group(device, cache, pipelines.indirect_splat, store, eye_paths)
-        });
+    let store = (key.photon_capacity > 0).then(|| {
+        PhotonStore::new(
+            device,
+            cache,
+            pipelines.photons,
+            key.photon_capacity,
+            key.photon_lists,
+        )
+    });
+    let group = store.as_ref().filter(|_| key.importons).map(|store| {
+        indirect_splat::bind_group(device, cache, pipelines.indirect_splat, store, eye_paths)
+    });
     (store, group)
 }
 
@@ -404,18 +403,14 @@ pub(super) fn stages_ready(state: &RppmViewState, cache: &PipelineCache) -> Resu
     let Some(stages) = state.stages else {
         return Ok(false);
     };
-    let [bin, gather] = stages.indirect_splat.map_or([None; 2], |ids| ids.map(Some));
     let compute = [
         Some(stages.eye_paths),
         Some(stages.accumulate),
         stages.trace,
-        bin,
-        gather,
+        stages.splat,
+        stages.indirect_splat,
     ];
-    let render = [Some(stages.gbuffer), stages.splat]
-        .into_iter()
-        .flatten()
-        .map(|id| cache.get_render_pipeline_state(id));
+    let render = [cache.get_render_pipeline_state(stages.gbuffer)];
     readiness(
         compute
             .into_iter()

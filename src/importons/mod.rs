@@ -21,10 +21,9 @@ use crate::shadows::ShadowMaps;
 use crate::stats::timing::{Stage, StageTimer};
 use crate::view::ViewLayouts;
 
-/// Byte offsets of the indirect splat's dispatch arguments in the importon stats buffer:
-/// binning photons (one thread a photon), gathering them (one a pixel).
-pub const BIN_DISPATCH: u64 = 16;
-pub const GATHER_DISPATCH: u64 = 32;
+/// Byte offset of the indirect splat's dispatch arguments (one thread a pixel) in the
+/// importon stats buffer.
+pub const GATHER_DISPATCH: u64 = 16;
 
 pub(crate) struct ImportonsPlugin;
 
@@ -143,10 +142,8 @@ pub struct EyePaths {
     pub samples: Buffer,
     /// One importon per pixel.
     pub importons: Buffer,
-    /// The heads of the cubemap tiles' photon lists, which indirect splatting gathers from.
-    pub photon_heads: Buffer,
-    /// [-, importons made, -, -, bin x, y, z, -, gather x, y, z, -]: the stage sets the
-    /// indirect splat's workgroup counts only when it makes an importon.
+    /// [-, importons made, -, -, gather x, y, z, -]: the stage sets the indirect splat's
+    /// workgroup count only when it makes an importon.
     pub stats: Buffer,
     /// Per pixel, the photons the pixel's importon gathered (indirect splatting's output).
     pub radiance: Buffer,
@@ -169,16 +166,12 @@ pub fn storage(device: &RenderDevice, label: &'static str, size: u64) -> Buffer 
 }
 
 impl EyePaths {
-    /// Buffers for `size` pixels, with importons when `importon_tiles` > 0 and surfaces
-    /// when `textured`.
-    pub fn new(device: &RenderDevice, size: UVec2, importon_tiles: u32, textured: bool) -> Self {
+    /// Buffers for `size` pixels, with importons when `importons` and surfaces when
+    /// `textured`.
+    pub fn new(device: &RenderDevice, size: UVec2, importons: bool, textured: bool) -> Self {
         let pixels = size.x as u64 * size.y as u64;
         let per_pixel = |bytes: u64| {
-            if importon_tiles > 0 {
-                pixels * bytes
-            } else {
-                0
-            }
+            if importons { pixels * bytes } else { 0 }
         };
         Self {
             samples: device.create_buffer(&BufferDescriptor {
@@ -188,10 +181,9 @@ impl EyePaths {
                 mapped_at_creation: false,
             }),
             importons: storage(device, "rppm_importons", per_pixel(64)),
-            photon_heads: storage(device, "rppm_photon_heads", importon_tiles as u64 * 4),
             stats: device.create_buffer_with_data(&BufferInitDescriptor {
                 label: Some("rppm_importon_stats"),
-                contents: bytemuck::cast_slice(&[0u32, 0, 0, 0, 0, 1, 1, 0, 0, 1, 1, 0]),
+                contents: bytemuck::cast_slice(&[0u32, 0, 0, 0, 0, 1, 1, 0]),
                 usage: BufferUsages::STORAGE
                     | BufferUsages::COPY_DST
                     | BufferUsages::COPY_SRC
@@ -227,24 +219,20 @@ impl EyePaths {
         ));
     }
 
-    pub fn memory(&self) -> [(&'static str, u64); 5] {
+    pub fn memory(&self) -> [(&'static str, u64); 4] {
         [
             ("surfaces", self.surfaces.size()),
             ("samples", self.samples.size()),
             ("importons", self.importons.size()),
-            ("photon_heads", self.photon_heads.size()),
             ("importon_radiance", self.radiance.size()),
         ]
     }
 
-    /// Empties the photon lists and gathered light before an iteration's camera paths.
+    /// Empties the gathered light before an iteration's camera paths.
     pub fn encode_clear(&self, encoder: &mut CommandEncoder) {
-        for buffer in [&self.photon_heads, &self.radiance] {
-            encoder.clear_buffer(buffer, 0, None);
-        }
-        // The stats and the dispatches' x; their y and z stay 1.
-        encoder.clear_buffer(&self.stats, 0, Some(BIN_DISPATCH + 4));
-        encoder.clear_buffer(&self.stats, GATHER_DISPATCH, Some(4));
+        encoder.clear_buffer(&self.radiance, 0, None);
+        // The stats and the dispatch's x; its y and z stay 1.
+        encoder.clear_buffer(&self.stats, 0, Some(GATHER_DISPATCH + 4));
     }
 
     /// Lights every pixel's first hit (and, with `cubemap`, follows its camera path).

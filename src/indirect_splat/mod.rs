@@ -1,8 +1,8 @@
-//! Indirect splatting: the stored photons are listed in the deep-cubemap tiles that hold them
-//! (`bin`), then each importon visits the tiles its own radius reaches and adds the photons
-//! near it (`gather`; `shaders/indirect_splat/indirect_splat.wgsl`). Both are dispatched
-//! indirectly: the eye-path stage sets their workgroup counts only when it makes an importon,
-//! so an iteration whose glass is off screen runs no workgroup.
+//! Indirect splatting: each importon visits the deep-cubemap tiles its own radius reaches
+//! and adds the photons listed there (photon tracing lists each stored photon in its tile;
+//! `shaders/indirect_splat/indirect_splat.wgsl`). The gather is dispatched indirectly: the
+//! eye-path stage sets its workgroup count only when it makes an importon, so an iteration
+//! whose glass is off screen runs no workgroup.
 
 use bevy::prelude::*;
 use bevy::render::render_resource::binding_types::{
@@ -13,7 +13,7 @@ use bevy::render::renderer::RenderDevice;
 use bevy::render::{RenderApp, RenderStartup};
 
 use crate::cubemap::{TracingGroups, tracing_pipeline};
-use crate::importons::{BIN_DISPATCH, EyePaths, GATHER_DISPATCH};
+use crate::importons::{EyePaths, GATHER_DISPATCH};
 use crate::photons::PhotonStore;
 use crate::scene::texture_defs;
 use crate::shaders::RppmShaders;
@@ -30,37 +30,29 @@ impl Plugin for IndirectSplatPlugin {
     }
 }
 
-/// The indirect-splat stage: binning photons, and gathering them, specialized by whether the
-/// scene is textured (`TEXTURED`). Each is queued the first time a view makes importons.
+/// The indirect-splat stage, specialized by whether the scene is textured (`TEXTURED`).
+/// Each variant is queued the first time a view makes importons.
 #[derive(Resource)]
 pub struct IndirectSplatPipeline {
-    /// 0 photons, 1 photon count, 2 importons, 3 the tiles' photon lists' heads, 4 gathered
-    /// radiance per importon.
+    /// 0 photons, 1 the tiles' photon lists' heads, 2 importons, 3 gathered radiance per
+    /// importon.
     pub layout: BindGroupLayoutDescriptor,
     descriptor: ComputePipelineDescriptor,
-    bin: Option<CachedComputePipelineId>,
     /// Untextured, textured.
     gather: [Option<CachedComputePipelineId>; 2],
 }
 
 impl IndirectSplatPipeline {
-    /// The binning and gathering pipelines, queued now if they never were.
-    pub fn ids(&mut self, cache: &PipelineCache, textured: bool) -> [CachedComputePipelineId; 2] {
+    /// The gathering pipeline, queued now if it never was.
+    pub fn id(&mut self, cache: &PipelineCache, textured: bool) -> CachedComputePipelineId {
         let descriptor = &self.descriptor;
-        let bin = *self.bin.get_or_insert_with(|| {
-            cache.queue_compute_pipeline(ComputePipelineDescriptor {
-                entry_point: Some("bin".into()),
-                ..descriptor.clone()
-            })
-        });
-        let gather = *self.gather[textured as usize].get_or_insert_with(|| {
+        *self.gather[textured as usize].get_or_insert_with(|| {
             cache.queue_compute_pipeline(ComputePipelineDescriptor {
                 shader_defs: texture_defs(textured),
                 entry_point: Some("gather".into()),
                 ..descriptor.clone()
             })
-        });
-        [bin, gather]
+        })
     }
 }
 
@@ -75,7 +67,7 @@ fn init_indirect_splat_pipeline(
         "rppm_indirect_splat_layout",
         &BindGroupLayoutEntries::sequential(
             ShaderStages::COMPUTE,
-            (write(), read(), read(), write(), write()),
+            (read(), read(), read(), write()),
         ),
     );
     let descriptor = tracing_pipeline(
@@ -87,7 +79,6 @@ fn init_indirect_splat_pipeline(
     commands.insert_resource(IndirectSplatPipeline {
         layout,
         descriptor,
-        bin: None,
         gather: [None; 2],
     });
 }
@@ -105,18 +96,17 @@ pub fn bind_group(
         &cache.get_bind_group_layout(&pipeline.layout),
         &BindGroupEntries::sequential((
             store.photons.as_entire_binding(),
-            store.count.as_entire_binding(),
+            store.heads.as_entire_binding(),
             eye_paths.importons.as_entire_binding(),
-            eye_paths.photon_heads.as_entire_binding(),
             eye_paths.radiance.as_entire_binding(),
         )),
     )
 }
 
-/// Bins the stored photons, then gathers them at the importons.
+/// Gathers the stored photons at the importons.
 pub fn encode(
     encoder: &mut CommandEncoder,
-    [bin, gather]: [&ComputePipeline; 2],
+    gather: &ComputePipeline,
     groups: &TracingGroups,
     own: &BindGroup,
     eye_paths: &EyePaths,
@@ -126,8 +116,6 @@ pub fn encode(
         label: Some("rppm_indirect_splat"),
         timestamp_writes: timer.compute_pass(Stage::IndirectSplat),
     });
-    groups.bind(&mut pass, bin, own);
-    pass.dispatch_workgroups_indirect(&eye_paths.stats, BIN_DISPATCH);
-    pass.set_pipeline(gather);
+    groups.bind(&mut pass, gather, own);
     pass.dispatch_workgroups_indirect(&eye_paths.stats, GATHER_DISPATCH);
 }

@@ -20,7 +20,7 @@ use crate::view::ViewLayouts;
 
 pub use budget::{FrameCost, MIN_PHOTONS, PhotonController, START_PHOTONS};
 pub(crate) use store::store_capacity;
-pub use store::{PhotonStore, StoreFit};
+pub use store::{PhotonStore, StoreFit, list_heads};
 
 /// The most threads one dimension of a 64-wide compute dispatch can have on this device.
 pub(crate) fn dispatch_limit(device: &RenderDevice) -> u32 {
@@ -67,7 +67,8 @@ impl Plugin for PhotonsPlugin {
 /// The photon-tracing stage, specialized by [`PhotonKey`].
 #[derive(Resource)]
 pub struct PhotonPipeline {
-    /// 0 the photon store, 1 its count (draw-indirect arguments).
+    /// 0 the photon store, 1 its count, 2 its lists' heads (one a cubemap tile, then one flag a
+    /// block of tiles).
     pub store_layout: BindGroupLayoutDescriptor,
     base: ComputePipelineDescriptor,
 }
@@ -112,6 +113,7 @@ fn init_photon_pipeline(
         &BindGroupLayoutEntries::sequential(
             ShaderStages::COMPUTE,
             (
+                storage_buffer_sized(false, None),
                 storage_buffer_sized(false, None),
                 storage_buffer_sized(false, None),
             ),

@@ -8,7 +8,6 @@ use bevy::render::render_resource::*;
 use bevy::render::renderer::{RenderDevice, RenderQueue};
 
 use super::PhotonPipeline;
-use super::dispatch_limit;
 use crate::cubemap::TracingGroups;
 use crate::ppm::{grown_capacity, photon_store_capacity};
 use crate::scene::SceneBuffers;
@@ -18,6 +17,16 @@ use crate::stats::timing::{Stage, StageTimer};
 
 /// Bytes of one stored photon (`Photon` in common.wgsl).
 pub const PHOTON_BYTES: u64 = 64;
+
+/// Tiles a side of a block of the photon lists (`LIST_BLOCK` in common.wgsl).
+const LIST_BLOCK: u32 = 8;
+
+/// The photon lists' heads for a cubemap of `grid`² tiles a face: one a tile, then one flag a
+/// block of tiles (`list_block` in common.wgsl).
+pub fn list_heads(grid: u32) -> u32 {
+    let blocks = grid.div_ceil(LIST_BLOCK);
+    6 * (grid * grid + blocks * blocks)
+}
 
 /// Weight of a lower count in the stores per photon remembered: a store shrinks over a few
 /// readings, not for one quiet iteration.
@@ -88,17 +97,18 @@ pub(crate) fn store_capacity(
         return 0;
     }
     let worst = photon_store_capacity(photons, stores, scene.max_scatter, direct);
-    let limit = device.limits().max_storage_buffer_binding_size / PHOTON_BYTES;
-    // The indirect splat dispatches one thread per stored photon, in one dimension.
-    let most = limit.min(dispatch_limit(device) as u64) as f64;
+    let most = (device.limits().max_storage_buffer_binding_size / PHOTON_BYTES) as f64;
     fit.capacity(photons, worst.min(most), current)
 }
 
 /// One camera's photon store, when the scene has lights to emit from.
 pub struct PhotonStore {
     pub photons: Buffer,
-    /// Draw-indirect arguments whose instance count is the number of photons stored.
+    /// [-, photons stored (placed or not), -, -].
     pub count: Buffer,
+    /// Per cubemap tile, the head of the list of the photons stored in it (index + 1), which
+    /// both splats gather from; then per block of tiles, whether any is listed.
+    pub heads: Buffer,
     group: BindGroup,
     /// The count's non-blocking read-back, and the photons emitted by the iteration it copied.
     probe: AsyncReadback,
@@ -108,12 +118,13 @@ pub struct PhotonStore {
 }
 
 impl PhotonStore {
-    /// Room for `capacity` photons.
+    /// Room for `capacity` photons, with `heads` list heads ([`list_heads`]).
     pub fn new(
         device: &RenderDevice,
         cache: &PipelineCache,
         pipeline: &PhotonPipeline,
         capacity: u32,
+        heads: u32,
     ) -> Self {
         let photons = device.create_buffer(&BufferDescriptor {
             label: Some("rppm_photons"),
@@ -123,20 +134,28 @@ impl PhotonStore {
         });
         let count = device.create_buffer_with_data(&BufferInitDescriptor {
             label: Some("rppm_photon_count"),
-            contents: bytemuck::cast_slice(&[6u32, 0, 0, 0]),
-            usage: BufferUsages::STORAGE
-                | BufferUsages::INDIRECT
-                | BufferUsages::COPY_DST
-                | BufferUsages::COPY_SRC,
+            contents: bytemuck::cast_slice(&[0u32; 4]),
+            usage: BufferUsages::STORAGE | BufferUsages::COPY_DST | BufferUsages::COPY_SRC,
+        });
+        let heads = device.create_buffer(&BufferDescriptor {
+            label: Some("rppm_photon_heads"),
+            size: heads.max(4) as u64 * 4,
+            usage: BufferUsages::STORAGE | BufferUsages::COPY_DST,
+            mapped_at_creation: false,
         });
         let group = device.create_bind_group(
             "rppm_photon_store_group",
             &cache.get_bind_group_layout(&pipeline.store_layout),
-            &BindGroupEntries::sequential((photons.as_entire_binding(), count.as_entire_binding())),
+            &BindGroupEntries::sequential((
+                photons.as_entire_binding(),
+                count.as_entire_binding(),
+                heads.as_entire_binding(),
+            )),
         );
         Self {
             photons,
             count,
+            heads,
             group,
             probe: AsyncReadback::new(device, 16),
             probe_photons: AtomicU32::new(0),
@@ -154,6 +173,7 @@ impl PhotonStore {
         timer: &mut StageTimer,
     ) {
         encoder.clear_buffer(&self.count, 4, Some(4));
+        encoder.clear_buffer(&self.heads, 0, None);
         let mut pass = encoder.begin_compute_pass(&ComputePassDescriptor {
             label: Some("rppm_photon_trace"),
             timestamp_writes: timer.compute_pass(Stage::PhotonTrace),

@@ -165,10 +165,19 @@ pub fn rppm_path() -> PathBuf {
     path
 }
 
+/// A fresh path for a test's output (what an earlier run left there is removed, so it cannot
+/// pass for this run's), in one folder beside the test binary that each run reuses (a folder
+/// per process in the system's temp folder piled up, one per run).
 pub fn temp(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("rppm_test_{}", std::process::id()));
+    let dir = target_dir().join("rppm_test_output");
     std::fs::create_dir_all(&dir).unwrap();
-    dir.join(name)
+    let path = dir.join(name);
+    if path.is_dir() {
+        std::fs::remove_dir_all(&path).unwrap();
+    } else if path.exists() {
+        std::fs::remove_file(&path).unwrap();
+    }
+    path
 }
 
 pub fn assert_success(out: &std::process::Output) {

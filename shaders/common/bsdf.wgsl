@@ -135,8 +135,6 @@ fn bsdf_eval(m: Material, n: vec3<f32>, wo: vec3<f32>, wi: vec3<f32>) -> vec3<f3
     return bsdf_toward(m, bsdf_from(m, n, wo), n, wo, wi);
 }
 
-// What f(wo, ·) needs of the material and wo alone (`Outgoing`, in common.wgsl): found once
-// for the many directions a gather weighs (`bsdf_toward`).
 // The material whose layers reflect: rough glass's reflecting (opaque) part, or m.
 fn layered(m: Material) -> Material {
 #ifdef ROUGH_REFRACTION
@@ -147,6 +145,8 @@ fn layered(m: Material) -> Material {
     return m;
 }
 
+// What f(wo, ·) needs of the material and wo alone (`Outgoing`, in common.wgsl): found once
+// for the many directions a gather weighs (`bsdf_toward`).
 fn bsdf_from(m: Material, n: vec3<f32>, wo: vec3<f32>) -> Outgoing {
     let l = layered(m);
     let f0 = specular_f0(l);
@@ -160,7 +160,7 @@ fn bsdf_toward(m: Material, out: Outgoing, n: vec3<f32>, wo: vec3<f32>, wi: vec3
 #ifdef ROUGH_REFRACTION
     let glass = rough_glass_share(m);
     if glass > 0.0 {
-        return glass * rough_glass_reflection(m, n, wo, wi) + (1.0 - glass) * layers_toward(opaque_part(m), out, n, wo, wi);
+        return glass * rough_glass_reflection(m, n, wo, wi) + (1.0 - glass) * layers_toward(layered(m), out, n, wo, wi);
     }
 #endif
     return layers_toward(m, out, n, wo, wi);

@@ -439,24 +439,17 @@ fn list_block(d: CubemapParams, face: u32, x: u32, y: u32) -> u32 {
     return 6u * d.grid * d.grid + (face * blocks + y / LIST_BLOCK) * blocks + x / LIST_BLOCK;
 }
 
-// Whether a sphere of radius r around p lies within the view of the one face that holds p
-// (its spans there are not clipped): then no other face lists a photon it reaches.
-fn within_one_face(d: CubemapParams, p: vec3<f32>, r: f32) -> bool {
+// The faces a gather of radius r around p visits: x the face that holds p, y how many from
+// it on (mod 6): 1 when the sphere lies within that face's view (its spans there are not
+// clipped, so no other face lists a photon it reaches), else all 6.
+fn faces_reached(d: CubemapParams, p: vec3<f32>, r: f32) -> vec2<u32> {
     let v = p - d.centre.xyz;
-    let l = transpose(face_basis(face_of(v))) * v;
+    let own = face_of(v);
+    let l = transpose(face_basis(own)) * v;
     let sx = face_span(l.x, l.z, r);
     let sy = face_span(l.y, l.z, r);
-    return sx.x > -1.0 && sx.y < 1.0 && sy.x > -1.0 && sy.y < 1.0;
-}
-
-// The faces a gather around p of radius r visits: p's own first, the rest only when the
-// sphere crosses out of its view. `i`-th of `faces_reached` faces.
-fn faces_reached(d: CubemapParams, p: vec3<f32>, r: f32) -> u32 {
-    return select(6u, 1u, within_one_face(d, p, r));
-}
-
-fn nth_face(d: CubemapParams, p: vec3<f32>, i: u32) -> u32 {
-    return (face_of(p - d.centre.xyz) + i) % 6u;
+    let within = sx.x > -1.0 && sx.y < 1.0 && sy.x > -1.0 && sy.y < 1.0;
+    return vec2<u32>(own, select(6u, 1u, within));
 }
 
 // The tiles of cubemap face `face` that a sphere of radius r around p reaches, numbered as

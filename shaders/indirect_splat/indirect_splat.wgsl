@@ -4,11 +4,11 @@
 // its radius, on its surface: throughput · f(wo, wi) · Φ / (π r²). The work is the photons
 // near importons, each importon's sum stays in registers (no atomics), and a large radius
 // elsewhere costs no one else.
-#import bevy_rppm::common::{Material, Outgoing, Photon, Importon, IterationParams, PI, NO_IMPORTON, face_tiles, faces_reached, nth_face, splat_survives, splat_weight}
+#import bevy_rppm::common::{Material, Outgoing, Photon, Importon, IterationParams, PI, NO_IMPORTON, faces_reached, splat_weight}
 #import bevy_rppm::scene::{triangle_at, barycentrics, material_at}
 #import bevy_rppm::bsdf::{bsdf_from, bsdf_toward}
 #import bevy_rppm::cubemap::cubemap
-#import bevy_rppm::photon_lists::{photons, listed, list_head}
+#import bevy_rppm::photon_lists::{photons, listed_tiles, list_head, in_kernel}
 
 @group(1) @binding(0) var<uniform> params: IterationParams;
 
@@ -26,18 +26,10 @@ fn gather_list(imp: Importon, m: Material, out: Outgoing, pixel: u32, head: u32)
     for (var guard = 0u; node != 0u && guard < arrayLength(&photons); guard += 1u) {
         let photon = node - 1u;
         node = photons[photon].next;
-        // Field by field: most photons fail the first test.
-        let offset = photons[photon].position - imp.position;
-        if dot(offset, offset) > r * r || abs(dot(offset, imp.normal)) > params.kernel_flattening * r {
+        if !in_kernel(params, photon, imp.position, imp.normal, r, pixel) {
             continue;
         }
         let p = photons[photon];
-        if dot(p.normal, imp.normal) < 0.5 {
-            continue;
-        }
-        if !splat_survives(params, photon, pixel) {
-            continue;
-        }
         sum += bsdf_toward(m, out, imp.normal, imp.outgoing, p.incoming) * p.flux;
     }
     return sum;
@@ -54,12 +46,9 @@ fn gather(@builtin(global_invocation_id) id: vec3<u32>) {
     let out = bsdf_from(m, imp.normal, imp.outgoing);
     var sum = vec3<f32>(0.0);
     let faces = faces_reached(cubemap, imp.position, imp.radius);
-    for (var i = 0u; i < faces; i += 1u) {
-        let face = nth_face(cubemap, imp.position, i);
-        let tiles = face_tiles(cubemap, imp.position, imp.radius, face);
-        if tiles.x > tiles.y || !listed(face, tiles) {
-            continue;
-        }
+    for (var i = 0u; i < faces.y; i += 1u) {
+        let face = (faces.x + i) % 6u;
+        let tiles = listed_tiles(face, imp.position, imp.radius);
         for (var y = tiles.z; y <= tiles.w; y += 1) {
             for (var x = tiles.x; x <= tiles.y; x += 1) {
                 sum += gather_list(imp, m, out, pixel, list_head(face, x, y));

@@ -7,11 +7,11 @@
 // SUBSAMPLED (ISPM): the target has one texel per n×n pixels, gathered at one representative
 // pixel of the block, and holds incident light Σ Φ / (π r²) for the joint-bilateral upsampling
 // in shaders/accumulate/accumulate.wgsl, which applies each full-resolution pixel's own BSDF.
-#import bevy_rppm::common::{Material, Outgoing, Photon, IterationParams, PI, face_tiles, faces_reached, nth_face, gather_radius, splat_survives, splat_weight, subsample_representative}
+#import bevy_rppm::common::{Material, Outgoing, Photon, IterationParams, PI, faces_reached, gather_radius, splat_weight, subsample_representative}
 #import bevy_rppm::scene::{gbuffer_material, resolved_material, resolved_kernel_normal, kernel_normal}
 #import bevy_rppm::bsdf::{bsdf_from, bsdf_toward}
 #import bevy_rppm::cubemap::cubemap
-#import bevy_rppm::photon_lists::{photons, listed, list_head}
+#import bevy_rppm::photon_lists::{photons, listed_tiles, list_head, in_kernel}
 
 @group(1) @binding(0) var<uniform> params: IterationParams;
 
@@ -43,19 +43,10 @@ fn gather_list(k: Kernel, m: Material, out: Outgoing, shading: vec3<f32>, wo: ve
     for (var guard = 0u; node != 0u && guard < arrayLength(&photons); guard += 1u) {
         let photon = node - 1u;
         node = photons[photon].next;
-        let offset = photons[photon].position - k.position;
-        // Inside the gather disc, on this surface: near its plane and facing the same way
-        // (read field by field: most photons fail the first test).
-        if dot(offset, offset) > r * r || abs(dot(offset, k.plane)) > params.kernel_flattening * r {
+        if !in_kernel(params, photon, k.position, k.plane, r, k.index) {
             continue;
         }
         let p = photons[photon];
-        if dot(p.normal, k.plane) < 0.5 {
-            continue;
-        }
-        if !splat_survives(params, photon, k.index) {
-            continue;
-        }
 #ifdef SUBSAMPLED
         sum += p.flux;
 #else
@@ -101,12 +92,9 @@ fn gather(@builtin(global_invocation_id) id: vec3<u32>) {
     let out = bsdf_from(m, gn.xyz, wo);
     var sum = vec3<f32>(0.0);
     let faces = faces_reached(cubemap, k.position, k.radius);
-    for (var i = 0u; i < faces; i += 1u) {
-        let face = nth_face(cubemap, k.position, i);
-        let tiles = face_tiles(cubemap, k.position, k.radius, face);
-        if tiles.x > tiles.y || !listed(face, tiles) {
-            continue;
-        }
+    for (var i = 0u; i < faces.y; i += 1u) {
+        let face = (faces.x + i) % 6u;
+        let tiles = listed_tiles(face, k.position, k.radius);
         for (var y = tiles.z; y <= tiles.w; y += 1) {
             for (var x = tiles.x; x <= tiles.y; x += 1) {
                 sum += gather_list(k, m, out, gn.xyz, wo, list_head(face, x, y));

@@ -9,6 +9,7 @@ use bevy::render::renderer::{RenderDevice, RenderQueue};
 
 use super::PhotonPipeline;
 use crate::cubemap::TracingGroups;
+use crate::importons::storage;
 use crate::ppm::{grown_capacity, photon_store_capacity};
 use crate::scene::SceneBuffers;
 use crate::settings::{PhotonMapping, RppmDebugView};
@@ -137,12 +138,7 @@ impl PhotonStore {
             contents: bytemuck::cast_slice(&[0u32; 4]),
             usage: BufferUsages::STORAGE | BufferUsages::COPY_DST | BufferUsages::COPY_SRC,
         });
-        let heads = device.create_buffer(&BufferDescriptor {
-            label: Some("rppm_photon_heads"),
-            size: heads.max(4) as u64 * 4,
-            usage: BufferUsages::STORAGE | BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
+        let heads = storage(device, "rppm_photon_heads", heads as u64 * 4);
         let group = device.create_bind_group(
             "rppm_photon_store_group",
             &cache.get_bind_group_layout(&pipeline.store_layout),

@@ -1,10 +1,12 @@
 #!/usr/bin/env python3
 """A scene the project was not built against: a closed room (camera inside, one-sided walls
 facing in, a dark floor, red and green side walls) with a clear glass cube (ior 1.33) under a
-15 cd point light. Its few big triangles overflow a deep cubemap's first-guess lists.
+15 cd sphere light (radius 0.15 m, so that a path tracer finds the caustic through the cube,
+which it cannot from a point light). Its few big triangles overflow a deep cubemap's
+first-guess lists.
 
     python3 tools/closed_room.py out/room.gltf
-    python3 tools/reference.py out/room.gltf --out out/room.ref.exr --width 128 --height 128 --spp 1024
+    python3 tools/reference.py out/room.gltf --out out/room.ref.exr --width 128 --height 128 --spp 16384
 """
 import base64
 import json
@@ -49,7 +51,7 @@ add_mesh([([x0,y0,z1],[x0,y1,z1],[x1,y1,z1],[x1,y0,z1],[0,0,-1])],white)      # 
 add_mesh([([x0,y0,z0],[x0,y1,z0],[x0,y1,z1],[x0,y0,z1],[1,0,0])],red)         # left
 add_mesh([([x1,y0,z0],[x1,y0,z1],[x1,y1,z1],[x1,y1,z0],[-1,0,0])],green)      # right
 # glass cube, outward faces
-c=[0.3,0.0,-0.5]; s=0.35
+c=[0.3,0.005,-0.5]; s=0.35  # 5 mm above the floor: no coplanar contact
 def v(dx,dy,dz): return [c[0]+dx*s,c[1]+s+dy*s,c[2]+dz*s]
 cube=[(v(-1,-1,1),v(1,-1,1),v(1,1,1),v(-1,1,1),[0,0,1]),(v(1,-1,-1),v(-1,-1,-1),v(-1,1,-1),v(1,1,-1),[0,0,-1]),
       (v(1,-1,1),v(1,-1,-1),v(1,1,-1),v(1,1,1),[1,0,0]),(v(-1,-1,-1),v(-1,-1,1),v(-1,1,1),v(-1,1,-1),[-1,0,0]),
@@ -62,6 +64,6 @@ g={"asset":{"version":"2.0"},"scene":0,"scenes":[{"nodes":list(range(len(nodes))
  "buffers":[{"byteLength":len(buf),"uri":"data:application/octet-stream;base64,"+base64.b64encode(buf).decode()}],
  "cameras":[{"type":"perspective","perspective":{"yfov":1.0,"znear":0.05,"zfar":100.0,"aspectRatio":1.0}}],
  "extensionsUsed":["KHR_lights_punctual","KHR_materials_transmission","KHR_materials_ior"],
- "extensions":{"KHR_lights_punctual":{"lights":[{"type":"point","color":[1,1,1],"intensity":15.0}]}}}
+ "extensions":{"KHR_lights_punctual":{"lights":[{"type":"point","color":[1,1,1],"intensity":15.0,"extras":{"rppm_radius":0.15}}]}}}
 with open(sys.argv[1] if len(sys.argv) > 1 else 'room.gltf', 'w') as f:
     json.dump(g, f)

@@ -4,7 +4,8 @@ conventions of shared/docs/CONVENTIONS.md (linear radiance, box filter, photomet
 used as radiometric ones, light range ignored).
 
     python3 tools/reference.py SCENE.gltf --out REF.exr [--width 256] [--height 256]
-                               [--spp 1024] [--variant llvm_ad_rgb|scalar_rgb] [--json REF.json]
+                               [--spp 1024] [--variant llvm_ad_rgb|scalar_rgb] [--metal bevy|mitsuba]
+                               [--integrator path|ptracer] [--json REF.json]
 
 Needs `pip install mitsuba numpy` (Mitsuba 3.9; numpy only for textured scenes). The llvm
 variants need an LLVM that drjit accepts: on Debian 12 install `libllvm19` and the script
@@ -12,17 +13,19 @@ points DRJIT_LIBLLVM_PATH at it; otherwise it falls back to `scalar_rgb`, which 
 
 Material mapping (as the references in shared/scenes): metallic 0 and no transmission →
 Lambertian `diffuse` (Bevy's 4% specular layer is left out, see CONVENTIONS.md); metallic with
-roughness < 0.02 → perfect `conductor`; metallic otherwise → `roughconductor` (GGX, α =
-roughness²); transmission with roughness < 0.02 → `dielectric`, rougher → `roughdielectric` (GGX, α =
+roughness < 0.02 → perfect `conductor`; metallic otherwise → `bevy_metal` (tools/bevy_metal.py:
+bevy_rppm's GGX with multiple scattering and Schlick's Fresnel; `--metal mitsuba` gives
+Mitsuba's single-scattering `roughconductor`, α = roughness², instead); transmission with roughness < 0.02 → `dielectric`, rougher → `roughdielectric` (GGX, α =
 roughness²); inside either an absorbing `homogeneous` medium
 (and the `volpath` integrator) for `KHR_materials_volume` with a thickness; emissive → area
 emitter.
 Textures (numpy needed): base colour texture × factor and emissive texture × factor as
 bilinear repeating bitmaps, COLOR_0 as the `vertex_color` mesh attribute, alpha `MASK` as a
 `mask` BSDF, `doubleSided` as `twosided`, a metallic-roughness texture (on a Lambertian
-base) as a `blendbsdf` of Lambert and `roughconductor` weighted by metallic, a normal texture
+base) as a `blendbsdf` of Lambert and the rough metal weighted by metallic, a normal texture
 as `normalmap`; KHR_texture_transform and the normal map's scale are left out.
-Lights: KHR_lights_punctual point (W/sr = cd), spot (hard cone at the outer angle: Mitsuba's
+Lights: KHR_lights_punctual point (W/sr = cd; with `extras.rppm_radius` a sphere of that
+radius, radiance I/(πr²), that neither blocks nor reflects), spot (hard cone at the outer angle: Mitsuba's
 falloff differs from Bevy's a², so only the cone is kept), directional (W/m² = lux); their
 colour is read as sRGB, as Bevy's glTF loader reads it.
 """
@@ -176,13 +179,17 @@ class Textures:
         return self._write(linear * np.array(factor[:3], dtype=np.float32), "colour")
 
     def metallic_roughness(self, info, metallic, roughness):
-        """Metallic (B × factor) as a blend weight and GGX α = (G × factor)² as bitmaps."""
+        """Metallic (B × factor) as a blend weight and GGX α = (G × factor)² as bitmaps, and the
+        metal's one roughness where its texels share one (else None)."""
         import numpy as np
 
         p = self._pixels(info)
         metal = p[..., 2] * metallic
         alpha = np.maximum((p[..., 1] * roughness) ** 2, 1e-3)
-        return self._write(np.stack([metal] * 3, axis=2), "metallic"), self._write(np.stack([alpha] * 3, axis=2), "alpha")
+        rough = p[..., 1][metal > 0] * roughness
+        one = float(rough.mean()) if rough.size and np.ptp(rough) < 1.5 / 255 else None
+        return (self._write(np.stack([metal] * 3, axis=2), "metallic"), self._write(np.stack([alpha] * 3, axis=2), "alpha"),
+                one)
 
     def normal_map(self, info):
         """A glTF normal map for Mitsuba's `normalmap`: its frame's second axis is n × ∂p/∂u,
@@ -232,11 +239,7 @@ def bsdf_of(material, textures=None, vertex_colors=False):
     if metallic > 0 and roughness < 0.02 and not textured_metal:
         return {"type": "conductor", "material": "none", "specular_reflectance": rgb}, "conductor(none)"
     if metallic > 0 and not textured_metal:
-        alpha = max(roughness * roughness, 1e-3)
-        return (
-            {"type": "roughconductor", "material": "none", "distribution": "ggx", "alpha": alpha, "specular_reflectance": rgb},
-            f"roughconductor(alpha={alpha:.3f})",
-        )
+        return rough_metal(rgb, None, roughness)
     description = "diffuse(lambert)"
     if "baseColorTexture" in pbr and textures:
         rgb = textures.colour(pbr["baseColorTexture"], base)
@@ -251,11 +254,10 @@ def bsdf_of(material, textures=None, vertex_colors=False):
     bsdf = {"type": "diffuse", "reflectance": rgb}
     if textured_metal:
         # Per texel: Lambert where metallic is 0, a GGX conductor of α = roughness² where 1.
-        metal, alpha = textures.metallic_roughness(pbr["metallicRoughnessTexture"], metallic, roughness)
-        conductor = {"type": "roughconductor", "material": "none", "distribution": "ggx", "alpha": alpha,
-                     "specular_reflectance": rgb}
+        metal, alpha, rough = textures.metallic_roughness(pbr["metallicRoughnessTexture"], metallic, roughness)
+        conductor, kind = rough_metal(rgb, alpha, rough)
         bsdf = {"type": "blendbsdf", "weight": metal, "bsdf_0": bsdf, "bsdf_1": conductor}
-        description = f"blend({description}, roughconductor) by metallic texture"
+        description = f"blend({description}, {kind}) by metallic texture"
     if "normalTexture" in material and textures:
         bsdf = {"type": "normalmap", "normalmap": textures.normal_map(material["normalTexture"]), "bsdf": bsdf}
         description = f"normalmap({description})"
@@ -267,6 +269,22 @@ def bsdf_of(material, textures=None, vertex_colors=False):
         bsdf = {"type": "mask", "opacity": opacity, "bsdf": bsdf}
         description = f"mask({description})"
     return bsdf, description
+
+
+METAL = "bevy"
+
+
+def rough_metal(rgb, alpha_texture, roughness):
+    """A rough conductor: bevy_rppm's (`bevy_metal`: multiple scattering, Schlick's Fresnel)
+    or, with `--metal mitsuba`, Mitsuba's `roughconductor` (single scattering, F constant);
+    the texture's α where the roughness is textured (Mitsuba's only)."""
+    if METAL == "bevy":
+        if alpha_texture is not None and roughness is None:
+            sys.exit("reference.py: error: bevy_metal takes one roughness; the texture varies it")
+        return ({"type": "bevy_metal", "roughness": roughness, "base_color": rgb}, f"bevy_metal(roughness={roughness:.3f})")
+    alpha = alpha_texture if alpha_texture is not None else max(roughness * roughness, 1e-3)
+    return ({"type": "roughconductor", "material": "none", "distribution": "ggx", "alpha": alpha, "specular_reflectance": rgb},
+            "roughconductor")
 
 
 def medium_of(material):
@@ -333,6 +351,10 @@ def build_scene(path, width, height, tmp, max_depth=16):
                 material = materials[prim["material"]] if "material" in prim else {}
                 bsdf, description = bsdf_of(material, textures, colors is not None)
                 shape = {"type": "ply", "filename": ply, "bsdf": bsdf, "face_normals": "NORMAL" not in prim["attributes"]}
+                if bsdf["type"] == "mask":
+                    # `path` treats a cut-out as opaque to shadow rays (a point light's light
+                    # never passes its holes); `volpath` carries them through null surfaces.
+                    scene["integrator"]["type"] = "volpath"
                 medium = medium_of(material)
                 if medium:
                     # Paths inside it lose light along their length: the volumetric path tracer.
@@ -354,13 +376,24 @@ def build_scene(path, width, height, tmp, max_depth=16):
         light = node.get("extensions", {}).get("KHR_lights_punctual")
         if light is not None:
             l = lights[light["light"]]
+            kind = l["type"]
             # Bevy's glTF loader reads a light's colour as sRGB (Color::srgb_from_array), so
             # its linear value is what Bevy lights with.
             colour = [srgb_to_linear(c) * l.get("intensity", 1.0) for c in l.get("color", [1, 1, 1])]
             position = transform_point(world, [0, 0, 0])
             direction = transform_dir(world, [0, 0, -1])
-            kind = l["type"]
-            if kind == "point":
+            radius = l.get("extras", {}).get("rppm_radius", 0.0)
+            if kind != "point" and radius > 0:
+                print(f"reference.py: a {kind} light's rppm_radius is left out (a point source)", file=sys.stderr)
+            if kind == "point" and radius > 0:
+                # A sphere light (bevy_rppm reads `extras.rppm_radius` as PointLight::radius):
+                # radiance I/(πr²) from its surface, which neither blocks nor reflects light,
+                # as Bevy's lights do not.
+                scene[f"light_{len(scene)}"] = {
+                    "type": "sphere", "center": position, "radius": radius, "bsdf": {"type": "null"},
+                    "emitter": {"type": "area", "radiance": {"type": "rgb", "value": [c / (math.pi * radius * radius) for c in colour]}},
+                }
+            elif kind == "point":
                 scene[f"light_{len(scene)}"] = {"type": "point", "position": position, "intensity": {"type": "rgb", "value": colour}}
             elif kind == "directional":
                 scene[f"light_{len(scene)}"] = {"type": "directional", "direction": direction, "irradiance": {"type": "rgb", "value": colour}}
@@ -421,12 +454,29 @@ def main():
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--max-depth", type=int, default=16,
                         help="path vertices; 2 renders direct light only (as rppm with --photon-depth 1)")
+    parser.add_argument("--integrator", choices=["path", "ptracer"], default="path",
+                        help="ptracer: light tracing, which finds caustics from point lights through glass but "
+                             "renders only what the camera sees on non-specular surfaces")
+    parser.add_argument("--metal", choices=["bevy", "mitsuba"], default="bevy",
+                        help="rough metals as bevy_rppm's model (tools/bevy_metal.py) or Mitsuba's roughconductor")
     args = parser.parse_args()
     variant = pick_variant(args.variant)
     import mitsuba as mi
 
+    global METAL
+    METAL = args.metal
+    if METAL == "bevy":
+        sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+        import bevy_metal
+
+        bevy_metal.register()
+
     with tempfile.TemporaryDirectory() as tmp:
         description, mapping = build_scene(args.scene, args.width, args.height, tmp, args.max_depth)
+        if args.integrator == "ptracer":
+            if description["integrator"]["type"] != "path":
+                sys.exit("reference.py: error: --integrator ptracer renders no media and no cut-outs")
+            description["integrator"]["type"] = "ptracer"
         scene = mi.load_dict(description)
         start = time.time()
         bitmap = mi.Bitmap(mi.render(scene, spp=args.spp, seed=args.seed))  # evaluates the render
@@ -436,7 +486,7 @@ def main():
         with open(args.json, "w") as f:
             json.dump(
                 {"scene": os.path.basename(args.scene), "width": args.width, "height": args.height, "spp": args.spp,
-                 "variant": variant, "max_depth": args.max_depth, "rr_depth": 8, "seed": args.seed, "mapping": mapping,
+                 "variant": variant, "integrator": args.integrator, "metal": METAL, "max_depth": args.max_depth, "rr_depth": 8, "seed": args.seed, "mapping": mapping,
                  "time_render_s": round(seconds, 1)},
                 f,
                 indent=1,

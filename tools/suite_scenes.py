@@ -12,7 +12,10 @@ of failure:
   blurred behind it, and a lightly rough glass block (0.15) under a panel;
 - `water_pool`: a static water height field (ior 1.33) in a tiled pool under a large sky quad;
 - `sky_court`: a yard open to a uniform blue sky (`scenes[0].extras.rppm_sky`), red walls in a
-  corner, a glass block and a white box.
+  corner, a glass block and a white box;
+- `lens_caustic`: a glass ball under a point light, both above the camera's view, focusing
+  the light into a caustic on the floor of an open box (reference by light tracing:
+  `reference.py --integrator ptracer`).
 
     python3 tools/suite_scenes.py assets/suite
     python3 tools/reference.py assets/suite/sun_room.gltf --out assets/suite/sun_room.ref.exr \
@@ -300,6 +303,39 @@ def water_pool(path):
     g.write(path, "bevy_rppm tools/suite_scenes.py water_pool")
 
 
+def sphere(centre, radius, rings=24, segments=48):
+    """A UV sphere facing out, with smooth normals."""
+    pos, nor, idx = [], [], []
+    for i in range(rings + 1):
+        theta = math.pi * i / rings
+        for j in range(segments + 1):
+            phi = 2 * math.pi * j / segments
+            n = [math.sin(theta) * math.cos(phi), math.cos(theta), math.sin(theta) * math.sin(phi)]
+            nor.append(n)
+            pos.append([centre[k] + radius * n[k] for k in range(3)])
+    for i in range(rings):
+        for j in range(segments):
+            a, b = i * (segments + 1) + j, (i + 1) * (segments + 1) + j
+            if i > 0:  # not at the poles, where two corners meet
+                idx += [a, a + 1, b]
+            if i < rings - 1:
+                idx += [a + 1, b + 1, b]
+    return pos, nor, idx
+
+
+def lens_caustic(path):
+    g, h, faces = open_box()
+    coloured_walls(g, faces, [0.7, 0.7, 0.68], [0.65, 0.2, 0.15], [0.2, 0.3, 0.65])
+    # A glass ball (ior 1.5) under a point light near its focal length: a bright caustic on
+    # the floor, inside the ball's shadow. Both hang above the camera's view (all it sees lies
+    # below y = 1.5 and is diffuse), so light tracing (Mitsuba's `ptracer`) renders every
+    # path there is, while a path tracer cannot find a point light through glass at all.
+    g.mesh(*sphere([0.2, 1.85, -0.6], 0.2), g.glass(1.5))
+    g.light({"type": "point", "color": [1.0, 0.95, 0.9], "intensity": 8.0}, translation=[0.2, 2.35, -0.6])
+    g.camera([0.0, 1.5, 2.9], [0.0, 0.0, -0.6], yfov=0.8)
+    g.write(path, "bevy_rppm tools/suite_scenes.py lens_caustic")
+
+
 def sky_court(path):
     g = Gltf()
     # A grey yard open to a blue sky, two red walls meeting in a corner (one-sided, facing
@@ -321,7 +357,7 @@ def main():
     parser.add_argument("out", help="folder for the .gltf files")
     args = parser.parse_args()
     os.makedirs(args.out, exist_ok=True)
-    for make in (sun_room, glass_slab, tinted_glass, frosted_glass, water_pool, sky_court):
+    for make in (sun_room, glass_slab, tinted_glass, frosted_glass, water_pool, sky_court, lens_caustic):
         path = os.path.join(args.out, f"{make.__name__}.gltf")
         make(path)
         print(f"wrote {path}")

@@ -23,7 +23,14 @@ pub enum Command {
     Render(RenderArgs),
     /// relMSE, energy ratio and bad pixels of a test image against a reference (EXR, as in
     /// shared/docs/CONVENTIONS.md), as one JSON line.
-    Compare { test: PathBuf, reference: PathBuf },
+    Compare {
+        test: PathBuf,
+        reference: PathBuf,
+        /// Also where the error and energy lie: the image cut into N × N blocks, each with its
+        /// share of the squared relative error and its energy ratio (row by row, from the top).
+        #[arg(long, value_parser = clap::value_parser!(u32).range(1..=64))]
+        blocks: Option<u32>,
+    },
     /// Benchmarks.
     #[command(subcommand)]
     Bench(BenchCommand),
@@ -90,8 +97,9 @@ pub struct SuiteArgs {
     /// What traces our rays (default: auto, the BVH on a software adapter).
     #[arg(long, value_enum, default_value_t = Tracer::Auto)]
     pub tracer: Tracer,
-    /// Mitsuba's variant (`llvm_ad_rgb` is faster where drjit accepts the machine's LLVM).
-    #[arg(long, default_value = "scalar_rgb")]
+    /// Mitsuba's variant (`llvm_ad_rgb`, the fastest on a CPU, needs an LLVM that drjit accepts:
+    /// `tools/reference.py` falls back to `scalar_rgb` without one).
+    #[arg(long, default_value = "llvm_ad_rgb")]
     pub variant: String,
     /// Where Mitsuba's images go.
     #[arg(long, default_value = "out/suite")]

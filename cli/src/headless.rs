@@ -9,7 +9,7 @@ use std::time::{Duration, Instant};
 use bevy::asset::LoadState;
 use bevy::camera::RenderTarget;
 use bevy::core_pipeline::tonemapping::Tonemapping;
-use bevy::gltf::GltfAssetLabel;
+use bevy::gltf::{GltfAssetLabel, GltfExtras};
 use bevy::prelude::*;
 use bevy::render::RenderPlugin;
 use bevy::render::render_resource::{TextureFormat, TextureUsages};
@@ -211,6 +211,7 @@ pub fn load_gltf_with(scene: &Path, access: Access) -> Result<App, String> {
             ));
         }
     }
+    sphere_lights(app.world_mut());
     app.update(); // let extraction see the spawned meshes
     Ok(app)
 }
@@ -329,6 +330,25 @@ const DEFAULT_FOV: f32 = std::f32::consts::FRAC_PI_4;
 
 #[derive(Resource)]
 struct SceneReady;
+
+/// Point and spot lights whose glTF extras give `rppm_radius` (checked by `check_gltf`)
+/// become sphere lights of that radius.
+fn sphere_lights(world: &mut World) {
+    let mut lights =
+        world.query::<(&GltfExtras, Option<&mut PointLight>, Option<&mut SpotLight>)>();
+    for (extras, point, spot) in lights.iter_mut(world) {
+        let value: serde_json::Value = serde_json::from_str(&extras.value).unwrap_or_default();
+        let Some(radius) = value["rppm_radius"].as_f64().map(|r| r.max(0.0) as f32) else {
+            continue;
+        };
+        if let Some(mut point) = point {
+            point.radius = radius;
+        }
+        if let Some(mut spot) = spot {
+            spot.radius = radius;
+        }
+    }
+}
 
 /// Renders from the scene's first camera, or from a default one: 45° vertical field of view,
 /// on the +Z side of the scene's bounds, looking down −Z at their centre, with the request's

@@ -77,7 +77,11 @@ fn main() -> ExitCode {
     let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| match cli.command {
         None => render(&default_render()),
         Some(Command::Render(args)) => render(&args),
-        Some(Command::Compare { test, reference }) => compare(&test, &reference),
+        Some(Command::Compare {
+            test,
+            reference,
+            blocks,
+        }) => bevy_rppm_cli::suite::compare(&test, &reference, blocks),
         Some(Command::Bench(BenchCommand::Dirt(args))) => dirt(&args),
         Some(Command::Bench(BenchCommand::Trade(args))) => trade(&args),
         Some(Command::Bench(BenchCommand::Plot { dir })) => plot(&dir),
@@ -244,17 +248,6 @@ fn mean_rgb(image: &RgbImage) -> [f64; 3] {
         }
     }
     sum.map(|s| s / n)
-}
-
-/// Prints the metrics of shared/docs/CONVENTIONS.md for a test image against a reference.
-fn compare(test: &Path, reference: &Path) -> Result<()> {
-    let (test, reference) = (
-        read_exr(test).map_err(anyhow::Error::msg)?,
-        read_exr(reference).map_err(anyhow::Error::msg)?,
-    );
-    let score = bevy_rppm_cli::suite::Score::of(&test, &reference)?;
-    println!("{}", serde_json::to_string(&score)?);
-    Ok(())
 }
 
 #[derive(Serialize)]

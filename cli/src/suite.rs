@@ -70,6 +70,58 @@ impl Score {
     }
 }
 
+/// Prints the metrics of shared/docs/CONVENTIONS.md for a test image against a reference.
+pub fn compare(test: &Path, reference: &Path, blocks: Option<u32>) -> Result<()> {
+    let (test, reference) = (
+        read_exr(test).map_err(anyhow::Error::msg)?,
+        read_exr(reference).map_err(anyhow::Error::msg)?,
+    );
+    let score = Score::of(&test, &reference)?;
+    println!("{}", serde_json::to_string(&score)?);
+    if let Some(n) = blocks {
+        let blocks = Blocks::of(&test, &reference, n as usize)?;
+        println!("{}", serde_json::to_string(&blocks)?);
+    }
+    Ok(())
+}
+
+/// Where the error and the energy of an image lie (`rppm compare --blocks N`): the image cut
+/// into N × N blocks, row by row from the top.
+#[derive(Clone, Debug, Serialize)]
+pub struct Blocks {
+    /// Each block's share of the image's summed relative squared error (0..1, summing to 1).
+    pub error_share: Vec<Vec<f64>>,
+    /// Each block's energy ratio, mean(t) / mean(r).
+    pub energy: Vec<Vec<f64>>,
+}
+
+impl Blocks {
+    pub fn of(image: &RgbImage, reference: &RgbImage, n: usize) -> Result<Self> {
+        Score::of(image, reference)?; // the same sizes
+        let (w, h) = (reference.width, reference.height);
+        if n == 0 || n > w.min(h) {
+            bail!("{n} blocks a side do not fit a {w}x{h} image");
+        }
+        let mut sums = vec![vec![[0.0f64; 3]; n]; n]; // error, test, reference
+        for (i, (t, r)) in image.pixels.iter().zip(&reference.pixels).enumerate() {
+            let cell = &mut sums[(i / w) * n / h][(i % w) * n / w];
+            for (t, r) in t.iter().zip(r).map(|(&t, &r)| (t as f64, r as f64)) {
+                cell[0] += (t - r).powi(2) / (r * r + 0.01);
+                cell[1] += t;
+                cell[2] += r;
+            }
+        }
+        let total: f64 = sums.iter().flatten().map(|c| c[0]).sum();
+        let map = |f: &dyn Fn(&[f64; 3]) -> f64| {
+            sums.iter().map(|row| row.iter().map(f).collect()).collect()
+        };
+        Ok(Self {
+            error_share: map(&|c| if total > 0.0 { c[0] / total } else { 0.0 }),
+            energy: map(&|c| if c[2] > 0.0 { c[1] / c[2] } else { 0.0 }),
+        })
+    }
+}
+
 /// One scene's row of the table.
 #[derive(Clone, Debug)]
 pub struct SuiteRow {
@@ -208,4 +260,26 @@ pub fn table(rows: &[SuiteRow], seconds: f64) -> String {
         );
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn blocks_find_where_the_error_lies() {
+        let reference = RgbImage {
+            width: 4,
+            height: 4,
+            pixels: vec![[1.0; 3]; 16],
+        };
+        let mut image = reference.clone();
+        image.pixels[4 + 3] = [3.0; 3]; // second row, last column: block (0, 1) of 2 × 2
+        let blocks = Blocks::of(&image, &reference, 2).unwrap();
+        assert_eq!(blocks.error_share[0][1], 1.0);
+        assert_eq!(blocks.error_share[1][0], 0.0);
+        assert_eq!(blocks.energy[0][1], 1.5);
+        assert_eq!(blocks.energy[1][1], 1.0);
+        assert!(Blocks::of(&image, &reference, 5).is_err());
+    }
 }

@@ -37,6 +37,7 @@ pub struct SceneExtras {
 }
 
 fn scene_extras(root: &Value) -> Result<SceneExtras, String> {
+    light_radii(root)?;
     let sky = &root["scenes"][0]["extras"]["rppm_sky"];
     if sky.is_null() {
         return Ok(SceneExtras::default());
@@ -52,6 +53,21 @@ fn scene_extras(root: &Value) -> Result<SceneExtras, String> {
         }),
         _ => Err("scenes[0].extras.rppm_sky: expected three non-negative numbers".into()),
     }
+}
+
+/// A light's `extras.rppm_radius` (m, `PointLight::radius` and `SpotLight::radius`: a sphere
+/// light, which glTF cannot say), where given, is a non-negative number.
+fn light_radii(root: &Value) -> Result<(), String> {
+    let lights = &root["extensions"]["KHR_lights_punctual"]["lights"];
+    for (i, light) in lights.as_array().into_iter().flatten().enumerate() {
+        let radius = &light["extras"]["rppm_radius"];
+        if !radius.is_null() && radius.as_f64().is_none_or(|r| r < 0.0) {
+            return Err(format!(
+                "extensions.KHR_lights_punctual.lights[{i}].extras.rppm_radius: expected a non-negative number"
+            ));
+        }
+    }
+    Ok(())
 }
 
 fn check_bytes(bytes: &[u8], path: &Path, access: Access) -> Result<SceneExtras, String> {

@@ -11,8 +11,12 @@
 // light from a point in a direction other than the mirror one, so evaluation gives zero.
 
 fn specular_f0(m: Material) -> vec3<f32> {
-    let dielectric = vec3<f32>(0.16 * m.reflectance * m.reflectance);
-    return mix(dielectric, m.base_color.rgb, m.metallic);
+    return mix(vec3<f32>(dielectric_f0(m)), m.base_color.rgb, m.metallic);
+}
+
+// F0 of the surface's dielectric part.
+fn dielectric_f0(m: Material) -> f32 {
+    return 0.16 * m.reflectance * m.reflectance;
 }
 
 // Reflectance at grazing angles: Bevy's, which fades to 0 as F0 does (no specular at all for
@@ -67,35 +71,42 @@ fn albedo_ab_average(roughness: f32) -> vec2<f32> {
 }
 
 // What the specular lobe does with light from cos μ: `single` is what single scattering
-// reflects (F0·A + F90·B); `lost` = 1 − E(μ) what it loses at F = 1; `energy` all the lobe
-// reflects, single scattering plus Kulla and Conty's multiple-scattering lobe
-// F0 (1 − E(μo)) (1 − E(μi)) / (π (1 − E_avg)), which reflects F0·lost. At F0 = 1 the two
-// reflect everything, both ways (reciprocal, so photons and splats agree).
+// reflects (F0·A + F90·B); `lost` = 1 − E(μ) what it loses at F = 1; `dielectric` all the
+// lobe would reflect at the dielectric part's F0, single scattering plus Kulla and Conty's
+// multiple-scattering lobe F0 (1 − E(μo)) (1 − E(μi)) / (π (1 − E_avg)), which reflects
+// F0·lost. At F0 = 1 the two reflect everything, both ways (reciprocal, so photons and splats
+// agree).
 struct Specular {
     single: vec3<f32>,
     lost: f32,
-    energy: vec3<f32>,
+    dielectric: f32,
 }
 
 fn specular_at(m: Material, f0: vec3<f32>, mu: f32) -> Specular {
     if !has_glossy_lobe(m) {
-        return Specular(vec3<f32>(0.0), 0.0, vec3<f32>(0.0));
+        return Specular(vec3<f32>(0.0), 0.0, 0.0);
     }
     let ab = albedo_ab(m.perceptual_roughness, mu);
     let single = f0 * ab.x + specular_f90(f0) * ab.y;
     let lost = saturate(1.0 - ab.x - ab.y);
-    return Specular(single, lost, min(single + f0 * lost, vec3<f32>(1.0)));
+    return Specular(single, lost, dielectric_energy(m, ab, lost, 1.0));
 }
 
-// Cosine-weighted averages over the hemisphere: xyz the specular lobe's energy, w 1 − E_avg.
-fn specular_average(m: Material, f0: vec3<f32>) -> vec4<f32> {
+// What the lobe reflects at the dielectric F0, from (A, B) and 1 − A − B.
+fn dielectric_energy(m: Material, ab: vec2<f32>, lost: f32, most: f32) -> f32 {
+    let f0 = dielectric_f0(m);
+    return min(f0 * ab.x + specular_f90(vec3<f32>(f0)) * ab.y + f0 * lost, most);
+}
+
+// Cosine-weighted averages over the hemisphere: x what the lobe reflects at the dielectric
+// F0, y 1 − E_avg.
+fn specular_average(m: Material) -> vec2<f32> {
     if !has_glossy_lobe(m) {
-        return vec4<f32>(0.0, 0.0, 0.0, 1.0);
+        return vec2<f32>(0.0, 1.0);
     }
     let avg = albedo_ab_average(m.perceptual_roughness);
     let lost = max(1.0 - avg.x - avg.y, 1e-3);
-    let energy = f0 * avg.x + specular_f90(f0) * avg.y + f0 * lost;
-    return vec4<f32>(min(energy, vec3<f32>(0.999)), lost);
+    return vec2<f32>(dielectric_energy(m, avg, lost, 0.999), lost);
 }
 
 // The share of a surface that is glass (Bevy's specular transmission of a dielectric).
@@ -109,24 +120,29 @@ fn diffuse_color(m: Material) -> vec3<f32> {
 }
 
 // π f of the lobes without a direction of their own: the diffuse lobe, shaped by what the
-// specular layer leaves on the way in and out (reciprocal, after Kelemen and Szirmay-Kalos),
-// plus the multiple-scattering lobe. The base colour is the albedo a surface shows: averaged
-// over directions, diffuse and specular together reflect exactly the diffuse colour (as the
-// Lambertian references do, shared/docs/CONVENTIONS.md), and a white surface reflects all
-// light at every angle. Bevy adds the specular layer on top of the base colour instead: a
-// few percent brighter for direct light, but bounced many times (as photons are) it compounds.
-fn cosine_lobes(m: Material, f0: vec3<f32>, o: Specular, i: Specular, avg: vec4<f32>) -> vec3<f32> {
-    let left = vec3<f32>(1.0) - avg.xyz;
-    let albedo = max(diffuse_color(m) - avg.xyz, vec3<f32>(0.0)) / left;
-    let diffuse = albedo * (vec3<f32>(1.0) - o.energy) * (vec3<f32>(1.0) - i.energy) / left;
-    return diffuse + f0 * (o.lost * i.lost / avg.w);
+// dielectric part's specular layer leaves on the way in and out (reciprocal, after Kelemen
+// and Szirmay-Kalos), plus the multiple-scattering lobe. The base colour is the albedo a
+// surface shows: averaged over directions, diffuse and specular together reflect exactly the
+// diffuse colour (as the Lambertian references do, shared/docs/CONVENTIONS.md), and a white
+// surface reflects all light at every angle. Bevy adds the specular layer on top of the base
+// colour instead: a few percent brighter for direct light, but bounced many times (as photons
+// are) it compounds. Metallic m mixes the dielectric and the metal linearly, as glTF defines
+// it: the diffuse lobe is (1 − m) of the dielectric's (once a half-metal's whole specular
+// energy came out of its diffuse lobe, and a metallic texture's stripe edges read dark).
+fn cosine_lobes(m: Material, f0: vec3<f32>, o: Specular, i: Specular, avg: vec2<f32>) -> vec3<f32> {
+    let diffuse = diffuse_albedo(m, avg) * ((1.0 - o.dielectric) * (1.0 - i.dielectric) / (1.0 - avg.x));
+    return diffuse + f0 * (o.lost * i.lost / avg.y);
+}
+
+// The diffuse lobe's albedo at normal shaping, from `specular_average`.
+fn diffuse_albedo(m: Material, avg: vec2<f32>) -> vec3<f32> {
+    let dielectric = m.base_color.rgb * (1.0 - m.specular_transmission);
+    return max(dielectric - avg.x, vec3<f32>(0.0)) * ((1.0 - m.metallic) / (1.0 - avg.x));
 }
 
 // What the cosine lobes reflect of light from i (the photons' choice of them).
-fn cosine_lobes_energy(m: Material, f0: vec3<f32>, i: Specular, avg: vec4<f32>) -> vec3<f32> {
-    let left = vec3<f32>(1.0) - avg.xyz;
-    let albedo = max(diffuse_color(m) - avg.xyz, vec3<f32>(0.0)) / left;
-    return albedo * (vec3<f32>(1.0) - i.energy) + f0 * i.lost;
+fn cosine_lobes_energy(m: Material, f0: vec3<f32>, i: Specular, avg: vec2<f32>) -> vec3<f32> {
+    return diffuse_albedo(m, avg) * (1.0 - i.dielectric) + f0 * i.lost;
 }
 
 // f(wo, wi), without the cosine. wo and wi point away from the surface, on n's side (light
@@ -152,7 +168,7 @@ fn bsdf_from(m: Material, n: vec3<f32>, wo: vec3<f32>) -> Outgoing {
     let f0 = specular_f0(l);
     let n_dot_v = dot(n, wo);
     let o = specular_at(l, f0, n_dot_v);
-    return Outgoing(f0, n_dot_v, o.single, o.lost, o.energy, specular_average(l, f0));
+    return Outgoing(f0, n_dot_v, o.single, o.lost, o.dielectric, specular_average(l));
 }
 
 // f(wo, wi) from `out = bsdf_from(m, n, wo)`.
@@ -173,7 +189,7 @@ fn layers_toward(m: Material, out: Outgoing, n: vec3<f32>, wo: vec3<f32>, wi: ve
         return vec3<f32>(0.0);
     }
     let i = specular_at(m, out.fresnel, n_dot_l);
-    let o = Specular(out.single, out.lost, out.energy);
+    let o = Specular(out.single, out.lost, out.dielectric);
     var f = cosine_lobes(m, out.fresnel, o, i, out.average) / PI;
     if has_glossy_lobe(m) {
         let a = m.perceptual_roughness * m.perceptual_roughness;
@@ -288,7 +304,7 @@ fn scatter_photon(material: Material, n: vec3<f32>, wi: vec3<f32>, front: bool, 
     u -= p_glossy;
 #endif
     // Diffuse and multiple scattering, both cosine-sampled.
-    let avg = specular_average(m, f0);
+    let avg = specular_average(m);
     let p_cosine = min(luminance(cosine_lobes_energy(m, f0, i, avg)), left);
     left -= p_cosine;
     if u < p_cosine {

@@ -203,11 +203,11 @@ struct Outgoing {
     // F0, specular_f0 (naga_oil takes no digit in an imported struct's field name).
     fresnel: vec3<f32>,
     n_dot_v: f32,
-    // `specular_at` wo: single, lost, energy.
+    // `specular_at` wo: single, lost, dielectric; `specular_average`.
     single: vec3<f32>,
     lost: f32,
-    energy: vec3<f32>,
-    average: vec4<f32>,
+    dielectric: f32,
+    average: vec2<f32>,
 }
 
 // A stored photon (64 bytes, the RPPM budget).

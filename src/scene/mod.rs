@@ -386,7 +386,12 @@ impl SceneData {
                 let dielectric = 0.16 * m.reflectance * m.reflectance;
                 let f0 = base.map(|c| dielectric + (c - dielectric) * m.metallic);
                 let specular = specular_energy_average(m.perceptual_roughness, f0);
-                let albedo = [0, 1, 2].map(|k| (base[k] * diffuse).max(specular[k]));
+                // The dielectric part's diffuse lobe (cosine_lobes in bsdf.wgsl) beside it.
+                let own = specular_energy_average(m.perceptual_roughness, [dielectric; 3])[0];
+                let albedo = [0, 1, 2].map(|k| {
+                    (1.0 - m.metallic) * (base[k] * (1.0 - m.specular_transmission) - own).max(0.0)
+                        + specular[k]
+                });
                 // Rough glass reflects or refracts nearly all it receives.
                 luminance(albedo).max(m.glass_share()).min(1.0)
             })

@@ -135,7 +135,7 @@ fn textured_scenes_match_their_references() {
         let energy = energy_ratio(&image, &reference).unwrap();
         let error = relmse(&image, &reference).unwrap();
         println!("{scene}: energy {energy:.4}, relMSE {error:.4} after 16 iterations at 64²");
-        if !(0.97..=1.03).contains(&energy) || error > 0.03 {
+        if !(0.97..=1.03).contains(&energy) || error > 0.015 {
             failures.push(format!("{scene}: energy {energy:.4}, relMSE {error:.4}"));
         }
     }

@@ -30,6 +30,8 @@ pub fn numbers() -> Vec<Case> {
         ("a camera node of a zero matrix", "/nodes/2", json!({"camera": 0, "matrix": vec![0.0; 16]})),
         ("a camera without a projection", "/cameras/0", json!({"type": "perspective"})),
         ("a light of an unknown type", "/extensions/KHR_lights_punctual/lights/0/type", json!("laser")),
+        ("a light radius of -1", "/extensions/KHR_lights_punctual/lights/0/extras", json!({"rppm_radius": -1.0})),
+        ("a light radius that is text", "/extensions/KHR_lights_punctual/lights/0/extras", json!({"rppm_radius": "big"})),
     ]
     .into_iter()
     .map(|(name, pointer, value)| edited(name, g, error(bad), move |s| set(s, pointer, value)))
@@ -50,6 +52,11 @@ pub fn numbers() -> Vec<Case> {
             "an emissive factor of 1e30",
             "/materials/0/emissiveFactor",
             json!([1e30, 1e30, 1e30]),
+        ),
+        (
+            "a sphere light of radius 1e6, around the scene",
+            "/extensions/KHR_lights_punctual/lights/0/extras",
+            json!({"rppm_radius": 1e6}),
         ),
         (
             "a light intensity of 0",

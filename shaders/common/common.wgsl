@@ -122,6 +122,8 @@ struct Light {
 
 struct Emitter {
     triangle: u32,
+    // The part of the triangle (src/scene/parts.rs; 0 the whole), `area` its area.
+    part: u32,
     area: f32,
     power: f32,
     cdf: f32,

@@ -3,7 +3,7 @@
 // (direct light is the local-illumination stage's), then scattered by the material
 // (bsdf.wgsl's scatter_photon: diffuse, GGX glossy, mirror, Fresnel glass) or absorbed.
 #import bevy_rppm::common::{Light, Photon, IterationParams, PI, cubemap_tile, list_block, LIGHT_POINT, LIGHT_SPOT, LIGHT_DIRECTIONAL, random, pcg_hash, basis_around, cosine_direction}
-#import bevy_rppm::scene::{triangle_at, material_at, as_seen_from, normal_at, interpolated_normal, triangle_point, uniform_barycentrics, lights, emitters, light_cdf, find_source}
+#import bevy_rppm::scene::{triangle_at, material_at, as_seen_from, normal_at, interpolated_normal, triangle_point, uniform_barycentrics, part_barycentrics, lights, emitters, light_cdf, find_source}
 #import bevy_rppm::cubemap::{cubemap, trace_ray, NO_HIT}
 #import bevy_rppm::bsdf::{stores_photons, scatter_photon}
 #ifdef ABSORPTION
@@ -60,7 +60,7 @@ fn emit(rng: ptr<function, u32>) -> Ray {
         let e = emitters[index - params.light_count];
         let t = triangle_at(e.triangle);
         let u = random(rng);
-        let b = uniform_barycentrics(u, random(rng));
+        let b = part_barycentrics(e.part, uniform_barycentrics(u, random(rng)));
         ray.origin = triangle_point(t, b);
         let n = normalize(cross(t.position_b - t.position_a, t.position_c - t.position_a));
         ray.direction = cosine_direction(n, vec2<f32>(random(rng), random(rng)));

@@ -62,6 +62,26 @@ fn uniform_barycentrics(u: f32, v: f32) -> vec2<f32> {
     return vec2<f32>(r * (1.0 - v), r * v);
 }
 
+// Barycentrics b within an emitter's `part` of its triangle (src/scene/parts.rs: the level in
+// the low 4 bits, then a base-4 digit a cut choosing a child of the corners).
+fn part_barycentrics(part: u32, b: vec2<f32>) -> vec2<f32> {
+    var p = vec2<f32>(0.0);
+    var q = vec2<f32>(1.0, 0.0);
+    var r = vec2<f32>(0.0, 1.0);
+    for (var i = 0u; i < (part & 15u); i++) {
+        let pq = 0.5 * (p + q);
+        let qr = 0.5 * (q + r);
+        let rp = 0.5 * (r + p);
+        switch (part >> (4u + 2u * i)) & 3u {
+            case 0u: { q = pq; r = rp; }
+            case 1u: { p = pq; r = qr; }
+            case 2u: { p = rp; q = qr; }
+            default: { p = qr; q = rp; r = pq; }
+        }
+    }
+    return p + (q - p) * b.x + (r - p) * b.y;
+}
+
 // The material of a camera G-buffer texel (w: ±(triangle + 1)) `footprint` metres wide.
 fn gbuffer_material(position: vec4<f32>, footprint: f32) -> Material {
     let triangle = u32(abs(position.w)) - 1u;

@@ -8,7 +8,7 @@
 
 #import bevy_rppm::common::{Material, Light, IterationParams, PI, LIGHT_SPOT, LIGHT_DIRECTIONAL, face_of, random, basis_around, cosine_direction}
 #import bevy_rppm::bsdf::bsdf_eval
-#import bevy_rppm::scene::{shadow_views, lights, triangles, triangle_at, material_at, emitters, light_cdf, find_source, triangle_point, uniform_barycentrics}
+#import bevy_rppm::scene::{shadow_views, lights, triangles, triangle_at, material_at, emitters, light_cdf, find_source, triangle_point, uniform_barycentrics, part_barycentrics}
 #ifdef TRACED_SHADOWS
 #import bevy_rppm::cubemap::occluded
 #endif
@@ -139,7 +139,7 @@ fn emitter_sample(x: vec3<f32>, origin_triangle: u32, rng: ptr<function, u32>) -
     let e = emitters[index - params.light_count];
     let t = triangle_at(e.triangle);
     let u = random(rng);
-    let b = uniform_barycentrics(u, random(rng));
+    let b = part_barycentrics(e.part, uniform_barycentrics(u, random(rng)));
     let y = triangle_point(t, b);
     let to_light = y - x;
     let d2 = max(dot(to_light, to_light), 1e-12);

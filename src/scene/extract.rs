@@ -11,7 +11,7 @@ use super::material::material_to_gpu;
 use super::textures::{GpuTexture, MAX_TEXTURE_SIZE, NO_TEXTURE, PackedTexture, TEXEL_BUDGET};
 use super::{
     GpuEmitter, GpuInstance, MaterialFlags, RppmScene, SceneData, SceneMesh, deform, lights,
-    luminance, mesh,
+    luminance, mesh, parts,
 };
 use bevy::math::Affine3A;
 
@@ -346,6 +346,19 @@ impl TextureTable {
 }
 
 fn collect_emitters(data: &mut SceneData, textures: &[Arc<PackedTexture>]) {
+    // Cuts a textured emissive triangle may get: as many as keep all their parts together
+    // within parts::MAX_PARTS.
+    let textured: usize = data
+        .instances
+        .iter()
+        .filter(|i| {
+            let m = &data.materials[i.material as usize];
+            textures.get(m.textures[2] as usize).is_some()
+                && m.emissive[..3].iter().any(|&e| e > 0.0)
+        })
+        .map(|i| data.meshes[i.mesh as usize].triangles.len())
+        .sum();
+    let most = parts::most_cuts(textured);
     for instance in &data.instances {
         let m = &data.materials[instance.material as usize];
         let radiance = luminance([m.emissive[0], m.emissive[1], m.emissive[2]]);
@@ -354,47 +367,76 @@ fn collect_emitters(data: &mut SceneData, textures: &[Arc<PackedTexture>]) {
         }
         let mesh = &data.meshes[instance.mesh as usize];
         let texture = textures.get(m.textures[2] as usize);
+        let transform = Mat2::from_cols_array(&m.uv_transform);
+        let offset = Vec2::from_slice(&m.uv_offset);
         for (k, local) in mesh.triangles.iter().enumerate() {
-            let mut radiance = radiance;
-            if let Some(packed) = texture
-                && let Some(attributes) = mesh.attributes.get(k)
-            {
-                // The texture's mean over the triangle, from a few points: photons leave it in
-                // proportion (the shaders weight each by the texel it leaves from, so a rough
-                // mean costs noise, never bias; a floor keeps every texel reachable).
-                let uv = |b: [f32; 3]| {
-                    let [a, bb, c] = attributes.uv.map(Vec2::from);
-                    let local = a * b[0] + bb * b[1] + c * b[2];
-                    Mat2::from_cols_array(&m.uv_transform) * local + Vec2::from_slice(&m.uv_offset)
-                };
-                let points = [
-                    [1.0 / 3.0; 3],
-                    [2.0 / 3.0, 1.0 / 6.0, 1.0 / 6.0],
-                    [1.0 / 6.0, 2.0 / 3.0, 1.0 / 6.0],
-                    [1.0 / 6.0, 1.0 / 6.0, 2.0 / 3.0],
-                ];
-                let mean = points
-                    .iter()
-                    .map(|&b| luminance(packed.sample(uv(b)).truncate().to_array()))
-                    .sum::<f32>()
-                    / points.len() as f32;
-                radiance *= mean.max(0.01);
-            }
             let area = instance.place(local).area();
-            let power = std::f32::consts::PI * radiance * area;
-            if power > 0.0 && power.is_finite() {
-                data.emitters.push(GpuEmitter {
-                    triangle: instance.first_world + k as u32,
-                    area,
-                    power,
-                    cdf: 0.0,
-                });
+            let triangle = instance.first_world + k as u32;
+            let textured = texture.zip(mesh.attributes.get(k));
+            let Some((packed, attributes)) = textured else {
+                push_emitter(&mut data.emitters, triangle, 0, area, radiance);
+                continue;
+            };
+            // Texture coordinates at world barycentrics (placing a mirrored instance swaps
+            // its second and third vertices).
+            let [a, b, c] = attributes.uv.map(Vec2::from);
+            let (b, c) = if instance.mirrored != 0 {
+                (c, b)
+            } else {
+                (b, c)
+            };
+            let uv = |w: Vec2| transform * (a + (b - a) * w.x + (c - a) * w.y) + offset;
+            let texels = (transform * (b - a)).perp_dot(transform * (c - a)).abs()
+                * 0.5
+                * (packed.width * packed.height) as f32;
+            // Photons leave each part in proportion to the texture's mean over it, from a few
+            // points (the shaders weight each by the texel it leaves from, so a rough mean
+            // costs noise, never bias; a floor keeps every texel reachable).
+            let level = parts::level_for(texels).min(most);
+            let share = area / (1u32 << (2 * level)) as f32;
+            for part in parts::parts(level) {
+                let [p, q, r] = parts::corners(part);
+                let mean = [
+                    [4.0, 1.0, 1.0],
+                    [1.0, 4.0, 1.0],
+                    [1.0, 1.0, 4.0],
+                    [2.0, 2.0, 2.0],
+                ]
+                .iter()
+                .map(|w| {
+                    let at = (p * w[0] + q * w[1] + r * w[2]) / 6.0;
+                    luminance(packed.sample(uv(at)).truncate().to_array())
+                })
+                .sum::<f32>()
+                    / 4.0;
+                let power = radiance * mean.max(0.01);
+                push_emitter(&mut data.emitters, triangle, part, share, power);
             }
         }
     }
     let cdf = cdf(data.emitters.iter().map(|e| e.power));
     for (e, c) in data.emitters.iter_mut().zip(cdf) {
         e.cdf = c;
+    }
+}
+
+/// An emitter of `radiance` (luminance) over `area` of a triangle's `part`, if it emits.
+fn push_emitter(
+    emitters: &mut Vec<GpuEmitter>,
+    triangle: u32,
+    part: u32,
+    area: f32,
+    radiance: f32,
+) {
+    let power = std::f32::consts::PI * radiance * area;
+    if power > 0.0 && power.is_finite() {
+        emitters.push(GpuEmitter {
+            triangle,
+            part,
+            area,
+            power,
+            cdf: 0.0,
+        });
     }
 }
 

@@ -11,6 +11,7 @@ mod lights;
 mod material;
 mod mesh;
 mod packed;
+pub mod parts;
 pub mod place;
 pub mod prepare;
 pub mod textures;
@@ -197,14 +198,17 @@ pub struct GpuLight {
     pub radiance: [f32; 4],
 }
 
-/// An emissive triangle, an area light (16 bytes).
+/// An emissive triangle or a part of one, an area light (20 bytes).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuEmitter {
     pub triangle: u32,
+    /// The part of the triangle it covers (`parts`: 0 the whole; a textured emitter's parts
+    /// each carry the texture's power over them).
+    pub part: u32,
     /// Area in m².
     pub area: f32,
-    /// Emitted power π·L·A (W, luminance-weighted).
+    /// Emitted power π·L·A (W, luminance-weighted), by the texture's mean over the part.
     pub power: f32,
     /// Cumulative distribution over emitters (inclusive), in (0, 1].
     pub cdf: f32,

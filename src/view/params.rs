@@ -82,7 +82,9 @@ pub fn area_sample(data: &SceneData, iteration: u32) -> Option<(Vec3, Vec3, Vec3
     let triangle: GpuTriangle = data.triangle(emitter.triangle as usize)?;
     let [a, b, c] = triangle.positions();
     let (r1, r2) = (unit_random(&mut seed).sqrt(), unit_random(&mut seed));
-    let point = a * (1.0 - r1) + b * (r1 * (1.0 - r2)) + c * (r1 * r2);
+    let [p, q, r] = crate::scene::parts::corners(emitter.part);
+    let w = p + (q - p) * (r1 * (1.0 - r2)) + (r - p) * (r1 * r2);
+    let point = a + (b - a) * w.x + (c - a) * w.y;
     let normal = (b - a).cross(c - a).normalize();
     let emissive = Vec4::from(data.materials[triangle.material as usize].emissive).truncate();
     let weight = emissive * (emitter.area / probability);

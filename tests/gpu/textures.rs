@@ -109,6 +109,34 @@ fn untextured_scenes_hold_no_texture_data() {
     );
 }
 
+/// A striped emissive texture (the textured box's ceiling panel, stripes 6× apart) splits its
+/// two triangles into parts whose powers follow the stripes, so photons leave bright texels
+/// more often; the parts cover the panel's area exactly.
+#[test]
+fn textured_emitters_emit_in_proportion_to_their_texture() {
+    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/suite/textured_box.gltf");
+    let app = bevy_rppm_cli::headless::load_gltf(&scene).unwrap();
+    let data = &app.world().resource::<RppmScene>().data;
+    let panel: Vec<_> = data.emitters.iter().filter(|e| e.part != 0).collect();
+    assert!(panel.len() >= 2 * 16, "{} parts", panel.len());
+    let (low, high) = panel.iter().fold((f32::MAX, 0.0f32), |(l, h), e| {
+        let density = e.power / e.area;
+        (l.min(density), h.max(density))
+    });
+    assert!(high > 3.0 * low, "part power densities {low}..{high}");
+    let mut triangles: Vec<_> = panel.iter().map(|e| e.triangle).collect();
+    triangles.dedup();
+    let whole: f32 = triangles
+        .iter()
+        .map(|&t| {
+            let [a, b, c] = data.triangle(t as usize).unwrap().positions();
+            0.5 * (b - a).cross(c - a).length()
+        })
+        .sum();
+    let parts: f32 = panel.iter().map(|e| e.area).sum();
+    assert!((parts / whole - 1.0).abs() < 1e-4, "{parts} of {whole} m²");
+}
+
 /// The textured scenes against their references at 64², 16 iterations: the box (checker
 /// floor, vertex-coloured wall, striped emitter, light through the cut-out screen's holes;
 /// without its textures relMSE is 14.6 at 256²) and the metal one (normal-mapped bumps

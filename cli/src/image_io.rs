@@ -106,12 +106,14 @@ pub fn relmse(test: &RgbImage, reference: &RgbImage) -> Result<f64, String> {
         .iter()
         .flatten()
         .zip(reference.pixels.iter().flatten())
-        .map(|(&t, &r)| {
-            let (t, r) = (t as f64, r as f64);
-            (t - r).powi(2) / (r * r + 0.01)
-        })
+        .map(|(&t, &r)| relative_error(t as f64, r as f64))
         .sum();
     Ok(sum / (3 * test.pixels.len()).max(1) as f64)
+}
+
+/// One channel's (t − r)² / (r² + 0.01), whose mean is the relMSE.
+pub fn relative_error(t: f64, r: f64) -> f64 {
+    (t - r).powi(2) / (r * r + 0.01)
 }
 
 /// mean(t) / mean(r).
@@ -130,7 +132,8 @@ pub fn bad_pixels(image: &RgbImage) -> usize {
         .count()
 }
 
-fn same_size(a: &RgbImage, b: &RgbImage) -> Result<(), String> {
+/// Both images have the same size.
+pub fn same_size(a: &RgbImage, b: &RgbImage) -> Result<(), String> {
     if (a.width, a.height) != (b.width, b.height) {
         return Err(format!(
             "image sizes differ: {}x{} against {}x{}",

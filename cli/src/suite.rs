@@ -11,7 +11,9 @@ use bevy_rppm::PhotonMapping;
 use serde::{Deserialize, Serialize};
 
 use crate::headless::{Budget, RenderRequest, render_gltf};
-use crate::image_io::{RgbImage, bad_pixels, energy_ratio, read_exr, relmse};
+use crate::image_io::{
+    RgbImage, bad_pixels, energy_ratio, read_exr, relative_error, relmse, same_size,
+};
 
 /// A scene and its reference.
 #[derive(Clone, Debug)]
@@ -97,7 +99,7 @@ pub struct Blocks {
 
 impl Blocks {
     pub fn of(image: &RgbImage, reference: &RgbImage, n: usize) -> Result<Self> {
-        Score::of(image, reference)?; // the same sizes
+        same_size(image, reference).map_err(anyhow::Error::msg)?;
         let (w, h) = (reference.width, reference.height);
         if n == 0 || n > w.min(h) {
             bail!("{n} blocks a side do not fit a {w}x{h} image");
@@ -106,7 +108,7 @@ impl Blocks {
         for (i, (t, r)) in image.pixels.iter().zip(&reference.pixels).enumerate() {
             let cell = &mut sums[(i / w) * n / h][(i % w) * n / w];
             for (t, r) in t.iter().zip(r).map(|(&t, &r)| (t as f64, r as f64)) {
-                cell[0] += (t - r).powi(2) / (r * r + 0.01);
+                cell[0] += relative_error(t, r);
                 cell[1] += t;
                 cell[2] += r;
             }

@@ -348,20 +348,21 @@ impl TextureTable {
 fn collect_emitters(data: &mut SceneData, textures: &[Arc<PackedTexture>]) {
     // Cuts a textured emissive triangle may get: as many as keep all their parts together
     // within parts::MAX_PARTS.
+    let radiance =
+        |m: &super::GpuMaterial| luminance([m.emissive[0], m.emissive[1], m.emissive[2]]);
     let textured: usize = data
         .instances
         .iter()
         .filter(|i| {
             let m = &data.materials[i.material as usize];
-            textures.get(m.textures[2] as usize).is_some()
-                && m.emissive[..3].iter().any(|&e| e > 0.0)
+            textures.get(m.textures[2] as usize).is_some() && radiance(m) > 0.0
         })
         .map(|i| data.meshes[i.mesh as usize].triangles.len())
         .sum();
     let most = parts::most_cuts(textured);
     for instance in &data.instances {
         let m = &data.materials[instance.material as usize];
-        let radiance = luminance([m.emissive[0], m.emissive[1], m.emissive[2]]);
+        let radiance = radiance(m);
         if radiance <= 0.0 {
             continue;
         }

@@ -128,10 +128,7 @@ fn textured_emitters_emit_in_proportion_to_their_texture() {
     triangles.dedup();
     let whole: f32 = triangles
         .iter()
-        .map(|&t| {
-            let [a, b, c] = data.triangle(t as usize).unwrap().positions();
-            0.5 * (b - a).cross(c - a).length()
-        })
+        .map(|&t| data.triangle(t as usize).unwrap().area())
         .sum();
     let parts: f32 = panel.iter().map(|e| e.area).sum();
     assert!((parts / whole - 1.0).abs() < 1e-4, "{parts} of {whole} m²");

@@ -199,6 +199,10 @@ pub struct PhotonMapping {
     /// reported (`ViewStats::wall_ms_per_iteration`). Trustworthy where GPU timestamps are
     /// not (llvmpipe's overlap), and slow: it stalls the GPU between stages. Default false.
     pub profile_stages: bool,
+    /// Which random numbers the estimate draws: renders of one scene with different seeds
+    /// are independent (for averaging them, or a reference that shares no noise with a
+    /// render). Any value; default 0.
+    pub seed: u32,
 }
 
 /// Settings chosen from the speed/accuracy measurements of `rppm bench trade` (see the
@@ -236,6 +240,7 @@ impl Default for PhotonMapping {
             history: RppmHistory::default(),
             tracer: RppmTracer::default(),
             profile_stages: false,
+            seed: 0,
         }
     }
 }

@@ -117,6 +117,9 @@ pub enum MotionScript {
     Light,
     /// The glTF animation `--animation` plays at 30 frames per second.
     Animation,
+    /// `--object` (or the first point or spot light) slides a quarter of the scene's radius
+    /// over frames F/4…F/2 and stops: also reports each run's lag and ghost after the stop.
+    Slide,
 }
 
 #[derive(Args)]
@@ -128,6 +131,9 @@ pub struct MotionArgs {
     /// The glTF animation of `--script animation`.
     #[arg(long, default_value_t = 0)]
     pub animation: usize,
+    /// The glTF node that `--script slide` moves (default: the first point or spot light).
+    #[arg(long)]
+    pub object: Option<String>,
     /// Frames rendered (one `PhotonMapping` frame each).
     #[arg(long, default_value_t = 48, value_parser = clap::value_parser!(u32).range(1..=10_000))]
     pub frames: u32,
@@ -260,6 +266,10 @@ pub struct RenderArgs {
     /// (`wall_ms_per_iteration` in the stats; slow).
     #[arg(long)]
     pub profile: bool,
+    /// Which random numbers the render draws (`PhotonMapping::seed`): renders with different
+    /// seeds are independent.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u32,
     /// What traces the rays (default: auto, the BVH on a software adapter, else the deep
     /// cubemap).
     #[arg(long, value_enum, default_value_t = Tracer::Auto)]
@@ -408,6 +418,7 @@ impl RenderArgs {
         s.kernel_flattening = self.flattening.unwrap_or(s.kernel_flattening);
         s.splat_russian_roulette |= self.splat_rr;
         s.profile_stages |= self.profile;
+        s.seed = self.seed;
         s.tracer = self.tracer.into();
         if let Some(view) = self.debug_view {
             s.debug_view = match view {

@@ -423,7 +423,7 @@ fn suite(args: &SuiteArgs) -> Result<()> {
 
 fn motion(args: &MotionArgs) -> Result<()> {
     use bevy_rppm_cli::motion::{
-        MotionRequest, Script, bench_motion, write_csv, write_images, write_plot,
+        MotionRequest, Script, bench_motion, print_report, write_csv, write_images, write_plot,
     };
     check_gltf(&args.scene, Access::default()).map_err(anyhow::Error::msg)?;
     std::fs::create_dir_all(&args.out)
@@ -432,6 +432,7 @@ fn motion(args: &MotionArgs) -> Result<()> {
         MotionScript::Orbit => Script::Orbit,
         MotionScript::Light => Script::Light,
         MotionScript::Animation => Script::Animation(args.animation),
+        MotionScript::Slide => Script::Slide(args.object.clone()),
     };
     let request = MotionRequest {
         scene: args.scene.clone(),
@@ -450,26 +451,7 @@ fn motion(args: &MotionArgs) -> Result<()> {
     };
     let result =
         bench_motion(&request, |step| eprintln!("rppm: {step}")).map_err(anyhow::Error::msg)?;
-    println!("| frame | Reset relMSE | Reuse relMSE |");
-    println!("|---:|---:|---:|");
-    for r in &result.rows {
-        println!("| {} | {:.5} | {:.5} |", r.frame, r.reset, r.reuse);
-    }
-    let n = result.rows.len().max(1) as f64;
-    let mean = |f: fn(&bevy_rppm_cli::motion::MotionRow) -> f64| {
-        result.rows.iter().map(f).sum::<f64>() / n
-    };
-    let (reset, reuse) = (mean(|r| r.reset), mean(|r| r.reuse));
-    let fps = |s: f64| args.frames as f64 / s.max(1e-9);
-    println!(
-        "mean relMSE: Reset {reset:.5}, Reuse {reuse:.5} ({:.1}× lower); frames/s: Reset {:.2}, \
-         Reuse {:.2} ({} frames, {:?} script)",
-        reset / reuse.max(1e-12),
-        fps(result.seconds[0]),
-        fps(result.seconds[1]),
-        args.frames,
-        script,
-    );
+    print_report(&result, args.frames, &format!("{script:?}"));
     write_csv(&result, &args.out)?;
     let title = format!(
         "{}: {:?}, {}x{}, {} photons",

@@ -4,8 +4,10 @@
 // history kept through motion.
 #import bevy_rppm::common::{IterationParams, subsample_representative}
 #ifdef SUBSAMPLED
-#import bevy_rppm::scene::gbuffer_material
 #import bevy_rppm::bsdf::bsdf_eval
+#import bevy_rppm::scene::{gbuffer_material, materials, triangles}
+#else ifdef HISTORY
+#import bevy_rppm::scene::{gbuffer_material, materials, triangles}
 #endif
 
 @group(1) @binding(0) var<uniform> params: IterationParams;
@@ -57,6 +59,35 @@ fn same_surface(kept: vec4<f32>, position: vec4<f32>, normal: vec4<f32>) -> bool
     return near && dot(kept_normal, normal.xyz) > 0.9;
 }
 
+// Perceptual roughness under which a metal's or glass's direct light is what it shows of the
+// lights and emitters: their small, bright images, which one jittered sample hits or misses.
+const SPECULAR_ROUGHNESS: f32 = 0.5;
+
+// Whether the surface at a G-buffer texel mirrors or refracts: glass and glossy metal.
+fn specular_at(position: vec4<f32>, footprint: f32) -> bool {
+    if position.w == 0.0 {
+        return false;
+    }
+    let m = gbuffer_material(position, footprint);
+    let specular = m.metallic >= 0.5 || m.specular_transmission > 0.0;
+    return specular && m.perceptual_roughness < SPECULAR_ROUGHNESS;
+}
+
+// Whether this pixel or one of its eight neighbours sees an emissive surface: light whose
+// direct part is mostly its emission, which a change elsewhere in the scene leaves alone.
+fn emitter_nearby(pixel: vec2<u32>) -> bool {
+    var found = false;
+    for (var k = 0; k < 9; k += 1) {
+        let at = vec2<i32>(pixel) + vec2<i32>(k % 3 - 1, k / 3 - 1);
+        let p = clamp(at, vec2<i32>(0), vec2<i32>(params.size) - 1);
+        let position = textureLoad(gbuffer_position, p, 0);
+        // The emissive factor (a texture only scales it), seen from the front.
+        let m = materials[triangles[u32(max(position.w, 1.0)) - 1u].material];
+        found = found || (position.w > 0.0 && any(m.emissive.rgb > vec3<f32>(0.0)));
+    }
+    return found;
+}
+
 // Whether this pixel or one of its eight neighbours sees the kept surface now.
 fn surface_nearby(kept: vec4<f32>, pixel: vec2<u32>) -> bool {
     var found = false;
@@ -70,25 +101,27 @@ fn surface_nearby(kept: vec4<f32>, pixel: vec2<u32>) -> bool {
     return found;
 }
 
-// The neighbourhood of each pixel whose indirect samples bound its history while a scene
-// change settles: (2 RADIUS + 1)² pixels, read from a workgroup tile of this iteration's.
+// The neighbourhood of each pixel whose samples bound its history while a scene change
+// settles: (2 RADIUS + 1)² pixels, read from a workgroup tile of this iteration's, direct
+// light ([0]) and indirect ([1]) apart.
 const RADIUS: u32 = 2u;
 const TILE: u32 = 8u + 2u * RADIUS;
-var<workgroup> tile: array<vec3<f32>, TILE * TILE>;
+var<workgroup> tile: array<array<vec3<f32>, 2>, TILE * TILE>;
 
 // Width of the box history is clamped to, in standard deviations of the neighbourhood's
 // samples (variance clipping, Salvi 2016): light that left or came is clamped to this
 // iteration's, while noise, which spreads the neighbourhood as much, passes.
 const GAMMA: f32 = 1.0;
 
-// Fills the tile around workgroup `group` with indirect samples (pixels outside the image
-// repeat its edge).
+// Fills the tile around workgroup `group` with direct and indirect samples (pixels outside
+// the image repeat its edge).
 fn fill_tile(group: vec2<u32>, thread: u32) {
     let origin = vec2<i32>(group * 8u) - i32(RADIUS);
     for (var k = thread; k < TILE * TILE; k += 64u) {
         let at = origin + vec2<i32>(i32(k % TILE), i32(k / TILE));
         let pixel = vec2<u32>(clamp(at, vec2<i32>(0), vec2<i32>(params.size) - 1));
-        tile[k] = iteration_sample(pixel) - samples[pixel.y * params.size.x + pixel.x].rgb;
+        let direct = samples[pixel.y * params.size.x + pixel.x].rgb;
+        tile[k] = array<vec3<f32>, 2>(direct, iteration_sample(pixel) - direct);
     }
 }
 
@@ -96,14 +129,14 @@ fn tile_index(local: vec2<u32>) -> u32 {
     return (local.y + RADIUS) * TILE + local.x + RADIUS;
 }
 
-// Indirect history clamped to mean ± GAMMA σ of the neighbourhood's samples, per channel.
-// (Direct light needs no clamp: a scene change starts it again, a camera move keeps it.)
-fn clamped(history: vec3<f32>, local: vec2<u32>) -> vec3<f32> {
+// Direct (part 0) or indirect (1) history clamped to mean ± GAMMA σ of the neighbourhood's
+// samples of it, per channel.
+fn clamped(history: vec3<f32>, local: vec2<u32>, part: u32) -> vec3<f32> {
     var sum = vec3<f32>(0.0);
     var squares = vec3<f32>(0.0);
     for (var y = 0u; y <= 2u * RADIUS; y += 1u) {
         for (var x = 0u; x <= 2u * RADIUS; x += 1u) {
-            let sample = tile[(local.y + y) * TILE + local.x + x];
+            let sample = tile[(local.y + y) * TILE + local.x + x][part];
             sum += sample;
             squares += sample * sample;
         }
@@ -220,7 +253,7 @@ fn main(
     // While settling the tile holds this pixel's indirect sample already.
     var sample: vec3<f32>;
     if settling {
-        sample = samples[index].rgb + tile[tile_index(local.xy)];
+        sample = samples[index].rgb + tile[tile_index(local.xy)][1];
     } else {
         sample = iteration_sample(id.xy);
     }
@@ -261,20 +294,28 @@ fn main(
     // apart, each a running mean of at most the window while a change settles. After a scene
     // change, indirect light is clamped to what this iteration's neighbourhood saw of it, so
     // a caustic that moved does not linger where it was, and direct light, traced anew each
-    // iteration with little noise, starts again, so shadows and highlights follow at once.
+    // iteration with little noise, starts again, so shadows follow at once; but next to an
+    // emitter, and on glass and glossy metal, it is clamped too: one jittered sample of a
+    // bright rim, or of a light's small image in a mirror, is far noisier than the history.
     let direct_sample = samples[index].rgb;
     let indirect_sample = sample - direct_sample;
     var indirect = select(kept.rgb - kept_direct.rgb, vec3<f32>(0.0), kept.w == 0.0);
     var direct = select(kept_direct.rgb, vec3<f32>(0.0), kept_direct.w == 0.0);
+    let near_emitter = settling && emitter_nearby(id.xy);
+    let bright_edges = near_emitter || (settling && specular_at(position, normal.w));
     if settling {
-        indirect = clamped(indirect, local.xy);
+        indirect = clamped(indirect, local.xy, 1u);
     }
-    if (params.history_flags & NEW_DIRECT) != 0u {
+    if bright_edges {
+        direct = clamped(direct, local.xy, 0u);
+    } else if (params.history_flags & NEW_DIRECT) != 0u {
         kept_direct.w = 0.0;
         direct = vec3<f32>(0.0);
     }
     kept.w = min(kept.w, f32(params.history_cap));
-    kept_direct.w = min(kept_direct.w, f32(params.history_cap));
+    // An emitter's rim keeps all its samples: a window of them would leave the rim's
+    // coverage as noisy as the window is short, and the clamp bounds what a change leaves.
+    kept_direct.w = select(min(kept_direct.w, f32(params.history_cap)), kept_direct.w, near_emitter);
     indirect += (indirect_sample - indirect) / (kept.w + 1.0);
     direct += (direct_sample - direct) / (kept_direct.w + 1.0);
     history[index] = packed_surface(position, normal.xyz);

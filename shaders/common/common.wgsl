@@ -196,6 +196,11 @@ struct IterationParams {
     previous_clip_from_world: mat4x4<f32>,
     // The sky's radiance (linear RGB), w 1 when there is one (the last photon source; SKY).
     sky: vec4<f32>,
+    // Index of this iteration's random numbers: the iteration, shifted by the seed.
+    sequence: u32,
+    pad_a: u32,
+    pad_b: u32,
+    pad_c: u32,
 }
 
 // What f(wo, ·) needs of a material and wo alone (bsdf.wgsl's `bsdf_from`), found once for
@@ -325,7 +330,7 @@ fn splat_survives(params: IterationParams, a: u32, b: u32) -> bool {
     if params.splat_russian_roulette == 0u {
         return true;
     }
-    return (pcg_hash(a ^ pcg_hash(b ^ pcg_hash(params.iteration))) & 1u) == 0u;
+    return (pcg_hash(a ^ pcg_hash(b ^ pcg_hash(params.sequence))) & 1u) == 0u;
 }
 
 fn splat_weight(params: IterationParams) -> f32 {

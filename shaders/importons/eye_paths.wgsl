@@ -197,7 +197,7 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     let pixel = id.y * params.size.x + id.x;
     let gp = textureLoad(gbuffer_position, vec2<i32>(id.xy), 0);
     var sample = vec3<f32>(0.0);
-    var rng = pcg_hash(pixel ^ pcg_hash(params.iteration * 0x85ebca6bu + 0x27d4eb2fu));
+    var rng = pcg_hash(pixel ^ pcg_hash(params.sequence * 0x85ebca6bu + 0x27d4eb2fu));
 #ifdef IMPORTONS
     importons[pixel].triangle = NO_IMPORTON;
 #endif

@@ -130,7 +130,7 @@ fn trace(@builtin(global_invocation_id) id: vec3<u32>) {
     if id.x >= params.photons {
         return;
     }
-    var rng = pcg_hash(id.x ^ pcg_hash(params.iteration * 0x9e3779b9u + 0x632be5abu));
+    var rng = pcg_hash(id.x ^ pcg_hash(params.sequence * 0x9e3779b9u + 0x632be5abu));
     var ray = emit(&rng);
     let t_min = params.scene_sphere.w * 1e-6;
 #ifdef ABSORPTION

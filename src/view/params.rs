@@ -13,7 +13,7 @@ use crate::scene::{GpuTriangle, SceneData};
 /// Byte stride between per-iteration slots of the params buffer (dynamic-offset alignment).
 pub const PARAMS_STRIDE: u64 = 512;
 
-/// Per-iteration constants (`IterationParams` in common.wgsl, 384 bytes).
+/// Per-iteration constants (`IterationParams` in common.wgsl, 400 bytes).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
 pub struct IterationParams {
@@ -53,6 +53,9 @@ pub struct IterationParams {
     pub previous_clip_from_world: [[f32; 4]; 4],
     /// The sky's radiance (linear RGB), w 1 when there is one (`ScatterPaths::SKY`).
     pub sky: [f32; 4],
+    /// Index of the iteration's random numbers: `iteration`, shifted by `PhotonMapping::seed`.
+    pub sequence: u32,
+    pub pad: [u32; 3],
 }
 
 /// The first slot of a params buffer, as group 1 binds it.
@@ -92,7 +95,7 @@ pub fn area_sample(data: &SceneData, iteration: u32) -> Option<(Vec3, Vec3, Vec3
 }
 
 /// The camera part of an iteration's constants: the view with the Halton jitter of
-/// `jitter_index`, the area-light sample and the scene's bounds. The stages' fields (photons, shadow views,
+/// `jitter_index`, the area-light sample of random sequence `sequence` and the scene's bounds. The stages' fields (photons, shadow views,
 /// settings) are the caller's to fill.
 pub fn camera_params(
     view: &ExtractedView,
@@ -100,6 +103,7 @@ pub fn camera_params(
     size: UVec2,
     data: &SceneData,
     iteration: u32,
+    sequence: u32,
     jitter_index: u32,
 ) -> IterationParams {
     let jitter = Vec2::new(halton(jitter_index + 1, 2), halton(jitter_index + 1, 3)) - 0.5;
@@ -112,7 +116,7 @@ pub fn camera_params(
     let clip_from_world = Mat4::from_translation(offset) * view.clip_from_view * view_from_world;
     let orthographic = view.clip_from_view.w_axis.w == 1.0;
     let pixel_spread = 2.0 / (view.clip_from_view.y_axis.y * size.y as f32);
-    let area = area_sample(data, iteration);
+    let area = area_sample(data, sequence);
     let (area_position, area_normal, area_weight) = match area {
         Some((p, n, w)) => (p.extend(1.0), n.extend(0.0), w.extend(0.0)),
         None => (Vec4::ZERO, Vec4::ZERO, Vec4::ZERO),
@@ -126,6 +130,7 @@ pub fn camera_params(
         area_weight: area_weight.into(),
         size: size.into(),
         iteration,
+        sequence,
         light_count: data.lights.len() as u32,
         pixel_spread,
         orthographic: orthographic as u32,

@@ -128,3 +128,32 @@ fn the_photon_store_holds_what_the_iterations_stored() {
         );
     }
 }
+
+/// `PhotonMapping::seed` picks the random numbers: one seed renders the same image twice,
+/// another an independent image of the same light (the motion bench's references draw
+/// another seed than its runs). A sphere light, whose shadow-ray samples are random.
+#[test]
+fn a_seed_picks_independent_random_numbers() {
+    use bevy_rppm_cli::image_io::energy_ratio;
+    let render = |seed| {
+        let mut app = gpu_app();
+        let (mut light, transform) = point_light_above(1000.0, 2.0);
+        light.radius = 0.5;
+        let settings = PhotonMapping {
+            seed,
+            photons_per_iteration: PhotonCount::Fixed(4096),
+            max_iterations: Some(3),
+            ..default()
+        };
+        let (camera, _) = plane_scene(&mut app, (light, transform), 24, settings);
+        until_iterations(&mut app, camera, 3);
+        let image = radiance(&app, camera);
+        assert_eq!(image.iteration, 3);
+        RgbImage::from_rgba(image.width, image.height, &image.pixels)
+    };
+    let (a, b, c) = (render(0), render(0), render(7));
+    assert_eq!(a, b, "one seed, two images");
+    assert_ne!(a, c, "another seed, the same image");
+    let ratio = energy_ratio(&c, &a).unwrap();
+    assert!((ratio - 1.0).abs() < 0.02, "energy ratio {ratio}");
+}

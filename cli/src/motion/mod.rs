@@ -1,8 +1,10 @@
 //! `rppm bench motion`: a scripted animation of a glTF scene rendered frame by frame under
 //! `RppmHistory::Reset` and `Reuse`, and the error of every n-th frame against the same
-//! frozen state rendered to convergence (issue 13's measure of motion quality).
+//! frozen state rendered to convergence (issue 13's measure of motion quality); for a slide
+//! that stops, how long each run takes to settle after it and the error where things changed.
 
 mod plot;
+mod settle;
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -15,6 +17,7 @@ use crate::headless::{Budget, RenderRequest, attach_camera, load_gltf, render_lo
 use crate::image_io::{RgbImage, relmse};
 
 pub use plot::write_plot;
+pub use settle::{SettleRow, Settling, print_report};
 
 /// What moves.
 #[derive(Clone, Debug)]
@@ -25,6 +28,17 @@ pub enum Script {
     Light,
     /// The glTF animation of this index plays at 30 frames per second.
     Animation(usize),
+    /// The glTF node of this name (`None`: the first point or spot light) slides along x,
+    /// towards the scene's centre, by a quarter of the scene's radius over frames F/4…F/2 of
+    /// F, and stays there (`stop`).
+    Slide(Option<String>),
+}
+
+impl Script {
+    /// The first frame of the final state, for a script that stops.
+    pub fn stop(&self, frames: u32) -> Option<u32> {
+        matches!(self, Script::Slide(_)).then_some(frames / 2)
+    }
 }
 
 pub struct MotionRequest {
@@ -61,6 +75,8 @@ pub struct MotionResult {
     pub images: Vec<MotionImages>,
     /// Wall seconds of each run's frames.
     pub seconds: [f64; 2],
+    /// After a script's stop: every frame's error where the scene changed.
+    pub settling: Option<Settling>,
 }
 
 /// Updates run past the last frame, for its estimate to come back (the render world runs a
@@ -100,7 +116,7 @@ impl Scripted {
             .single(world)
             .map_err(|e| format!("no camera: {e}"))?;
         let (centre, radius) = world.resource::<RppmScene>().data.bounding_sphere();
-        let moved = match request.script {
+        let moved = match &request.script {
             Script::Orbit => Some(camera),
             Script::Light => world
                 .query_filtered::<Entity, Or<(With<PointLight>, With<SpotLight>)>>()
@@ -108,6 +124,20 @@ impl Scripted {
                 .next()
                 .map(Some)
                 .ok_or("the scene has no point or spot light to move")?,
+            Script::Slide(Some(name)) => Some(
+                world
+                    .query::<(Entity, &Name)>()
+                    .iter(world)
+                    .find(|(_, n)| n.as_str() == name)
+                    .map(|(e, _)| e)
+                    .ok_or_else(|| format!("the scene has no node named {name:?}"))?,
+            ),
+            Script::Slide(None) => world
+                .query_filtered::<Entity, Or<(With<PointLight>, With<SpotLight>)>>()
+                .iter(world)
+                .next()
+                .map(Some)
+                .ok_or("the scene has no point or spot light to slide; name a node")?,
             Script::Animation(_) => None,
         }
         .map(|e| (e, *world.get::<Transform>(e).unwrap()));
@@ -133,14 +163,26 @@ impl Scripted {
             return;
         };
         let mut transform = self.app.world_mut().get_mut::<Transform>(entity).unwrap();
-        *transform = match script {
+        // Set only when it moves: a still frame must not count as a change.
+        transform.set_if_neq(match script {
             Script::Orbit => {
                 let mut t = start;
                 t.rotate_around(centre, Quat::from_rotation_y(turn));
                 t
             }
+            Script::Slide(_) => {
+                let (a, b) = (frames / 4, frames / 2);
+                let s = ((f as f32 - a as f32) / b.saturating_sub(a).max(1) as f32).clamp(0.0, 1.0);
+                let towards = centre.x - start.translation.x;
+                let side = if towards.abs() > 1e-3 * radius {
+                    towards.signum()
+                } else {
+                    1.0
+                };
+                start.with_translation(start.translation + Vec3::X * side * 0.25 * radius * s)
+            }
             _ => start.with_translation(start.translation + Vec3::X * 0.25 * radius * swing),
-        };
+        });
     }
 
     fn image(&self) -> Option<&bevy_rppm::RadianceImage> {
@@ -166,17 +208,23 @@ impl Scripted {
     }
 }
 
-/// Runs the script under `history`: the image of each sampled frame, and the wall seconds.
-fn run(
-    request: &MotionRequest,
-    history: RppmHistory,
-) -> Result<(Vec<(u32, RgbImage)>, f64), String> {
+/// A run's images: every sampled frame's, and every frame's from the script's stop on.
+#[derive(Default)]
+struct Run {
+    sampled: Vec<(u32, RgbImage)>,
+    settling: Vec<(u32, RgbImage)>,
+    seconds: f64,
+}
+
+/// Runs the script under `history` (`still`: held at its last frame throughout).
+fn run(request: &MotionRequest, history: RppmHistory, still: bool) -> Result<Run, String> {
     let settings = PhotonMapping {
         history,
         ..request.settings.clone()
     };
     let mut scripted = Scripted::load(request, settings)?;
-    scripted.set(&request.script, 0, request.frames);
+    let state = |f: u32| if still { request.frames - 1 } else { f };
+    scripted.set(&request.script, state(0), request.frames);
     // Until the pipelines are compiled and the first estimate comes back.
     let start = Instant::now();
     while scripted.image().is_none_or(|image| image.iteration == 0) {
@@ -186,52 +234,65 @@ fn run(
         }
     }
     // Each estimate is matched to the frame whose state it shows by its epoch (the changes
-    // the render world had seen), since it comes back a frame or two later.
+    // the render world had seen), since it comes back a frame or two later. After a stop
+    // the epoch holds, so a frame is the update that read it back, in every run alike.
     let mut frame_of: Vec<(u64, u32)> = Vec::new();
-    let mut images: Vec<(u32, RgbImage)> = Vec::new();
+    let mut out = Run::default();
     let sampled = |f: u32| f % request.every == request.every - 1;
+    let stop = request.script.stop(request.frames);
     let started = Instant::now();
-    let mut seconds = 0.0;
+    let mut last = None;
     for update in 0..request.frames + LAG {
         let frame = update.min(request.frames - 1);
-        scripted.set(&request.script, frame, request.frames);
+        scripted.set(&request.script, state(frame), request.frames);
         scripted.app.update();
         frame_of.push((scripted.changes(), frame));
         let image = scripted.image().ok_or("no image came back")?;
         let shown = frame_of.iter().rev().find(|(e, _)| *e == image.epoch);
+        let fresh = last != Some((image.epoch, image.iteration));
+        last = Some((image.epoch, image.iteration));
         // The first estimate of the frame: the last frame, held while it comes back, adds
         // iterations after it.
-        if let Some(&(_, f)) = shown
-            && sampled(f)
-            && images.last().is_none_or(|(last, _)| *last != f)
-        {
-            images.push((
-                f,
-                RgbImage::from_rgba(image.width, image.height, &image.pixels),
-            ));
+        if let Some(&(_, f)) = shown {
+            let rgb = || RgbImage::from_rgba(image.width, image.height, &image.pixels);
+            if sampled(f) && out.sampled.last().is_none_or(|(l, _)| *l != f) {
+                out.sampled.push((f, rgb()));
+            }
+            if fresh
+                && stop.is_some_and(|s| f >= s)
+                && out.settling.last().is_none_or(|(l, _)| *l != f)
+            {
+                out.settling.push((f, rgb()));
+            }
         }
         if update + 1 == request.frames {
-            seconds = started.elapsed().as_secs_f64();
+            out.seconds = started.elapsed().as_secs_f64();
         }
     }
-    Ok((images, seconds))
+    Ok(out)
 }
 
-/// The frozen state of frame `f`, converged (`reference_iterations`, `Reset`).
+/// The frozen state of frame `f`, converged (`reference_iterations`, `Reset`), from random
+/// numbers the runs do not draw (another seed).
 fn reference(request: &MotionRequest, f: u32) -> Result<RgbImage, String> {
-    let mut scripted = Scripted::load(request, request.settings.clone())?;
+    let settings = PhotonMapping {
+        seed: request.settings.seed.wrapping_add(1),
+        ..request.settings.clone()
+    };
+    let mut scripted = Scripted::load(request, settings.clone())?;
     scripted.set(&request.script, f, request.frames);
     let render = RenderRequest {
         scene: request.scene.clone(),
         width: request.width,
         height: request.height,
         budget: Budget::Iterations(request.reference_iterations),
-        settings: request.settings.clone(),
+        settings,
     };
     render_loaded(&mut scripted.app, &render, |_| {}).map(|r| r.image)
 }
 
-/// Both runs and their errors; `log` hears of each step.
+/// Both runs and their errors (and, for a script that stops, a still run's); `log` hears
+/// of each step.
 pub fn bench_motion(
     request: &MotionRequest,
     mut log: impl FnMut(&str),
@@ -240,15 +301,27 @@ pub fn bench_motion(
         return Err("--frames and --every must be at least 1".into());
     }
     log("Reset run");
-    let (reset, reset_s) = run(request, RppmHistory::Reset)?;
+    let reset = run(request, RppmHistory::Reset, false)?;
     log("Reuse run");
     let window = request.window.clamp(1, 1024);
-    let (reuse, reuse_s) = run(request, RppmHistory::Reuse { iterations: window })?;
+    let reuse = run(request, RppmHistory::Reuse { iterations: window }, false)?;
+    let stop = request.script.stop(request.frames);
+    // Frames from the stop on share one state and one reference.
+    let state = |f: u32| stop.map_or(f, |s| f.min(s));
+    let mut references: Vec<(u32, RgbImage)> = Vec::new();
+    let mut reference_of = |f: u32, log: &mut dyn FnMut(&str)| {
+        if let Some((_, r)) = references.iter().find(|(s, _)| *s == state(f)) {
+            return Ok(r.clone());
+        }
+        log(&format!("reference of frame {}", state(f)));
+        let r = reference(request, state(f))?;
+        references.push((state(f), r.clone()));
+        Ok::<_, String>(r)
+    };
     let mut rows = Vec::new();
     let mut images = Vec::new();
-    for ((frame, a), (_, b)) in reset.into_iter().zip(reuse) {
-        log(&format!("reference of frame {frame}"));
-        let truth = reference(request, frame)?;
+    for ((frame, a), (_, b)) in reset.sampled.into_iter().zip(reuse.sampled) {
+        let truth = reference_of(frame, &mut log)?;
         rows.push(MotionRow {
             frame,
             reset: relmse(&a, &truth)?,
@@ -259,10 +332,22 @@ pub fn bench_motion(
             images: [a, b, truth],
         });
     }
+    let settling = match stop {
+        Some(stop) => {
+            log("still run (the last frame's state throughout)");
+            let still = run(request, RppmHistory::Reset, true)?;
+            let before = reference_of(0, &mut log)?;
+            let after = reference_of(stop, &mut log)?;
+            let runs = [reset.settling, reuse.settling, still.settling];
+            Some(Settling::measure(stop, window, &before, &after, &runs)?)
+        }
+        None => None,
+    };
     Ok(MotionResult {
         rows,
         images,
-        seconds: [reset_s, reuse_s],
+        seconds: [reset.seconds, reuse.seconds],
+        settling,
     })
 }
 
@@ -278,7 +363,7 @@ pub fn write_images(result: &MotionResult, dir: &Path) -> Result<(), String> {
     Ok(())
 }
 
-/// `motion.csv` in `dir`: frame, reset, reuse.
+/// `motion.csv` in `dir`: frame, reset, reuse; `settle.csv` after a stop.
 pub fn write_csv(result: &MotionResult, dir: &Path) -> anyhow::Result<()> {
     let mut csv = csv::Writer::from_path(dir.join("motion.csv"))?;
     csv.write_record(["frame", "reset_relmse", "reuse_relmse"])?;
@@ -290,5 +375,19 @@ pub fn write_csv(result: &MotionResult, dir: &Path) -> anyhow::Result<()> {
         ])?;
     }
     csv.flush()?;
+    if let Some(s) = &result.settling {
+        let mut csv = csv::Writer::from_path(dir.join("settle.csv"))?;
+        csv.write_record([
+            "frames_since_stop",
+            "reset_region",
+            "reuse_region",
+            "still_region",
+        ])?;
+        for r in &s.rows {
+            let [a, b, c] = r.region.map(|v| v.to_string());
+            csv.write_record([(r.frame - s.stop).to_string(), a, b, c])?;
+        }
+        csv.flush()?;
+    }
     Ok(())
 }

@@ -72,6 +72,22 @@ pub fn pose(app: &mut App, scene: &Path, index: usize, seconds: f32) -> Result<P
             .map_or_else(|| format!("#{index}"), |(n, _)| n.to_string());
         (clip.clone(), name)
     };
+    // The clip may load after the glTF (a busy machine): without it, its length, and so every
+    // seek, would be wrong.
+    let started = std::time::Instant::now();
+    while !app
+        .world()
+        .resource::<Assets<AnimationClip>>()
+        .contains(&clip.0)
+    {
+        if started.elapsed().as_secs() > 60 {
+            return Err(format!(
+                "{}'s animation {index} did not load",
+                scene.display()
+            ));
+        }
+        app.update();
+    }
     let duration = app
         .world()
         .resource::<Assets<AnimationClip>>()

@@ -118,12 +118,12 @@ impl Scripted {
         let (centre, radius) = world.resource::<RppmScene>().data.bounding_sphere();
         let moved = match &request.script {
             Script::Orbit => Some(camera),
-            Script::Light => world
+            Script::Light | Script::Slide(None) => world
                 .query_filtered::<Entity, Or<(With<PointLight>, With<SpotLight>)>>()
                 .iter(world)
                 .next()
                 .map(Some)
-                .ok_or("the scene has no point or spot light to move")?,
+                .ok_or("the scene has no point or spot light to move (a slide may name a node)")?,
             Script::Slide(Some(name)) => Some(
                 world
                     .query::<(Entity, &Name)>()
@@ -132,12 +132,6 @@ impl Scripted {
                     .map(|(e, _)| e)
                     .ok_or_else(|| format!("the scene has no node named {name:?}"))?,
             ),
-            Script::Slide(None) => world
-                .query_filtered::<Entity, Or<(With<PointLight>, With<SpotLight>)>>()
-                .iter(world)
-                .next()
-                .map(Some)
-                .ok_or("the scene has no point or spot light to slide; name a node")?,
             Script::Animation(_) => None,
         }
         .map(|e| (e, *world.get::<Transform>(e).unwrap()));

@@ -100,15 +100,24 @@ pub fn write_rgb8_png(path: &Path, width: u32, height: u32, rgb: &[u8]) -> Resul
 
 /// mean((t − r)² / (r² + 0.01)) over all pixels and channels.
 pub fn relmse(test: &RgbImage, reference: &RgbImage) -> Result<f64, String> {
+    let errors = pixel_errors(test, reference)?;
+    Ok(errors.iter().sum::<f64>() / errors.len().max(1) as f64)
+}
+
+/// Each pixel's relative squared error, its channels' mean: the relMSE is their mean.
+pub fn pixel_errors(test: &RgbImage, reference: &RgbImage) -> Result<Vec<f64>, String> {
     same_size(test, reference)?;
-    let sum: f64 = test
+    Ok(test
         .pixels
         .iter()
-        .flatten()
-        .zip(reference.pixels.iter().flatten())
-        .map(|(&t, &r)| relative_error(t as f64, r as f64))
-        .sum();
-    Ok(sum / (3 * test.pixels.len()).max(1) as f64)
+        .zip(&reference.pixels)
+        .map(|(t, r)| {
+            (0..3)
+                .map(|c| relative_error(t[c] as f64, r[c] as f64))
+                .sum::<f64>()
+                / 3.0
+        })
+        .collect())
 }
 
 /// One channel's (t − r)² / (r² + 0.01), whose mean is the relMSE.

@@ -73,14 +73,22 @@ fn specular_at(position: vec4<f32>, footprint: f32) -> bool {
     return specular && m.perceptual_roughness < SPECULAR_ROUGHNESS;
 }
 
+// Neighbour k (0..9, the pixel itself at 4) of `pixel` in its 3×3 block, inside the image.
+fn neighbour(pixel: vec2<u32>, k: i32) -> vec2<i32> {
+    let at = vec2<i32>(pixel) + vec2<i32>(k % 3 - 1, k / 3 - 1);
+    return clamp(at, vec2<i32>(0), vec2<i32>(params.size) - 1);
+}
+
 // Whether this pixel or one of its eight neighbours sees an emissive surface: light whose
 // direct part is mostly its emission, which a change elsewhere in the scene leaves alone.
 fn emitter_nearby(pixel: vec2<u32>) -> bool {
+    // Sources past the lights, the sky aside, are emitters.
+    if params.source_count - u32(params.sky.w > 0.5) <= params.light_count {
+        return false;
+    }
     var found = false;
     for (var k = 0; k < 9; k += 1) {
-        let at = vec2<i32>(pixel) + vec2<i32>(k % 3 - 1, k / 3 - 1);
-        let p = clamp(at, vec2<i32>(0), vec2<i32>(params.size) - 1);
-        let position = textureLoad(gbuffer_position, p, 0);
+        let position = textureLoad(gbuffer_position, neighbour(pixel, k), 0);
         // The emissive factor (a texture only scales it), seen from the front.
         let m = materials[triangles[u32(max(position.w, 1.0)) - 1u].material];
         found = found || (position.w > 0.0 && any(m.emissive.rgb > vec3<f32>(0.0)));
@@ -92,8 +100,7 @@ fn emitter_nearby(pixel: vec2<u32>) -> bool {
 fn surface_nearby(kept: vec4<f32>, pixel: vec2<u32>) -> bool {
     var found = false;
     for (var k = 0; k < 9; k += 1) {
-        let at = vec2<i32>(pixel) + vec2<i32>(k % 3 - 1, k / 3 - 1);
-        let p = clamp(at, vec2<i32>(0), vec2<i32>(params.size) - 1);
+        let p = neighbour(pixel, k);
         let position = textureLoad(gbuffer_position, p, 0);
         let normal = textureLoad(gbuffer_normal, p, 0);
         found = found || same_surface(kept, position, normal);

@@ -418,7 +418,7 @@ fn prepare_view(
             key.size,
             &scene.data,
             iteration,
-            iteration.wrapping_add(settings.seed.wrapping_mul(0x9e37_79b9)),
+            settings.seed,
             jitter,
         );
         let (cap, flags) = state.clock.next(window);

@@ -68,8 +68,8 @@ pub fn params_binding(params: &Buffer) -> BufferBinding<'_> {
 }
 
 /// A point on the emissive surfaces chosen by power, with radiance divided by its area pdf.
-pub fn area_sample(data: &SceneData, iteration: u32) -> Option<(Vec3, Vec3, Vec3)> {
-    let mut seed = pcg(iteration ^ 0x9e37_79b9);
+pub fn area_sample(data: &SceneData, sequence: u32) -> Option<(Vec3, Vec3, Vec3)> {
+    let mut seed = pcg(sequence ^ 0x9e37_79b9);
     let u = unit_random(&mut seed);
     let index = data
         .emitters
@@ -95,7 +95,8 @@ pub fn area_sample(data: &SceneData, iteration: u32) -> Option<(Vec3, Vec3, Vec3
 }
 
 /// The camera part of an iteration's constants: the view with the Halton jitter of
-/// `jitter_index`, the area-light sample of random sequence `sequence` and the scene's bounds. The stages' fields (photons, shadow views,
+/// `jitter_index`, the area-light sample of the iteration's random numbers (`seed`) and the
+/// scene's bounds. The stages' fields (photons, shadow views,
 /// settings) are the caller's to fill.
 pub fn camera_params(
     view: &ExtractedView,
@@ -103,9 +104,11 @@ pub fn camera_params(
     size: UVec2,
     data: &SceneData,
     iteration: u32,
-    sequence: u32,
+    seed: u32,
     jitter_index: u32,
 ) -> IterationParams {
+    // Seed 0 draws the numbers an iteration always drew.
+    let sequence = iteration.wrapping_add(seed.wrapping_mul(0x9e37_79b9));
     let jitter = Vec2::new(halton(jitter_index + 1, 2), halton(jitter_index + 1, 3)) - 0.5;
     let offset = Vec3::new(
         2.0 * jitter.x / size.x as f32,

@@ -17,7 +17,7 @@ use crate::headless::{Budget, RenderRequest, attach_camera, load_gltf, render_lo
 use crate::image_io::{RgbImage, relmse};
 
 pub use plot::write_plot;
-pub use settle::{SettleRow, Settling, print_report};
+pub use settle::{SettleRow, Settling};
 
 /// What moves.
 #[derive(Clone, Debug)]
@@ -34,10 +34,15 @@ pub enum Script {
     Slide(Option<String>),
 }
 
+/// The frames a slide moves over, from its start to its stop.
+fn slide_span(frames: u32) -> (u32, u32) {
+    (frames / 4, frames / 2)
+}
+
 impl Script {
     /// The first frame of the final state, for a script that stops.
     pub fn stop(&self, frames: u32) -> Option<u32> {
-        matches!(self, Script::Slide(_)).then_some(frames / 2)
+        matches!(self, Script::Slide(_)).then(|| slide_span(frames).1)
     }
 }
 
@@ -165,7 +170,7 @@ impl Scripted {
                 t
             }
             Script::Slide(_) => {
-                let (a, b) = (frames / 4, frames / 2);
+                let (a, b) = slide_span(frames);
                 let s = ((f as f32 - a as f32) / b.saturating_sub(a).max(1) as f32).clamp(0.0, 1.0);
                 let towards = centre.x - start.translation.x;
                 let side = if towards.abs() > 1e-3 * radius {
@@ -300,22 +305,22 @@ pub fn bench_motion(
     let window = request.window.clamp(1, 1024);
     let reuse = run(request, RppmHistory::Reuse { iterations: window }, false)?;
     let stop = request.script.stop(request.frames);
-    // Frames from the stop on share one state and one reference.
+    // Frames from the stop on share one state and one reference; a slide also needs its
+    // first state's, for the region that changed.
     let state = |f: u32| stop.map_or(f, |s| f.min(s));
-    let mut references: Vec<(u32, RgbImage)> = Vec::new();
-    let mut reference_of = |f: u32, log: &mut dyn FnMut(&str)| {
-        if let Some((_, r)) = references.iter().find(|(s, _)| *s == state(f)) {
-            return Ok(r.clone());
-        }
-        log(&format!("reference of frame {}", state(f)));
-        let r = reference(request, state(f))?;
-        references.push((state(f), r.clone()));
-        Ok::<_, String>(r)
-    };
+    let mut states: Vec<u32> = reset.sampled.iter().map(|(f, _)| state(*f)).collect();
+    states.extend(stop.into_iter().flat_map(|s| [0, s]));
+    states.sort_unstable();
+    states.dedup();
+    let mut references = std::collections::BTreeMap::new();
+    for s in states {
+        log(&format!("reference of frame {s}"));
+        references.insert(s, reference(request, s)?);
+    }
     let mut rows = Vec::new();
     let mut images = Vec::new();
     for ((frame, a), (_, b)) in reset.sampled.into_iter().zip(reuse.sampled) {
-        let truth = reference_of(frame, &mut log)?;
+        let truth = references[&state(frame)].clone();
         rows.push(MotionRow {
             frame,
             reset: relmse(&a, &truth)?,
@@ -330,10 +335,9 @@ pub fn bench_motion(
         Some(stop) => {
             log("still run (the last frame's state throughout)");
             let still = run(request, RppmHistory::Reset, true)?;
-            let before = reference_of(0, &mut log)?;
-            let after = reference_of(stop, &mut log)?;
             let runs = [reset.settling, reuse.settling, still.settling];
-            Some(Settling::measure(stop, window, &before, &after, &runs)?)
+            let (before, after) = (&references[&0], &references[&stop]);
+            Some(Settling::measure(stop, window, before, after, &runs)?)
         }
         None => None,
     };
@@ -384,4 +388,28 @@ pub fn write_csv(result: &MotionResult, dir: &Path) -> anyhow::Result<()> {
         csv.flush()?;
     }
     Ok(())
+}
+
+/// The tables and summary lines `rppm bench motion` prints.
+pub fn print_report(result: &MotionResult, frames: u32, script: &str) {
+    println!("| frame | Reset relMSE | Reuse relMSE |");
+    println!("|---:|---:|---:|");
+    for r in &result.rows {
+        println!("| {} | {:.5} | {:.5} |", r.frame, r.reset, r.reuse);
+    }
+    let n = result.rows.len().max(1) as f64;
+    let reset = result.rows.iter().map(|r| r.reset).sum::<f64>() / n;
+    let reuse = result.rows.iter().map(|r| r.reuse).sum::<f64>() / n;
+    let fps = |s: f64| frames as f64 / s.max(1e-9);
+    println!(
+        "mean relMSE: Reset {reset:.5}, Reuse {reuse:.5} ({:.1}× lower); frames/s: Reset {:.2}, \
+         Reuse {:.2} ({frames} frames, {script} script)",
+        reset / reuse.max(1e-12),
+        fps(result.seconds[0]),
+        fps(result.seconds[1]),
+    );
+    if let Some(settling) = &result.settling {
+        println!();
+        settling.print();
+    }
 }

@@ -2,9 +2,7 @@
 //! a run that never moved; how many frames it takes to settle (lag) and how much of the old
 //! state it shows meanwhile (ghost).
 
-use crate::image_io::{RgbImage, relative_error, same_size};
-
-use super::MotionResult;
+use crate::image_io::{RgbImage, pixel_errors};
 
 /// One frame after the stop: relMSE over the changed region, `Reset`, `Reuse` and still.
 #[derive(Clone, Copy, Debug)]
@@ -40,33 +38,23 @@ impl Settling {
         after: &RgbImage,
         runs: &[Vec<(u32, RgbImage)>; 3],
     ) -> Result<Self, String> {
-        same_size(before, after)?;
-        let region: Vec<bool> = before
-            .pixels
+        let region: Vec<bool> = pixel_errors(before, after)?
             .iter()
-            .zip(&after.pixels)
-            .map(|(b, a)| {
-                let e: f64 = (0..3)
-                    .map(|c| relative_error(b[c] as f64, a[c] as f64))
-                    .sum();
-                e / 3.0 > CHANGED
-            })
+            .map(|&e| e > CHANGED)
             .collect();
         let count = region.iter().filter(|&&r| r).count();
         if count == 0 {
             return Err("nothing changed between the first and the last frame's state".into());
         }
         let error = |image: &RgbImage| -> Result<f64, String> {
-            same_size(image, after)?;
-            let sum: f64 = image
-                .pixels
+            let errors = pixel_errors(image, after)?;
+            let sum: f64 = errors
                 .iter()
-                .zip(&after.pixels)
                 .zip(&region)
                 .filter(|(_, r)| **r)
-                .flat_map(|((t, r), _)| (0..3).map(|c| relative_error(t[c] as f64, r[c] as f64)))
+                .map(|(e, _)| e)
                 .sum();
-            Ok(sum / (3 * count) as f64)
+            Ok(sum / count as f64)
         };
         let mut rows = Vec::new();
         for (frame, reset) in &runs[0] {
@@ -105,57 +93,30 @@ impl Settling {
             ghost,
         })
     }
-}
 
-/// The tables and summary lines `rppm bench motion` prints.
-pub fn print_report(result: &MotionResult, frames: u32, script: &str) {
-    println!("| frame | Reset relMSE | Reuse relMSE |");
-    println!("|---:|---:|---:|");
-    for r in &result.rows {
-        println!("| {} | {:.5} | {:.5} |", r.frame, r.reset, r.reuse);
-    }
-    let n = result.rows.len().max(1) as f64;
-    let reset = result.rows.iter().map(|r| r.reset).sum::<f64>() / n;
-    let reuse = result.rows.iter().map(|r| r.reuse).sum::<f64>() / n;
-    let fps = |s: f64| frames as f64 / s.max(1e-9);
-    println!(
-        "mean relMSE: Reset {reset:.5}, Reuse {reuse:.5} ({:.1}× lower); frames/s: Reset {:.2}, \
-         Reuse {:.2} ({frames} frames, {script} script)",
-        reset / reuse.max(1e-12),
-        fps(result.seconds[0]),
-        fps(result.seconds[1]),
-    );
-    let Some(s) = &result.settling else {
-        return;
-    };
-    println!();
-    println!(
-        "After the stop (frame {}), relMSE where the scene changed ({:.1} % of the pixels):",
-        s.stop,
-        100.0 * s.region_fraction
-    );
-    println!("| frames since the stop | Reset | Reuse | still (never moved) |");
-    println!("|---:|---:|---:|---:|");
-    for r in &s.rows {
+    /// The table and summary lines `rppm bench motion` prints after a stop.
+    pub fn print(&self) {
         println!(
-            "| {} | {:.5} | {:.5} | {:.5} |",
-            r.frame - s.stop,
-            r.region[0],
-            r.region[1],
-            r.region[2]
+            "After the stop (frame {}), relMSE where the scene changed ({:.1} % of the pixels):",
+            self.stop,
+            100.0 * self.region_fraction
+        );
+        println!("| frames since the stop | Reset | Reuse | still (never moved) |");
+        println!("|---:|---:|---:|---:|");
+        for r in &self.rows {
+            let [a, b, c] = r.region;
+            println!("| {} | {a:.5} | {b:.5} | {c:.5} |", r.frame - self.stop);
+        }
+        let lag = |l: Option<u32>| l.map_or("more than the run".to_string(), |l| l.to_string());
+        let [a, b, c] = self.ghost;
+        println!(
+            "lag (frames until the changed region stays within 2× the still run's error): Reset \
+             {}, Reuse {}; ghost (its mean relMSE over the window's frames after the stop): \
+             Reset {a:.5}, Reuse {b:.5}, still {c:.5}",
+            lag(self.lag[0]),
+            lag(self.lag[1]),
         );
     }
-    let lag = |l: Option<u32>| l.map_or("more than the run".to_string(), |l| l.to_string());
-    println!(
-        "lag (frames until the changed region stays within 2× the still run's error): Reset {}, \
-         Reuse {}; ghost (its mean relMSE over the window's frames after the stop): Reset \
-         {:.5}, Reuse {:.5}, still {:.5}",
-        lag(s.lag[0]),
-        lag(s.lag[1]),
-        s.ghost[0],
-        s.ghost[1],
-        s.ghost[2]
-    );
 }
 
 #[cfg(test)]

@@ -4,7 +4,7 @@
 // history kept through motion.
 #import bevy_rppm::common::{IterationParams, subsample_representative}
 #ifdef SUBSAMPLED
-#import bevy_rppm::bsdf::bsdf_eval
+#import bevy_rppm::bsdf::{bsdf_from, bsdf_gathered}
 #import bevy_rppm::scene::{gbuffer_material, materials, triangles}
 #else ifdef HISTORY
 #import bevy_rppm::scene::{gbuffer_material, materials, triangles}
@@ -227,7 +227,7 @@ fn iteration_sample(pixel: vec2<u32>) -> vec3<f32> {
         let m = gbuffer_material(gp, gn.w);
         let wo = normalize(params.camera_position.xyz - gp.xyz);
         let light = upsampled_light(pixel, gp.xyz, gn.xyz, gn.w);
-        sample += bsdf_eval(m, gn.xyz, wo, gn.xyz) * light;
+        sample += bsdf_gathered(m, bsdf_from(m, gn.xyz, wo), gn.xyz, wo, gn.xyz) * light;
     }
 #else
     sample += textureLoad(splats, vec2<i32>(pixel), 0).rgb;

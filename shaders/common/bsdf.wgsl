@@ -11,12 +11,20 @@
 // light from a point in a direction other than the mirror one, so evaluation gives zero.
 
 fn specular_f0(m: Material) -> vec3<f32> {
-    return mix(vec3<f32>(dielectric_f0(m)), m.base_color.rgb, m.metallic);
+    return mix(tinted_f0(m), m.base_color.rgb, m.metallic);
 }
 
-// F0 of the surface's dielectric part.
+// F0 of the surface's dielectric part, Bevy's: 0.16·(reflectance·specular_tint)².
+fn tinted_f0(m: Material) -> vec3<f32> {
+    let r = m.reflectance * m.specular_tint.rgb;
+    return min(0.16 * r * r, vec3<f32>(1.0));
+}
+
+// The dielectric F0's largest channel: what the diffuse lobe gives up to the specular layer
+// (a tint then darkens the other channels' diffuse light a little rather than make light).
 fn dielectric_f0(m: Material) -> f32 {
-    return 0.16 * m.reflectance * m.reflectance;
+    let f = tinted_f0(m);
+    return max(f.x, max(f.y, f.z));
 }
 
 // Reflectance at grazing angles: Bevy's, which fades to 0 as F0 does (no specular at all for
@@ -168,11 +176,37 @@ fn bsdf_from(m: Material, n: vec3<f32>, wo: vec3<f32>) -> Outgoing {
     let f0 = specular_f0(l);
     let n_dot_v = dot(n, wo);
     let o = specular_at(l, f0, n_dot_v);
-    return Outgoing(f0, n_dot_v, o.single, o.lost, o.dielectric, specular_average(l));
+    var coat = 1.0;
+#ifdef CLEARCOAT
+    coat = 1.0 - coat_albedo(m, n_dot_v);
+#endif
+    return Outgoing(f0, n_dot_v, o.single, o.lost, o.dielectric, specular_average(l), coat);
 }
 
 // f(wo, wi) from `out = bsdf_from(m, n, wo)`.
 fn bsdf_toward(m: Material, out: Outgoing, n: vec3<f32>, wo: vec3<f32>, wi: vec3<f32>) -> vec3<f32> {
+    var f = under_coat(m, out, n, wo, wi);
+#ifdef CLEARCOAT
+    f = f * coat_through(m, out, n, wi) + vec3<f32>(coat_lobe(m, n, wo, wi));
+#endif
+    return f;
+}
+
+// The part of f(wo, wi) a photon gather at the camera's first hit estimates: all of it but a
+// clearcoat smooth enough that the camera path follows it instead (`coat_traced`).
+fn bsdf_gathered(m: Material, out: Outgoing, n: vec3<f32>, wo: vec3<f32>, wi: vec3<f32>) -> vec3<f32> {
+    var f = under_coat(m, out, n, wo, wi);
+#ifdef CLEARCOAT
+    f *= coat_through(m, out, n, wi);
+    if !coat_traced(m) {
+        f += vec3<f32>(coat_lobe(m, n, wo, wi));
+    }
+#endif
+    return f;
+}
+
+// f(wo, wi) of the layers under a clearcoat.
+fn under_coat(m: Material, out: Outgoing, n: vec3<f32>, wo: vec3<f32>, wi: vec3<f32>) -> vec3<f32> {
 #ifdef ROUGH_REFRACTION
     let glass = rough_glass_share(m);
     if glass > 0.0 {
@@ -274,6 +308,27 @@ struct Scatter {
 // from wi, else the photon is absorbed, so flux stays unbiased. Lobes no material of the scene
 // has are compiled out (GLOSSY, MIRRORS, REFRACTION).
 fn scatter_photon(material: Material, n: vec3<f32>, wi: vec3<f32>, front: bool, rng: ptr<function, u32>) -> Scatter {
+#ifdef CLEARCOAT
+    // The coat reflects what it reflects of light from wi; the rest passes it both ways.
+    let coat = coat_albedo(material, max(dot(n, wi), 0.0));
+    if coat > 0.0 {
+        if random(rng) < coat {
+            let s = scatter_coat(material, n, wi, rng);
+            return Scatter(s.direction, s.weight / coat);
+        }
+        var s = scatter_layers(material, n, wi, front, rng);
+        let out = dot(n, s.direction);
+        if out > 0.0 {
+            s.weight *= 1.0 - coat_albedo(material, out);
+        }
+        return s;
+    }
+#endif
+    return scatter_layers(material, n, wi, front, rng);
+}
+
+// `scatter_photon` under a clearcoat.
+fn scatter_layers(material: Material, n: vec3<f32>, wi: vec3<f32>, front: bool, rng: ptr<function, u32>) -> Scatter {
     var m = material;
 #ifdef ROUGH_REFRACTION
     // Rough glass's share of the surface is its own lobe; the rest, the layers without it.
@@ -404,5 +459,67 @@ fn scatter_rough_glass(m: Material, n: vec3<f32>, wi: vec3<f32>, front: bool, rn
     }
     let g = smith_g1(i_dot_n, a) * smith_g1(abs(o_dot_n), a);
     return Scatter(o, vec3<f32>(i_dot_h * g / (i_dot_n * cos_h)));
+}
+#endif
+
+#ifdef CLEARCOAT
+// Clearcoat, Bevy's (after Filament): a GGX lobe of F0 0.04 and F90 1 (ior 1.5) over the
+// other layers, of the material's strength and its own roughness, below DELTA_ROUGHNESS a
+// mirror. Single scattering, as Bevy's. The layers under it see the light it does not
+// reflect, on the way in and on the way out: (1 − E(μi))(1 − E(μo)), reciprocal, so photons
+// and gathers agree (what it loses between the two is not given back).
+const COAT_F0: f32 = 0.04;
+
+// E(μ): what the coat reflects of light from cosine mu, its strength included.
+fn coat_albedo(m: Material, mu: f32) -> f32 {
+    let strength = m.clearcoat.x;
+    if strength <= 0.0 {
+        return 0.0;
+    }
+    if m.clearcoat.y < DELTA_ROUGHNESS {
+        return strength * fresnel_schlick(vec3<f32>(COAT_F0), 1.0, mu).x;
+    }
+    let ab = albedo_ab(m.clearcoat.y, mu);
+    return strength * min(COAT_F0 * ab.x + ab.y, 1.0);
+}
+
+// What passes the coat toward wo (`out.coat`) and from wi.
+fn coat_through(m: Material, out: Outgoing, n: vec3<f32>, wi: vec3<f32>) -> f32 {
+    return out.coat * (1.0 - coat_albedo(m, max(dot(n, wi), 0.0)));
+}
+
+// Whether camera paths follow the coat from the camera's first hit rather than gather it: a
+// coat smoother than photons are stored under (GLOSSY_STORE_ROUGHNESS), mirror included.
+fn coat_traced(m: Material) -> bool {
+    return m.clearcoat.x > 0.0 && m.clearcoat.y < GLOSSY_STORE_ROUGHNESS;
+}
+
+// The coat's lobe f(wo, wi) (0 for a mirror coat).
+fn coat_lobe(m: Material, n: vec3<f32>, wo: vec3<f32>, wi: vec3<f32>) -> f32 {
+    let n_dot_l = dot(n, wi);
+    let n_dot_v = dot(n, wo);
+    if m.clearcoat.x <= 0.0 || m.clearcoat.y < DELTA_ROUGHNESS || n_dot_l <= 0.0 || n_dot_v <= 0.0 {
+        return 0.0;
+    }
+    let a = m.clearcoat.y * m.clearcoat.y;
+    let h = normalize(wi + wo);
+    let f = fresnel_schlick(vec3<f32>(COAT_F0), 1.0, dot(wo, h)).x;
+    return m.clearcoat.x * f * ggx_d(max(dot(n, h), 0.0), a) * smith_visibility(n_dot_v, n_dot_l, a);
+}
+
+// A direction off the coat for light from wi and the coat lobe's f·cos/pdf there (its
+// strength and Fresnel included): the mirror direction for a mirror coat.
+fn scatter_coat(m: Material, n: vec3<f32>, wi: vec3<f32>, rng: ptr<function, u32>) -> Scatter {
+    if m.clearcoat.y < DELTA_ROUGHNESS {
+        return Scatter(reflect(-wi, n), vec3<f32>(coat_albedo(m, max(dot(n, wi), 0.0))));
+    }
+    var lobe = m;
+    lobe.perceptual_roughness = m.clearcoat.y;
+    let s = sample_ggx(lobe, n, wi, vec2<f32>(random(rng), random(rng)));
+    if s.w <= 0.0 {
+        return Scatter(s.xyz, vec3<f32>(0.0));
+    }
+    let f = fresnel_schlick(vec3<f32>(COAT_F0), 1.0, dot(wi, normalize(wi + s.xyz))).x;
+    return Scatter(s.xyz, vec3<f32>(m.clearcoat.x * f * s.w));
 }
 #endif

@@ -72,6 +72,10 @@ struct Material {
     textures: vec4<u32>,
     // Beer–Lambert σ inside the material (m⁻¹, rgb): coloured glass.
     absorption: vec4<f32>,
+    // Bevy's specular_tint (rgb): the dielectric F0 is 0.16·(reflectance·tint)².
+    specular_tint: vec4<f32>,
+    // Clearcoat: x strength, y perceptual roughness.
+    clearcoat: vec4<f32>,
 }
 
 // Material flags (MaterialFlags in src/scene/mod.rs).
@@ -215,6 +219,8 @@ struct Outgoing {
     lost: f32,
     dielectric: f32,
     average: vec2<f32>,
+    // What a clearcoat lets through toward wo (1 without one).
+    coat: f32,
 }
 
 // A stored photon (64 bytes, the RPPM budget).

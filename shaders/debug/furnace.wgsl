@@ -18,7 +18,7 @@ const THREADS: u32 = 256u;
 var<workgroup> eval_sums: array<vec3<f32>, THREADS>;
 var<workgroup> photon_sums: array<vec3<f32>, THREADS>;
 
-// ∫ f(wo, wi) cos θi dωi by one-sample MIS of cosine and GGX sampling, and the mean photon
+// ∫ f(wo, wi) cos θi dωi by one-sample MIS of cosine, GGX and clearcoat GGX sampling, and the mean photon
 // weight for light arriving from wo.
 @compute @workgroup_size(256, 1, 1)
 fn furnace(@builtin(workgroup_id) group: vec3<u32>, @builtin(local_invocation_index) local: u32) {
@@ -33,21 +33,34 @@ fn furnace(@builtin(workgroup_id) group: vec3<u32>, @builtin(local_invocation_in
     var photon_sum = vec3<f32>(0.0);
     let glossy = has_glossy_lobe(m);
     let a = m.perceptual_roughness * m.perceptual_roughness;
+    // A glossy clearcoat is a third strategy, by its own roughness.
+    var coat = m;
+    coat.perceptual_roughness = m.clearcoat.y;
+    let coated = m.clearcoat.x > 0.0 && has_glossy_lobe(coat);
+    let a_coat = coat.perceptual_roughness * coat.perceptual_roughness;
+    let strategies = 1.0 + select(0.0, 1.0, glossy) + select(0.0, 1.0, coated);
     for (var k = 0u; k < samples; k += 1u) {
         let u = vec2<f32>(random(&rng), random(&rng));
         var wi = cosine_direction(n, u);
-        if glossy && random(&rng) < 0.5 {
+        let pick = random(&rng) * strategies;
+        if glossy && pick >= 1.0 && pick < 2.0 {
             wi = sample_ggx(m, n, wo, u).xyz;
+        } else if coated && pick >= strategies - 1.0 {
+            wi = sample_ggx(coat, n, wo, u).xyz;
         }
         let cos_i = dot(n, wi);
         if cos_i > 0.0 {
+            let h = normalize(wi + wo);
+            let n_dot_h = max(dot(n, h), 0.0);
+            let jacobian = n_dot_h / (4.0 * max(dot(wo, h), 1e-6));
             var pdf = cos_i / PI;
             if glossy {
-                let h = normalize(wi + wo);
-                let ggx_pdf = ggx_d(max(dot(n, h), 0.0), a) * max(dot(n, h), 0.0) / (4.0 * max(dot(wo, h), 1e-6));
-                pdf = 0.5 * pdf + 0.5 * ggx_pdf;
+                pdf += ggx_d(n_dot_h, a) * jacobian;
             }
-            eval_sum += bsdf_eval(m, n, wo, wi) * cos_i / max(pdf, 1e-12);
+            if coated {
+                pdf += ggx_d(n_dot_h, a_coat) * jacobian;
+            }
+            eval_sum += bsdf_eval(m, n, wo, wi) * cos_i * strategies / max(pdf, 1e-12);
         }
         photon_sum += scatter_photon(m, n, wo, true, &rng).weight;
     }

@@ -8,6 +8,9 @@
 #import bevy_rppm::lighting::{params, surface_light}
 #ifdef IMPORTONS
 #import bevy_rppm::bsdf::{fresnel_dielectric, glass_share, scatter_photon, stores_photons}
+#ifdef CLEARCOAT
+#import bevy_rppm::bsdf::{coat_traced, scatter_coat}
+#endif
 #import bevy_rppm::common::{DELTA_ROUGHNESS, luminance}
 #import bevy_rppm::cubemap::{cubemap, trace_ray, NO_HIT}
 #ifdef ABSORPTION
@@ -108,6 +111,8 @@ fn camera_path(pixel: u32, first: Vertex, rng: ptr<function, u32>) -> vec3<f32> 
     var bounce = Bounce(vec3<f32>(0.0), vec3<f32>(1.0));
     var length = distance(params.camera_position.xyz, v.x);
     let t_min = params.scene_sphere.w * 1e-6;
+    // Whether the light this path meets next was sampled already (through a rough coat).
+    var sampled = false;
 #ifdef ABSORPTION
     // σ of the coloured glass the path is in (the camera is outside every medium).
     var medium = vec3<f32>(0.0);
@@ -126,7 +131,7 @@ fn camera_path(pixel: u32, first: Vertex, rng: ptr<function, u32>) -> vec3<f32> 
 #endif
             if hit.triangle == NO_HIT {
 #ifdef SKY
-                found += throughput * params.sky.rgb;
+                found += select(throughput * params.sky.rgb, vec3<f32>(0.0), sampled);
 #endif
                 return found;
             }
@@ -148,6 +153,10 @@ fn camera_path(pixel: u32, first: Vertex, rng: ptr<function, u32>) -> vec3<f32> 
                 hit.triangle,
                 -d,
             );
+            if sampled {
+                v.m.emissive = vec4<f32>(0.0);
+                sampled = false;
+            }
             if stores_photons(v.m) {
                 let footprint = params.pixel_spread * select(length, 1.0, params.orthographic != 0u);
                 let radius = gather_radius(params, params.splat_radius, footprint);
@@ -167,6 +176,20 @@ fn camera_path(pixel: u32, first: Vertex, rng: ptr<function, u32>) -> vec3<f32> 
             found += throughput * surface_light(v.m, v.x, v.n, v.wo, v.front, v.triangle, ends, rng);
         }
         if ends {
+#ifdef IMPORTONS
+#ifdef CLEARCOAT
+            // The camera's first hit gathers photons without a smooth coat's lobe (the splat's
+            // `bsdf_gathered`): the path follows the coat instead. Its lights were sampled
+            // here through the coat unless it is a mirror (or Bevy or photons give them).
+            if depth == 1u && coat_traced(v.m) {
+                let s = scatter_coat(v.m, v.n, v.wo, rng);
+                bounce = Bounce(s.direction, s.weight);
+                throughput *= s.weight;
+                sampled = v.m.clearcoat.y >= DELTA_ROUGHNESS && params.indirect_only == 0u && params.direct_photons == 0u;
+                continue;
+            }
+#endif
+#endif
             return found;
         }
 #ifdef IMPORTONS

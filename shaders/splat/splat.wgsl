@@ -9,7 +9,7 @@
 // in shaders/accumulate/accumulate.wgsl, which applies each full-resolution pixel's own BSDF.
 #import bevy_rppm::common::{Material, Outgoing, Photon, IterationParams, PI, faces_reached, gather_radius, splat_weight, subsample_representative}
 #import bevy_rppm::scene::{gbuffer_material, resolved_material, resolved_kernel_normal, kernel_normal}
-#import bevy_rppm::bsdf::{bsdf_from, bsdf_toward}
+#import bevy_rppm::bsdf::{bsdf_from, bsdf_gathered}
 #import bevy_rppm::cubemap::cubemap
 #import bevy_rppm::photon_lists::{photons, listed_tiles, list_head, in_kernel}
 
@@ -34,7 +34,7 @@ struct Kernel {
 }
 
 // The photons of one tile's list inside pixel kernel `k`: Σ f(wo, wi) Φ on material `m`
-// (`out` its bsdf_from) with shading normal `shading` (Σ Φ, subsampled).
+// (`out` its bsdf_from; a smooth clearcoat's lobe left to the camera path) with shading normal `shading` (Σ Φ, subsampled).
 fn gather_list(k: Kernel, m: Material, out: Outgoing, shading: vec3<f32>, wo: vec3<f32>, head: u32) -> vec3<f32> {
     var sum = vec3<f32>(0.0);
     var node = head;
@@ -53,7 +53,7 @@ fn gather_list(k: Kernel, m: Material, out: Outgoing, shading: vec3<f32>, wo: ve
         // The photons' density is irradiance on the kernel's plane; a normal map's bent
         // normal receives it by its own cosine instead.
         let bend = select(1.0, dot(shading, p.incoming) / max(dot(k.plane, p.incoming), 0.05), bent);
-        sum += bsdf_toward(m, out, shading, wo, p.incoming) * (bend * p.flux);
+        sum += bsdf_gathered(m, out, shading, wo, p.incoming) * (bend * p.flux);
 #endif
     }
     return sum;

@@ -36,6 +36,8 @@ pub(super) fn material_to_gpu(m: &StandardMaterial, textures: [u32; 4]) -> GpuMa
         ([1.0, 0.0, 0.0, 1.0], Vec2::ZERO)
     };
     let base_color = [base.red, base.green, base.blue, base.alpha];
+    let tint = m.specular_tint.to_linear();
+    let tint = [tint.red, tint.green, tint.blue, 1.0];
     // An albedo past 1 makes light from nothing (and overflows after enough bounces).
     if base_color.iter().any(|c| !(0.0..=1.0).contains(c)) {
         warn_once!("bevy_rppm: a base colour {base_color:?} outside 0..=1 is clamped");
@@ -60,6 +62,13 @@ pub(super) fn material_to_gpu(m: &StandardMaterial, textures: [u32; 4]) -> GpuMa
         uv_offset: [offset.x, offset.y, 0.0, 0.0],
         textures,
         absorption: absorption(m),
+        specular_tint: tint.map(|c| finite(c, 1.0).max(0.0)),
+        clearcoat: [
+            finite(m.clearcoat, 0.0).clamp(0.0, 1.0),
+            finite(m.clearcoat_perceptual_roughness, 0.5).clamp(0.0, 1.0),
+            0.0,
+            0.0,
+        ],
     }
 }
 

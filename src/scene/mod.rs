@@ -52,6 +52,8 @@ bitflags::bitflags! {
         const ABSORPTION = 1 << 4;
         /// Rough glass (a microfacet interface that reflects and refracts).
         const ROUGH_REFRACTION = 1 << 5;
+        /// A clearcoat layer (a second GGX lobe over the others).
+        const CLEARCOAT = 1 << 6;
     }
 }
 
@@ -65,6 +67,7 @@ impl ScatterPaths {
             (Self::SKY, "SKY"),
             (Self::ABSORPTION, "ABSORPTION"),
             (Self::ROUGH_REFRACTION, "ROUGH_REFRACTION"),
+            (Self::CLEARCOAT, "CLEARCOAT"),
         ]
         .into_iter()
         .filter_map(|(path, def)| self.contains(path).then_some(def))
@@ -107,10 +110,10 @@ impl GpuTriangle {
     }
 }
 
-/// A `StandardMaterial` reduced to what the light transport uses (128 bytes). Texture lookups
+/// A `StandardMaterial` reduced to what the light transport uses (160 bytes). Texture lookups
 /// multiply the factors, as Bevy's own shaders do (`material_at` in shaders/scene/scene.wgsl).
 #[repr(C)]
-#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
 pub struct GpuMaterial {
     /// Linear RGB base colour (albedo), alpha in w.
     pub base_color: [f32; 4],
@@ -138,6 +141,22 @@ pub struct GpuMaterial {
     /// `attenuation_color` and `attenuation_distance` of a transmissive material with a
     /// `thickness` (glTF's `KHR_materials_volume`); 0 for thin-walled or clear ones. w unused.
     pub absorption: [f32; 4],
+    /// Bevy's `specular_tint` (linear RGB, glTF's `KHR_materials_specular` colour): the
+    /// dielectric F0 is 0.16·(reflectance·tint)², as in Bevy. w unused.
+    pub specular_tint: [f32; 4],
+    /// The clearcoat layer: x its strength (0..=1), y its perceptual roughness (0..=1); zw
+    /// unused.
+    pub clearcoat: [f32; 4],
+}
+
+impl Default for GpuMaterial {
+    /// Black, no tint on its specular layer, no clearcoat.
+    fn default() -> Self {
+        Self {
+            specular_tint: [1.0; 4],
+            ..Zeroable::zeroed()
+        }
+    }
 }
 
 impl GpuMaterial {
@@ -304,10 +323,14 @@ impl SceneData {
 
     /// Whether camera paths go on past some surface: a mirror, glass, or a smooth
     /// glossy metal (roughness under [`GLOSSY_STORE_ROUGHNESS`], no diffuse lobe), where no
-    /// photon is stored (`!stores_photons` in shaders/common/bsdf.wgsl).
-    /// A texture counts at its darkest, smoothest and most metallic texel.
+    /// photon is stored (`!stores_photons` in shaders/common/bsdf.wgsl), or a clearcoat that
+    /// smooth (`coat_traced`). A texture counts at its darkest, smoothest and most metallic
+    /// texel.
     pub fn has_path_surfaces(&self) -> bool {
         self.materials.iter().any(|m| {
+            if m.clearcoat[0] > 0.0 && m.clearcoat[1] < GLOSSY_STORE_ROUGHNESS {
+                return true;
+            }
             let [base, metal_rough, ..] = m.textures.map(|t| t != NO_TEXTURE);
             let metallic = if metal_rough && m.metallic > 0.0 {
                 1.0
@@ -331,8 +354,10 @@ impl SceneData {
     pub fn scatter_paths(&self) -> ScatterPaths {
         let (mut glossy, mut mirrors, mut refraction) = (false, false, false);
         let (mut absorption, mut rough_refraction) = (false, false);
+        let mut clearcoat = false;
         for m in &self.materials {
             absorption |= m.absorption[..3].iter().any(|&s| s > 0.0);
+            clearcoat |= m.clearcoat[0] > 0.0;
             let colour = m.base_color[..3].iter().any(|&c| c > 0.0);
             if m.perceptual_roughness >= DELTA_ROUGHNESS {
                 glossy |= m.reflectance > 0.0 || (m.metallic > 0.0 && colour);
@@ -349,6 +374,7 @@ impl SceneData {
         paths.set(ScatterPaths::REFRACTION, refraction);
         paths.set(ScatterPaths::ROUGH_REFRACTION, rough_refraction);
         paths.set(ScatterPaths::SKY, self.sky[3] > 0.0);
+        paths.set(ScatterPaths::CLEARCOAT, clearcoat);
         paths.set(
             ScatterPaths::ABSORPTION,
             absorption && (refraction || rough_refraction),
@@ -381,25 +407,37 @@ impl SceneData {
                 })
             })
             .map(|m| {
-                let base = [m.base_color[0], m.base_color[1], m.base_color[2]];
-                let diffuse = (1.0 - m.metallic) * (1.0 - m.specular_transmission);
-                if m.perceptual_roughness < DELTA_ROUGHNESS {
-                    let delta = luminance(base) * m.metallic + m.glass_share();
-                    return (diffuse * luminance(base) + delta).min(1.0);
-                }
-                let dielectric = 0.16 * m.reflectance * m.reflectance;
-                let f0 = base.map(|c| dielectric + (c - dielectric) * m.metallic);
-                let specular = specular_energy_average(m.perceptual_roughness, f0);
-                // The dielectric part's diffuse lobe (cosine_lobes in bsdf.wgsl) beside it.
-                let own = specular_energy_average(m.perceptual_roughness, [dielectric; 3])[0];
-                let albedo = [0, 1, 2].map(|k| {
-                    (1.0 - m.metallic) * (base[k] * (1.0 - m.specular_transmission) - own).max(0.0)
-                        + specular[k]
-                });
-                // Rough glass reflects or refracts nearly all it receives.
-                luminance(albedo).max(m.glass_share()).min(1.0)
+                // What a clearcoat reflects on average, and what it lets through.
+                let coat = m.clearcoat[0] * specular_energy_average(m.clearcoat[1], [0.04; 3])[0];
+                coat + (1.0 - coat) * m.under_coat_scatter_probability()
             })
             .fold(0.0, f32::max)
+    }
+}
+
+impl GpuMaterial {
+    /// `SceneData::max_scatter_probability` of the layers under a clearcoat.
+    fn under_coat_scatter_probability(&self) -> f32 {
+        let m = self;
+        let base = [m.base_color[0], m.base_color[1], m.base_color[2]];
+        let diffuse = (1.0 - m.metallic) * (1.0 - m.specular_transmission);
+        if m.perceptual_roughness < DELTA_ROUGHNESS {
+            let delta = luminance(base) * m.metallic + m.glass_share();
+            return (diffuse * luminance(base) + delta).min(1.0);
+        }
+        // The tint's largest channel, as `dielectric_f0` in bsdf.wgsl.
+        let tint = m.specular_tint[..3].iter().fold(0.0_f32, |a, &t| a.max(t));
+        let dielectric = (0.16 * (m.reflectance * tint).powi(2)).min(1.0);
+        let f0 = base.map(|c| dielectric + (c - dielectric) * m.metallic);
+        let specular = specular_energy_average(m.perceptual_roughness, f0);
+        // The dielectric part's diffuse lobe (cosine_lobes in bsdf.wgsl) beside it.
+        let own = specular_energy_average(m.perceptual_roughness, [dielectric; 3])[0];
+        let albedo = [0, 1, 2].map(|k| {
+            (1.0 - m.metallic) * (base[k] * (1.0 - m.specular_transmission) - own).max(0.0)
+                + specular[k]
+        });
+        // Rough glass reflects or refracts nearly all it receives.
+        luminance(albedo).max(m.glass_share()).min(1.0)
     }
 }
 

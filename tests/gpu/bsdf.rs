@@ -138,3 +138,85 @@ fn rough_glass_keeps_what_mitsubas_roughdielectric_keeps() {
     }
     assert!(failures.is_empty(), "{}", failures.join("\n"));
 }
+
+/// A clearcoat (Bevy's: GGX, F0 0.04, F90 1) over black reflects what its lobe alone does,
+/// 0.04·A + B from `directional_albedo`'s table, within 0.005; over white Lambert it lets
+/// through (1 − E(μi))(1 − E(μo)) of the layers' light, so the surface reflects 0.9–1 of it;
+/// photons scattered off it keep on average what the evaluated BSDF reflects (within 0.02,
+/// mirror coats left out: their lobe is a delta no evaluation sees). A specular tint
+/// colours the specular layer: red tint, a white reflectance-1 surface at a grazing 0.2
+/// reflects less green than red.
+#[test]
+fn a_clearcoat_reflects_over_its_layers_and_a_tint_colours_the_specular_layer() {
+    let mut cases = Vec::new();
+    for base in [0.0, 1.0] {
+        for strength in [0.5, 1.0] {
+            for roughness in [0.0, 0.1, 0.4, 0.8] {
+                for cos_theta in [0.2, 0.6, 1.0] {
+                    let mut m = material(base, 0.0, 1.0);
+                    m.reflectance = 0.0;
+                    m.clearcoat = [strength, roughness, 0.0, 0.0];
+                    cases.push((
+                        base,
+                        strength,
+                        roughness,
+                        FurnaceCase {
+                            material: m,
+                            cos_theta,
+                        },
+                    ));
+                }
+            }
+        }
+    }
+    let tinted = GpuMaterial {
+        reflectance: 1.0,
+        specular_tint: [1.0, 0.2, 0.2, 1.0],
+        ..material(1.0, 0.0, 0.3)
+    };
+    let mut all: Vec<FurnaceCase> = cases.iter().map(|c| c.3).collect();
+    all.push(FurnaceCase {
+        material: tinted,
+        cos_theta: 0.2,
+    });
+    let rows = furnace(all);
+    let mut failures = Vec::new();
+    println!("base strength roughness cos  eval   photon  lobe");
+    for ((base, strength, roughness, case), row) in cases.iter().zip(&rows) {
+        let (eval, photon) = (row.eval[1], row.photon[1]);
+        let (a, b) = bevy_rppm::bsdf::directional_albedo(*roughness, case.cos_theta);
+        let lobe = strength * (0.04 * a + b).min(1.0);
+        println!(
+            "{base:4} {strength:8} {roughness:9} {:4} {eval:.4} {photon:.4} {lobe:.4}",
+            case.cos_theta
+        );
+        let what = format!(
+            "base {base}, coat {strength} of roughness {roughness}, cos {}",
+            case.cos_theta
+        );
+        if !(eval.is_finite() && photon.is_finite()) {
+            failures.push(format!("{what}: not finite"));
+            continue;
+        }
+        if *roughness > 0.0 && (eval - photon).abs() > 0.02 {
+            failures.push(format!("{what}: eval {eval:.4} but photons {photon:.4}"));
+        }
+        if *base == 0.0 && *roughness > 0.0 && (eval - lobe).abs() > 0.005 {
+            failures.push(format!("{what}: eval {eval:.4}, the lobe alone {lobe:.4}"));
+        }
+        if *base == 0.0 && *roughness == 0.0 && (photon - lobe).abs() > 0.01 {
+            failures.push(format!(
+                "{what}: photons {photon:.4}, the mirror coat {lobe:.4}"
+            ));
+        }
+        if *base == 1.0 && !(0.9..=1.0 + 0.01).contains(&photon) {
+            failures.push(format!("{what}: photons keep {photon:.4}"));
+        }
+    }
+    let tint = rows.last().unwrap().eval;
+    println!("red tint, grazing: eval {tint:?}");
+    if !(tint[1] < tint[0] - 0.005) {
+        failures.push(format!("a red specular tint reflects {tint:?}"));
+    }
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}

@@ -16,8 +16,9 @@ import math
 import numpy as np
 
 
-def directional_albedo(roughness, mus, samples=4096):
-    """E(μ) of the single-scattering lobe at F = 1, by the sampling `src/bsdf.rs` uses."""
+def directional_albedo(roughness, mus, samples=4096, f0=1.0, f90=1.0):
+    """E(μ) of the single-scattering lobe under Schlick's Fresnel from f0 to f90 (F = 1 by
+    default), by the sampling `src/bsdf.rs` uses."""
     alpha = roughness * roughness
     k = np.arange(samples, dtype=np.uint64)
     # Hammersley: (k + 0.5)/n and the radical inverse of k.
@@ -39,7 +40,8 @@ def directional_albedo(roughness, mus, samples=4096):
         ok = (n_dot_l > 0) & (v_dot_h > 0)
         nl = np.where(ok, n_dot_l, 1.0)
         g = 4 * smith_visibility(mu, nl, alpha) * mu * nl
-        out.append(np.sum(np.where(ok, g * v_dot_h / (mu * cos_h), 0.0)) / samples)
+        fresnel = f0 + (f90 - f0) * np.power(1 - np.clip(v_dot_h, 0, 1), 5)
+        out.append(np.sum(np.where(ok, fresnel * g * v_dot_h / (mu * cos_h), 0.0)) / samples)
     return np.array(out)
 
 

@@ -18,7 +18,9 @@ bevy_rppm's GGX with multiple scattering and Schlick's Fresnel; `--metal mitsuba
 Mitsuba's single-scattering `roughconductor`, α = roughness², instead); transmission with roughness < 0.02 → `dielectric`, rougher → `roughdielectric` (GGX, α =
 roughness²); inside either an absorbing `homogeneous` medium
 (and the `volpath` integrator) for `KHR_materials_volume` with a thickness; emissive → area
-emitter.
+emitter; `KHR_materials_clearcoat` → `bevy_coat` (tools/bevy_coat.py: bevy_rppm's coat over
+the BSDF above; its textures and normal are left out). `KHR_materials_specular` tints only the
+dielectric's specular layer, which the Lambertian stand-in leaves out.
 Textures (numpy needed): base colour texture × factor and emissive texture × factor as
 bilinear repeating bitmaps, COLOR_0 as the `vertex_color` mesh attribute, alpha `MASK` as a
 `mask` BSDF, `doubleSided` as `twosided`, a metallic-roughness texture (on a Lambertian
@@ -261,6 +263,14 @@ def bsdf_of(material, textures=None, vertex_colors=False):
     if "normalTexture" in material and textures:
         bsdf = {"type": "normalmap", "normalmap": textures.normal_map(material["normalTexture"]), "bsdf": bsdf}
         description = f"normalmap({description})"
+    coat = material.get("extensions", {}).get("KHR_materials_clearcoat", {})
+    if coat.get("clearcoatFactor", 0.0) > 0:
+        strength, rough = coat["clearcoatFactor"], coat.get("clearcoatRoughnessFactor", 0.0)
+        bsdf = {"type": "bevy_coat", "strength": strength, "roughness": rough, "bsdf": bsdf}
+        description = f"bevy_coat({description}, strength={strength}, roughness={rough})"
+    if "KHR_materials_specular" in material.get("extensions", {}):
+        print("reference.py: KHR_materials_specular tints the dielectric's specular layer, which Lambert "
+              "leaves out", file=sys.stderr)
     if material.get("doubleSided"):
         bsdf = {"type": "twosided", "bsdf": bsdf}
         description = f"twosided({description})"
@@ -465,11 +475,13 @@ def main():
 
     global METAL
     METAL = args.metal
-    if METAL == "bevy":
-        sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-        import bevy_metal
+    sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+    import bevy_coat
+    import bevy_metal
 
+    if METAL == "bevy":
         bevy_metal.register()
+    bevy_coat.register()
 
     with tempfile.TemporaryDirectory() as tmp:
         description, mapping = build_scene(args.scene, args.width, args.height, tmp, args.max_depth)

@@ -336,6 +336,29 @@ def lens_caustic(path):
     g.write(path, "bevy_rppm tools/suite_scenes.py lens_caustic")
 
 
+def coated(strength, roughness):
+    return {"KHR_materials_clearcoat": {"clearcoatFactor": strength, "clearcoatRoughnessFactor": roughness}}
+
+
+def clearcoat(path):
+    g, h, faces = open_box()
+    floor, ceiling, back, _front, left, right = faces
+    # Clearcoats over Lambertian paint (issue 12): a lacquered floor (a mirror coat, which
+    # camera paths follow from the first hit), a red ball under a smooth coat (0.1, followed
+    # too) and a teal block under a half-strength satin coat (0.5, gathered with the rest).
+    g.quads([floor], g.material([0.45, 0.28, 0.15], extensions=coated(1.0, 0.0)))
+    g.quads([ceiling, back], g.material([0.7, 0.7, 0.68]))
+    g.quads([left], g.material([0.65, 0.2, 0.15]))
+    g.quads([right], g.material([0.2, 0.3, 0.65]))
+    g.mesh(*sphere([-0.55, 0.45, -0.45], 0.45), g.material([0.6, 0.05, 0.05], extensions=coated(1.0, 0.1)))
+    g.quads([rotate_y(f, 0.4, [0.7, 0, -0.6]) for f in box([0.35, 0, -0.95], [1.05, 0.8, -0.25], inward=False)],
+            g.material([0.1, 0.35, 0.3], extensions=coated(0.5, 0.5)))
+    ceiling_panel(g, h - 0.01, 0.0, -0.3, 0.4, [1.0, 0.95, 0.9], 12.0)
+    g.light({"type": "point", "color": [1.0, 0.95, 0.9], "intensity": 3.0}, translation=[0.9, 1.9, 0.6])
+    g.camera([0.0, 1.4, 2.9], [0.0, 0.35, -0.5], yfov=0.8)
+    g.write(path, "bevy_rppm tools/suite_scenes.py clearcoat")
+
+
 def sky_court(path):
     g = Gltf()
     # A grey yard open to a blue sky, two red walls meeting in a corner (one-sided, facing
@@ -357,7 +380,7 @@ def main():
     parser.add_argument("out", help="folder for the .gltf files")
     args = parser.parse_args()
     os.makedirs(args.out, exist_ok=True)
-    for make in (sun_room, glass_slab, tinted_glass, frosted_glass, water_pool, sky_court, lens_caustic):
+    for make in (sun_room, glass_slab, tinted_glass, frosted_glass, water_pool, sky_court, lens_caustic, clearcoat):
         path = os.path.join(args.out, f"{make.__name__}.gltf")
         make(path)
         print(f"wrote {path}")

@@ -75,7 +75,10 @@ struct Material {
     // Bevy's specular_tint (rgb): the dielectric F0 is 0.16·(reflectance·tint)².
     specular_tint: vec4<f32>,
     // Clearcoat: x strength, y perceptual roughness.
-    clearcoat: vec4<f32>,
+    clearcoat: vec2<f32>,
+    // Bevy's diffuse_transmission: the diffuse lobe's share that leaves through the back.
+    diffuse_transmission: f32,
+    pad_transmission: u32,
 }
 
 // Material flags (MaterialFlags in src/scene/mod.rs).

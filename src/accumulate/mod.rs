@@ -21,7 +21,7 @@ use bevy::shader::Shader;
 
 use crate::gbuffer::GBuffer;
 use crate::importons::EyePaths;
-use crate::scene::texture_defs;
+use crate::scene::{ScatterPaths, texture_defs};
 use crate::shaders::RppmShaders;
 use crate::splat::SplatTarget;
 use crate::stats::timing::{Stage, StageTimer};
@@ -62,6 +62,8 @@ pub struct AccumulateKey {
     pub importons: bool,
     /// The scene's texture lookups (`TEXTURED`).
     pub textured: bool,
+    /// The scene's extra BSDF layers ([`ScatterPaths::LAYERS`]).
+    pub layers: ScatterPaths,
     /// History kept through motion (`HISTORY`): `RppmHistory::Reuse`.
     pub history: bool,
 }
@@ -71,6 +73,7 @@ impl SpecializedComputePipeline for AccumulatePipeline {
 
     fn specialize(&self, key: AccumulateKey) -> ComputePipelineDescriptor {
         let mut shader_defs = texture_defs(key.textured);
+        shader_defs.extend(key.layers.shader_defs().into_iter().map(Into::into));
         if key.subsampled {
             shader_defs.push("SUBSAMPLED".into());
         }

@@ -94,6 +94,7 @@ fn select_stages(
     let traced = state.photons > 0 && state.cubemap.cubemap.is_some();
     let subsampled = state.key.subsampling > 1;
     let textured = scene.data.is_textured();
+    let layers = scene.paths & ScatterPaths::LAYERS;
     StageIds {
         gbuffer: pipelines
             .gbuffer_variants
@@ -106,6 +107,7 @@ fn select_stages(
                 traced_shadows: state.traced_shadows,
                 textured,
                 sky: scene.paths.contains(ScatterPaths::SKY),
+                layers,
                 bvh: state.key.bvh,
             },
         ),
@@ -127,11 +129,12 @@ fn select_stages(
                 SplatKey {
                     subsampled,
                     textured,
+                    layers,
                 },
             )
         }),
         indirect_splat: (traced && state.importons)
-            .then(|| pipelines.indirect_splat.id(cache, textured)),
+            .then(|| pipelines.indirect_splat.id(cache, textured, layers)),
         accumulate: pipelines.accumulate_variants.specialize(
             cache,
             &pipelines.accumulate,
@@ -139,6 +142,7 @@ fn select_stages(
                 subsampled,
                 importons: state.importons,
                 textured,
+                layers,
                 history: state.key.history,
             },
         ),

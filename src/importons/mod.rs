@@ -61,6 +61,9 @@ pub struct EyePathKey {
     pub textured: bool,
     /// The scene has a sky (`SKY`): direct light samples it, escaping paths see it.
     pub sky: bool,
+    /// The scene's extra BSDF layers ([`ScatterPaths::LAYERS`]), which direct light
+    /// evaluates even where no path goes on.
+    pub layers: ScatterPaths,
     /// Rays through the hierarchy (`BVH`): `RppmTracer::Bvh`.
     pub bvh: bool,
 }
@@ -78,11 +81,12 @@ impl SpecializedComputePipeline for EyePathPipeline {
         if key.importons.is_some() || key.traced_shadows {
             layout.push(cubemap::trace_layout());
         }
-        if let Some(paths) = key.importons {
+        let mut paths = key.layers;
+        if let Some(traced) = key.importons {
             shader_defs.push("IMPORTONS".into());
-            let paths = paths - ScatterPaths::SKY;
-            shader_defs.extend(paths.shader_defs().into_iter().map(Into::into));
+            paths |= traced - ScatterPaths::SKY;
         }
+        shader_defs.extend(paths.shader_defs().into_iter().map(Into::into));
         if key.sky {
             shader_defs.push("SKY".into());
         }

@@ -15,7 +15,7 @@ use bevy::render::{RenderApp, RenderStartup};
 use crate::cubemap::{TracingGroups, tracing_pipeline};
 use crate::importons::{EyePaths, GATHER_DISPATCH};
 use crate::photons::PhotonStore;
-use crate::scene::texture_defs;
+use crate::scene::{ScatterPaths, texture_defs};
 use crate::shaders::RppmShaders;
 use crate::stats::timing::{Stage, StageTimer};
 use crate::view::ViewLayouts;
@@ -30,7 +30,8 @@ impl Plugin for IndirectSplatPlugin {
     }
 }
 
-/// The indirect-splat stage, specialized by whether the scene is textured (`TEXTURED`).
+/// The indirect-splat stage, specialized by whether the scene is textured (`TEXTURED`) and by
+/// its extra BSDF layers ([`ScatterPaths::LAYERS`]).
 /// Each variant is queued the first time a view makes importons.
 #[derive(Resource)]
 pub struct IndirectSplatPipeline {
@@ -38,21 +39,31 @@ pub struct IndirectSplatPipeline {
     /// importon.
     pub layout: BindGroupLayoutDescriptor,
     descriptor: ComputePipelineDescriptor,
-    /// Untextured, textured.
-    gather: [Option<CachedComputePipelineId>; 2],
+    /// Per (textured, layers).
+    gather: Vec<((bool, ScatterPaths), CachedComputePipelineId)>,
 }
 
 impl IndirectSplatPipeline {
     /// The gathering pipeline, queued now if it never was.
-    pub fn id(&mut self, cache: &PipelineCache, textured: bool) -> CachedComputePipelineId {
-        let descriptor = &self.descriptor;
-        *self.gather[textured as usize].get_or_insert_with(|| {
-            cache.queue_compute_pipeline(ComputePipelineDescriptor {
-                shader_defs: texture_defs(textured),
-                entry_point: Some("gather".into()),
-                ..descriptor.clone()
-            })
-        })
+    pub fn id(
+        &mut self,
+        cache: &PipelineCache,
+        textured: bool,
+        layers: ScatterPaths,
+    ) -> CachedComputePipelineId {
+        let key = (textured, layers);
+        if let Some((_, id)) = self.gather.iter().find(|(k, _)| *k == key) {
+            return *id;
+        }
+        let mut shader_defs = texture_defs(textured);
+        shader_defs.extend(layers.shader_defs().into_iter().map(Into::into));
+        let id = cache.queue_compute_pipeline(ComputePipelineDescriptor {
+            shader_defs,
+            entry_point: Some("gather".into()),
+            ..self.descriptor.clone()
+        });
+        self.gather.push((key, id));
+        id
     }
 }
 
@@ -79,7 +90,7 @@ fn init_indirect_splat_pipeline(
     commands.insert_resource(IndirectSplatPipeline {
         layout,
         descriptor,
-        gather: [None; 2],
+        gather: Vec::new(),
     });
 }
 

@@ -66,9 +66,9 @@ pub(super) fn material_to_gpu(m: &StandardMaterial, textures: [u32; 4]) -> GpuMa
         clearcoat: [
             finite(m.clearcoat, 0.0).clamp(0.0, 1.0),
             finite(m.clearcoat_perceptual_roughness, 0.5).clamp(0.0, 1.0),
-            0.0,
-            0.0,
         ],
+        diffuse_transmission: finite(m.diffuse_transmission, 0.0).clamp(0.0, 1.0),
+        _pad_transmission: 0,
     }
 }
 

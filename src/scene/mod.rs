@@ -54,6 +54,10 @@ bitflags::bitflags! {
         const ROUGH_REFRACTION = 1 << 5;
         /// A clearcoat layer (a second GGX lobe over the others).
         const CLEARCOAT = 1 << 6;
+        /// Diffuse transmission (a Lambertian lobe through to the other side).
+        const DIFFUSE_TRANSMISSION = 1 << 7;
+        /// The layers every stage that evaluates the BSDF needs, gathers included.
+        const LAYERS = Self::CLEARCOAT.bits() | Self::DIFFUSE_TRANSMISSION.bits();
     }
 }
 
@@ -68,6 +72,7 @@ impl ScatterPaths {
             (Self::ABSORPTION, "ABSORPTION"),
             (Self::ROUGH_REFRACTION, "ROUGH_REFRACTION"),
             (Self::CLEARCOAT, "CLEARCOAT"),
+            (Self::DIFFUSE_TRANSMISSION, "DIFFUSE_TRANSMISSION"),
         ]
         .into_iter()
         .filter_map(|(path, def)| self.contains(path).then_some(def))
@@ -110,7 +115,7 @@ impl GpuTriangle {
     }
 }
 
-/// A `StandardMaterial` reduced to what the light transport uses (160 bytes). Texture lookups
+/// A `StandardMaterial` reduced to what the light transport uses (176 bytes). Texture lookups
 /// multiply the factors, as Bevy's own shaders do (`material_at` in shaders/scene/scene.wgsl).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
@@ -144,9 +149,12 @@ pub struct GpuMaterial {
     /// Bevy's `specular_tint` (linear RGB, glTF's `KHR_materials_specular` colour): the
     /// dielectric F0 is 0.16·(reflectance·tint)², as in Bevy. w unused.
     pub specular_tint: [f32; 4],
-    /// The clearcoat layer: x its strength (0..=1), y its perceptual roughness (0..=1); zw
-    /// unused.
-    pub clearcoat: [f32; 4],
+    /// The clearcoat layer: its strength (0..=1) and perceptual roughness (0..=1).
+    pub clearcoat: [f32; 2],
+    /// Bevy's `diffuse_transmission` (0..=1): the share of the diffuse lobe that leaves
+    /// through the other side (glTF's `KHR_materials_diffuse_transmission`).
+    pub diffuse_transmission: f32,
+    pub _pad_transmission: u32,
 }
 
 impl Default for GpuMaterial {
@@ -354,10 +362,11 @@ impl SceneData {
     pub fn scatter_paths(&self) -> ScatterPaths {
         let (mut glossy, mut mirrors, mut refraction) = (false, false, false);
         let (mut absorption, mut rough_refraction) = (false, false);
-        let mut clearcoat = false;
+        let (mut clearcoat, mut translucent) = (false, false);
         for m in &self.materials {
             absorption |= m.absorption[..3].iter().any(|&s| s > 0.0);
             clearcoat |= m.clearcoat[0] > 0.0;
+            translucent |= m.diffuse_transmission > 0.0;
             let colour = m.base_color[..3].iter().any(|&c| c > 0.0);
             if m.perceptual_roughness >= DELTA_ROUGHNESS {
                 glossy |= m.reflectance > 0.0 || (m.metallic > 0.0 && colour);
@@ -375,6 +384,7 @@ impl SceneData {
         paths.set(ScatterPaths::ROUGH_REFRACTION, rough_refraction);
         paths.set(ScatterPaths::SKY, self.sky[3] > 0.0);
         paths.set(ScatterPaths::CLEARCOAT, clearcoat);
+        paths.set(ScatterPaths::DIFFUSE_TRANSMISSION, translucent);
         paths.set(
             ScatterPaths::ABSORPTION,
             absorption && (refraction || rough_refraction),

@@ -20,7 +20,7 @@ use bevy::render::{RenderApp, RenderStartup};
 use crate::cubemap::{TracingGroups, tracing_pipeline};
 use crate::gbuffer::{GBuffer, target};
 use crate::photons::PhotonStore;
-use crate::scene::texture_defs;
+use crate::scene::{ScatterPaths, texture_defs};
 use crate::shaders::RppmShaders;
 use crate::stats::timing::{Stage, StageTimer};
 use crate::view::ViewLayouts;
@@ -56,6 +56,8 @@ pub struct SplatKey {
     pub subsampled: bool,
     /// The scene's texture lookups (`TEXTURED`).
     pub textured: bool,
+    /// The scene's extra BSDF layers ([`ScatterPaths::LAYERS`]).
+    pub layers: ScatterPaths,
 }
 
 impl SpecializedComputePipeline for SplatPipeline {
@@ -63,6 +65,7 @@ impl SpecializedComputePipeline for SplatPipeline {
 
     fn specialize(&self, key: SplatKey) -> ComputePipelineDescriptor {
         let mut shader_defs = texture_defs(key.textured);
+        shader_defs.extend(key.layers.shader_defs().into_iter().map(Into::into));
         if key.subsampled {
             shader_defs.push("SUBSAMPLED".into());
         }

@@ -155,7 +155,7 @@ fn a_clearcoat_reflects_over_its_layers_and_a_tint_colours_the_specular_layer() 
                 for cos_theta in [0.2, 0.6, 1.0] {
                     let mut m = material(base, 0.0, 1.0);
                     m.reflectance = 0.0;
-                    m.clearcoat = [strength, roughness, 0.0, 0.0];
+                    m.clearcoat = [strength, roughness];
                     cases.push((
                         base,
                         strength,

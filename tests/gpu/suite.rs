@@ -41,7 +41,7 @@ fn reference(name: &str) -> RgbImage {
 /// sun through a window; a glass block under a small panel; blocks of coloured glass; a
 /// frosted pane and a rough glass block; a water surface in a pool under a sky, seen through
 /// from above, with one-sided walls seen from behind; a yard lit by a uniform sky alone, with
-/// a glass block; a caustic from a point light through a glass ball). The goal is set at 256² with the default radius of 4 pixels; at 64² the same gather radius in the scene is
+/// a glass block; a caustic from a point light through a glass ball; clearcoats over paint). The goal is set at 256² with the default radius of 4 pixels; at 64² the same gather radius in the scene is
 /// 1 pixel (the start's bias grows with that radius: 4 pixels at 64² leave the pool 10 % dark
 /// after 4 iterations, its corners' discs half off the floor).
 #[test]
@@ -66,6 +66,7 @@ fn suite_energy_is_right_after_four_iterations() {
         ("water_pool", 0.12),
         ("sky_court", 0.12),
         ("lens_caustic", 0.08),
+        ("clearcoat", 0.05),
     ] {
         let image = render(&format!("suite/{scene}.gltf"), settings.clone(), 4);
         let reference = reference(&format!("suite/{scene}.ref.exr"));
@@ -109,4 +110,43 @@ fn direct_light_alone_converges_without_a_floor() {
         }
     }
     assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
+
+/// Clearcoats (`suite/clearcoat`: a lacquered floor, a ball under a smooth coat, a block under
+/// a satin one) show what Mitsuba shows with the same coat (`tools/bevy_coat.py`): after 16
+/// iterations at 64², 4×4-block relMSE under 0.0025 (0.0010 measured) and energy within 3 %. The same scene
+/// with its coats taken off reads at least twice as far (the floor's reflections gone).
+#[test]
+fn clearcoats_reflect_what_mitsuba_reflects() {
+    let settings = PhotonMapping {
+        photons_per_iteration: PhotonCount::Fixed(65_536),
+        initial_radius_pixels: 1.0,
+        ..default()
+    };
+    let reference = reference("suite/clearcoat.ref.exr");
+    let coated = render("suite/clearcoat.gltf", settings.clone(), 16);
+    let mut gltf: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(asset("suite/clearcoat.gltf")).unwrap()).unwrap();
+    for material in gltf["materials"].as_array_mut().unwrap() {
+        if let Some(extensions) = material["extensions"].as_object_mut() {
+            extensions.remove("KHR_materials_clearcoat");
+        }
+    }
+    let bare_scene = temp("clearcoat_bare.gltf");
+    std::fs::write(&bare_scene, serde_json::to_vec(&gltf).unwrap()).unwrap();
+    let bare = render(bare_scene.to_str().unwrap(), settings, 16);
+    let blocks = |image: &RgbImage| downsample(image, 4);
+    let error = relmse(&blocks(&coated), &blocks(&reference)).unwrap();
+    let bare_error = relmse(&blocks(&bare), &blocks(&reference)).unwrap();
+    let energy = energy_ratio(&coated, &reference).unwrap();
+    println!("clearcoat: block relMSE {error:.4} (coats off: {bare_error:.4}), energy {energy:.4}");
+    assert_eq!(bad_pixels(&coated), 0);
+    assert!(
+        error <= 0.0025 && (energy - 1.0).abs() <= 0.03,
+        "block relMSE {error:.4}, energy {energy:.4}"
+    );
+    assert!(
+        bare_error >= 2.0 * error,
+        "without coats {bare_error:.4}, with {error:.4}: the test does not see them"
+    );
 }

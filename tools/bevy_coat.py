@@ -1,0 +1,138 @@
+"""bevy_rppm's clearcoat as a Mitsuba 3 BSDF (`bevy_coat`), for references of the model the
+renderer implements (`shaders/common/bsdf.wgsl`): over any BSDF, a GGX lobe of α =
+roughness² (height-correlated Smith) with Schlick's Fresnel from 0.04 to 1, times the coat's
+strength c, below roughness 0.02 a mirror; the BSDF under it sees (1 − c E(μi))(1 − c E(μo))
+of the light, E(μ) being what the lobe reflects from cosine μ. Single scattering, as Bevy's
+coat; what it loses between the two passes is not given back.
+
+    import bevy_coat; bevy_coat.register()  # after mi.set_variant (and bevy_metal.register())
+    {"type": "bevy_coat", "strength": 1.0, "roughness": 0.1, "bsdf": {"type": "diffuse", ...}}
+"""
+
+import math
+
+import numpy as np
+
+from bevy_metal import TABLE, directional_albedo
+
+DELTA_ROUGHNESS = 0.02
+F0 = 0.04
+
+
+def register():
+    import drjit as dr
+    import mitsuba as mi
+
+    class BevyCoat(mi.BSDF):
+        def __init__(self, props):
+            mi.BSDF.__init__(self, props)
+            self.strength = float(props.get("strength", 1.0))
+            self.roughness = float(props.get("roughness", 0.0))
+            self.alpha = self.roughness * self.roughness
+            self.mirror = self.roughness < DELTA_ROUGHNESS
+            self.base = props["bsdf"]
+            mus = (np.arange(TABLE) + 0.5) / TABLE
+            if self.mirror:
+                albedo = F0 + (1 - F0) * np.power(1 - mus, 5)
+            else:
+                albedo = np.minimum(directional_albedo(self.roughness, mus, f0=F0), 1.0)
+            self.albedo = mi.Float((self.strength * albedo).astype(np.float32))
+            lobe = mi.BSDFFlags.DeltaReflection if self.mirror else mi.BSDFFlags.GlossyReflection
+            self.m_flags = self.base.flags() | lobe | mi.BSDFFlags.FrontSide
+            self.m_components = [self.m_flags]
+
+        def albedo_at(self, mu):
+            if self.mirror:
+                return self.strength * (F0 + (1 - F0) * dr.power(1 - dr.clamp(mu, 0, 1), 5))
+            x = dr.clamp(mu * TABLE - 0.5, 0, TABLE - 1)
+            i = dr.minimum(mi.UInt32(x), TABLE - 2)
+            f = x - mi.Float(i)
+            return dr.lerp(dr.gather(mi.Float, self.albedo, i), dr.gather(mi.Float, self.albedo, i + 1), f)
+
+        def lobe_cos(self, wi, wo):
+            """The coat lobe's f·cos θo (0 for a mirror coat)."""
+            if self.mirror:
+                return mi.Float(0.0)
+            mu_i, mu_o = mi.Frame3f.cos_theta(wi), mi.Frame3f.cos_theta(wo)
+            h = dr.normalize(wi + wo)
+            n_dot_h = mi.Frame3f.cos_theta(h)
+            a2 = self.alpha * self.alpha
+            d = n_dot_h * n_dot_h * (a2 - 1) + 1
+            ggx_d = a2 / (math.pi * d * d)
+            gv = mu_o * dr.sqrt(mu_i * mu_i * (1 - a2) + a2)
+            gl = mu_i * dr.sqrt(mu_o * mu_o * (1 - a2) + a2)
+            vis = 0.5 / dr.maximum(gv + gl, 1e-8)
+            fresnel = F0 + (1 - F0) * dr.power(1 - dr.clamp(dr.dot(wi, h), 0, 1), 5)
+            value = self.strength * fresnel * ggx_d * vis * mu_o
+            return dr.select((mu_i > 0) & (mu_o > 0), value, 0.0)
+
+        def lobe_pdf(self, wi, wo):
+            if self.mirror:
+                return mi.Float(0.0)
+            h = dr.normalize(wi + wo)
+            n_dot_h = mi.Frame3f.cos_theta(h)
+            a2 = self.alpha * self.alpha
+            d = n_dot_h * n_dot_h * (a2 - 1) + 1
+            pdf = a2 / (math.pi * d * d) * n_dot_h / (4 * dr.maximum(dr.dot(wo, h), 1e-8))
+            return dr.select((mi.Frame3f.cos_theta(wo) > 0) & (n_dot_h > 0), pdf, 0.0)
+
+        def through(self, wi, wo):
+            return (1 - self.albedo_at(mi.Frame3f.cos_theta(wi))) * (1 - self.albedo_at(mi.Frame3f.cos_theta(wo)))
+
+        def eval_pdf(self, ctx, si, wo, active=True):
+            wi = si.wi
+            base_value, base_pdf = self.base.eval_pdf(ctx, si, wo, active)
+            p = self.albedo_at(mi.Frame3f.cos_theta(wi))
+            value = base_value * self.through(wi, wo) + self.lobe_cos(wi, wo)
+            pdf = (1 - p) * base_pdf + p * self.lobe_pdf(wi, wo)
+            ok = active & (mi.Frame3f.cos_theta(wi) > 0)
+            return dr.select(ok, value, 0.0), dr.select(ok, pdf, 0.0)
+
+        def eval(self, ctx, si, wo, active=True):
+            return self.eval_pdf(ctx, si, wo, active)[0]
+
+        def pdf(self, ctx, si, wo, active=True):
+            return self.eval_pdf(ctx, si, wo, active)[1]
+
+        def sample(self, ctx, si, sample1, sample2, active=True):
+            wi = si.wi
+            active = active & (mi.Frame3f.cos_theta(wi) > 0)
+            p = self.albedo_at(mi.Frame3f.cos_theta(wi))
+            coat = sample1 < p
+            # The base's own sample, with sample1 stretched back over 0..1.
+            bs, base_weight = self.base.sample(ctx, si, dr.clamp((sample1 - p) / dr.maximum(1 - p, 1e-6), 0, 1),
+                                               sample2, active & ~coat)
+            if self.mirror:
+                wo = mi.Vector3f(-wi.x, -wi.y, wi.z)
+                bs.wo = dr.select(coat, wo, bs.wo)
+                bs.pdf = dr.select(coat, p, bs.pdf * (1 - p))
+                bs.sampled_type = dr.select(coat, mi.UInt32(+mi.BSDFFlags.DeltaReflection), bs.sampled_type)
+                bs.eta = dr.select(coat, 1.0, bs.eta)
+                # Chosen with probability E(μi), the mirror keeps all; the base, what passes out.
+                out = 1 - self.albedo_at(mi.Frame3f.cos_theta(bs.wo))
+                weight = dr.select(coat, mi.Color3f(1.0), base_weight * out)
+                return bs, dr.select(active & (bs.pdf > 0), weight, 0.0)
+            u = sample2
+            cos_h = dr.sqrt((1 - u.x) / (1 + (self.alpha * self.alpha - 1) * u.x))
+            sin_h = dr.sqrt(dr.maximum(1 - cos_h * cos_h, 0))
+            phi = 2 * math.pi * u.y
+            h = mi.Vector3f(sin_h * dr.cos(phi), sin_h * dr.sin(phi), cos_h)
+            reflected = 2 * dr.dot(wi, h) * h - wi
+            base_delta = mi.has_flag(bs.sampled_type, mi.BSDFFlags.Delta) & ~coat
+            bs.wo = dr.select(coat, reflected, bs.wo)
+            bs.eta = dr.select(coat, 1.0, bs.eta)
+            bs.sampled_type = dr.select(coat, mi.UInt32(+mi.BSDFFlags.GlossyReflection), bs.sampled_type)
+            value, pdf = self.eval_pdf(ctx, si, bs.wo, active)
+            weight = value / dr.maximum(pdf, 1e-12)
+            # A delta sample of the base has no density to mix: its own weight, through the coat.
+            weight = dr.select(base_delta, base_weight * (1 - self.albedo_at(mi.Frame3f.cos_theta(bs.wo))), weight)
+            bs.pdf = dr.select(base_delta, bs.pdf * (1 - p), pdf)
+            return bs, dr.select(active & (bs.pdf > 0), weight, 0.0)
+
+        def traverse(self, callback):
+            pass
+
+        def to_string(self):
+            return f"BevyCoat[strength={self.strength}, roughness={self.roughness}, base={self.base}]"
+
+    mi.register_bsdf("bevy_coat", lambda props: BevyCoat(props))

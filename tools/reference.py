@@ -18,8 +18,10 @@ bevy_rppm's GGX with multiple scattering and Schlick's Fresnel; `--metal mitsuba
 Mitsuba's single-scattering `roughconductor`, α = roughness², instead); transmission with roughness < 0.02 → `dielectric`, rougher → `roughdielectric` (GGX, α =
 roughness²); inside either an absorbing `homogeneous` medium
 (and the `volpath` integrator) for `KHR_materials_volume` with a thickness; emissive → area
-emitter; `KHR_materials_clearcoat` → `bevy_coat` (tools/bevy_coat.py: bevy_rppm's coat over
-the BSDF above; its textures and normal are left out). `KHR_materials_specular` tints only the
+emitter; `KHR_materials_clearcoat` → `bevy_coat` (tools/bevy_layers.py: bevy_rppm's coat over
+the BSDF above; its textures and normal are left out); `KHR_materials_diffuse_transmission` →
+`bevy_translucent` (bevy_layers.py: Lambert reflecting 1 − t, transmitting t, both sides; its colour and
+textures are left out, as in bevy_rppm). `KHR_materials_specular` tints only the
 dielectric's specular layer, which the Lambertian stand-in leaves out.
 Textures (numpy needed): base colour texture × factor and emissive texture × factor as
 bilinear repeating bitmaps, COLOR_0 as the `vertex_color` mesh attribute, alpha `MASK` as a
@@ -254,6 +256,11 @@ def bsdf_of(material, textures=None, vertex_colors=False):
         rgb = {"type": "mesh_attribute", "name": "vertex_color"}
         description += " x vertex colours"
     bsdf = {"type": "diffuse", "reflectance": rgb}
+    translucent = ext.get("KHR_materials_diffuse_transmission", {}).get("diffuseTransmissionFactor", 0.0)
+    if translucent > 0:
+        # Two-sided by itself: `twosided` below would hide what passes through.
+        bsdf = {"type": "bevy_translucent", "transmission": translucent, "reflectance": rgb}
+        description = f"bevy_translucent({description}, transmission={translucent})"
     if textured_metal:
         # Per texel: Lambert where metallic is 0, a GGX conductor of α = roughness² where 1.
         metal, alpha, rough = textures.metallic_roughness(pbr["metallicRoughnessTexture"], metallic, roughness)
@@ -271,7 +278,7 @@ def bsdf_of(material, textures=None, vertex_colors=False):
     if "KHR_materials_specular" in material.get("extensions", {}):
         print("reference.py: KHR_materials_specular tints the dielectric's specular layer, which Lambert "
               "leaves out", file=sys.stderr)
-    if material.get("doubleSided"):
+    if material.get("doubleSided") and not translucent > 0:
         bsdf = {"type": "twosided", "bsdf": bsdf}
         description = f"twosided({description})"
     if material.get("alphaMode") == "MASK" and textures and "baseColorTexture" in pbr:
@@ -476,12 +483,12 @@ def main():
     global METAL
     METAL = args.metal
     sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-    import bevy_coat
+    import bevy_layers
     import bevy_metal
 
     if METAL == "bevy":
         bevy_metal.register()
-    bevy_coat.register()
+    bevy_layers.register()
 
     with tempfile.TemporaryDirectory() as tmp:
         description, mapping = build_scene(args.scene, args.width, args.height, tmp, args.max_depth)

@@ -9,7 +9,7 @@ use std::time::{Duration, Instant};
 use bevy::asset::LoadState;
 use bevy::camera::RenderTarget;
 use bevy::core_pipeline::tonemapping::Tonemapping;
-use bevy::gltf::{GltfAssetLabel, GltfExtras};
+use bevy::gltf::GltfAssetLabel;
 use bevy::prelude::*;
 use bevy::render::RenderPlugin;
 use bevy::render::render_resource::{TextureFormat, TextureUsages};
@@ -186,7 +186,7 @@ pub fn load_gltf_with(scene: &Path, access: Access) -> Result<App, String> {
     let handle = app
         .world()
         .resource::<AssetServer>()
-        .load(GltfAssetLabel::Scene(0).from_asset(file));
+        .load(GltfAssetLabel::Scene(0).from_asset(file.clone()));
     let root_entity = app.world_mut().spawn(WorldAssetRoot(handle.clone())).id();
     app.world_mut().entity_mut(root_entity).observe(
         |_: On<WorldInstanceReady>, mut commands: Commands| {
@@ -211,7 +211,7 @@ pub fn load_gltf_with(scene: &Path, access: Access) -> Result<App, String> {
             ));
         }
     }
-    sphere_lights(app.world_mut());
+    crate::extensions::apply(app.world_mut(), &file, &extras);
     app.update(); // let extraction see the spawned meshes
     Ok(app)
 }
@@ -330,25 +330,6 @@ const DEFAULT_FOV: f32 = std::f32::consts::FRAC_PI_4;
 
 #[derive(Resource)]
 struct SceneReady;
-
-/// Point and spot lights whose glTF extras give `rppm_radius` (checked by `check_gltf`)
-/// become sphere lights of that radius.
-fn sphere_lights(world: &mut World) {
-    let mut lights =
-        world.query::<(&GltfExtras, Option<&mut PointLight>, Option<&mut SpotLight>)>();
-    for (extras, point, spot) in lights.iter_mut(world) {
-        let value: serde_json::Value = serde_json::from_str(&extras.value).unwrap_or_default();
-        let Some(radius) = value["rppm_radius"].as_f64().map(|r| r.max(0.0) as f32) else {
-            continue;
-        };
-        if let Some(mut point) = point {
-            point.radius = radius;
-        }
-        if let Some(mut spot) = spot {
-            spot.radius = radius;
-        }
-    }
-}
 
 /// Renders from the scene's first camera, or from a default one: 45° vertical field of view,
 /// on the +Z side of the scene's bounds, looking down −Z at their centre, with the request's

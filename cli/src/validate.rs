@@ -10,6 +10,8 @@ use std::path::{Component, Path, PathBuf};
 use base64::Engine;
 use serde_json::Value;
 
+use crate::extensions::{SceneExtras, scene_extras};
+
 /// Deeper node hierarchies are refused: Bevy's loader recurses per level, and real assets
 /// stay far below this.
 pub const MAX_NODE_DEPTH: usize = 128;
@@ -26,48 +28,6 @@ pub fn check_gltf(path: &Path, access: Access) -> Result<SceneExtras, String> {
     let bytes = std::fs::read(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
     check_bytes(&bytes, path, access)
         .map_err(|e| format!("{} is not valid glTF: {e}", path.display()))
-}
-
-/// What a scene file says of itself beyond glTF: `scenes[0].extras.rppm_sky`, the linear RGB
-/// radiance of a uniform sky (W·sr⁻¹·m⁻²; `bevy_rppm::RppmSky`), which `tools/reference.py`
-/// reads too.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct SceneExtras {
-    pub sky: Option<[f32; 3]>,
-}
-
-fn scene_extras(root: &Value) -> Result<SceneExtras, String> {
-    light_radii(root)?;
-    let sky = &root["scenes"][0]["extras"]["rppm_sky"];
-    if sky.is_null() {
-        return Ok(SceneExtras::default());
-    }
-    let rgb: Option<Vec<f32>> = sky.as_array().and_then(|a| {
-        a.iter()
-            .map(|v| v.as_f64().map(|v| v as f32).filter(|v| *v >= 0.0))
-            .collect()
-    });
-    match rgb.as_deref() {
-        Some(&[r, g, b]) => Ok(SceneExtras {
-            sky: Some([r, g, b]),
-        }),
-        _ => Err("scenes[0].extras.rppm_sky: expected three non-negative numbers".into()),
-    }
-}
-
-/// A light's `extras.rppm_radius` (m, `PointLight::radius` and `SpotLight::radius`: a sphere
-/// light, which glTF cannot say), where given, is a non-negative number.
-fn light_radii(root: &Value) -> Result<(), String> {
-    let lights = &root["extensions"]["KHR_lights_punctual"]["lights"];
-    for (i, light) in lights.as_array().into_iter().flatten().enumerate() {
-        let radius = &light["extras"]["rppm_radius"];
-        if !radius.is_null() && radius.as_f64().is_none_or(|r| r < 0.0) {
-            return Err(format!(
-                "extensions.KHR_lights_punctual.lights[{i}].extras.rppm_radius: expected a non-negative number"
-            ));
-        }
-    }
-    Ok(())
 }
 
 fn check_bytes(bytes: &[u8], path: &Path, access: Access) -> Result<SceneExtras, String> {

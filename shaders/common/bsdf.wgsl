@@ -142,6 +142,20 @@ fn cosine_lobes(m: Material, f0: vec3<f32>, o: Specular, i: Specular, avg: vec2<
     return diffuse + f0 * (o.lost * i.lost / avg.y);
 }
 
+// The share of the surface that sends diffuse light through to the other side: Bevy's
+// diffuse transmission of the dielectric, non-glass part, where the scene has any
+// (`DIFFUSE_TRANSMISSION`). It is a Lambertian lobe of the base colour through, beside the
+// other layers at 1 − share: the surface then reflects (1 − t) and transmits t of its base
+// colour on average, as Bevy's split of the diffuse colour does, and keeps energy (Bevy's
+// specular layer on top of both does not).
+fn translucency(m: Material) -> f32 {
+#ifdef DIFFUSE_TRANSMISSION
+    return m.diffuse_transmission * (1.0 - m.metallic) * (1.0 - m.specular_transmission);
+#else
+    return 0.0;
+#endif
+}
+
 // The diffuse lobe's albedo at normal shaping, from `specular_average`.
 fn diffuse_albedo(m: Material, avg: vec2<f32>) -> vec3<f32> {
     let dielectric = m.base_color.rgb * (1.0 - m.specular_transmission);
@@ -207,6 +221,20 @@ fn bsdf_gathered(m: Material, out: Outgoing, n: vec3<f32>, wo: vec3<f32>, wi: ve
 
 // f(wo, wi) of the layers under a clearcoat.
 fn under_coat(m: Material, out: Outgoing, n: vec3<f32>, wo: vec3<f32>, wi: vec3<f32>) -> vec3<f32> {
+#ifdef DIFFUSE_TRANSMISSION
+    let through = translucency(m);
+    if through > 0.0 {
+        if dot(n, wi) < 0.0 {
+            return select(vec3<f32>(0.0), m.base_color.rgb * (through / PI), out.n_dot_v > 0.0);
+        }
+        return opaque_layers(m, out, n, wo, wi) * (1.0 - through);
+    }
+#endif
+    return opaque_layers(m, out, n, wo, wi);
+}
+
+// `under_coat` but for diffuse transmission.
+fn opaque_layers(m: Material, out: Outgoing, n: vec3<f32>, wo: vec3<f32>, wi: vec3<f32>) -> vec3<f32> {
 #ifdef ROUGH_REFRACTION
     let glass = rough_glass_share(m);
     if glass > 0.0 {
@@ -330,6 +358,12 @@ fn scatter_photon(material: Material, n: vec3<f32>, wi: vec3<f32>, front: bool, 
 // `scatter_photon` under a clearcoat.
 fn scatter_layers(material: Material, n: vec3<f32>, wi: vec3<f32>, front: bool, rng: ptr<function, u32>) -> Scatter {
     var m = material;
+#ifdef DIFFUSE_TRANSMISSION
+    // Through with the translucent share's probability, Lambertian about −n.
+    if random(rng) < translucency(m) {
+        return Scatter(-cosine_direction(n, vec2<f32>(random(rng), random(rng))), m.base_color.rgb);
+    }
+#endif
 #ifdef ROUGH_REFRACTION
     // Rough glass's share of the surface is its own lobe; the rest, the layers without it.
     let rough = rough_glass_share(m);
@@ -485,7 +519,7 @@ fn coat_albedo(m: Material, mu: f32) -> f32 {
 
 // What passes the coat toward wo (`out.coat`) and from wi.
 fn coat_through(m: Material, out: Outgoing, n: vec3<f32>, wi: vec3<f32>) -> f32 {
-    return out.coat * (1.0 - coat_albedo(m, max(dot(n, wi), 0.0)));
+    return out.coat * (1.0 - coat_albedo(m, abs(dot(n, wi))));
 }
 
 // Whether camera paths follow the coat from the camera's first hit rather than gather it: a

@@ -6,7 +6,7 @@
 // elsewhere costs no one else.
 #import bevy_rppm::common::{Material, Outgoing, Photon, Importon, IterationParams, PI, NO_IMPORTON, faces_reached, splat_weight}
 #import bevy_rppm::scene::{triangle_at, barycentrics, material_at}
-#import bevy_rppm::bsdf::{bsdf_from, bsdf_toward}
+#import bevy_rppm::bsdf::{bsdf_from, bsdf_toward, translucency}
 #import bevy_rppm::cubemap::cubemap
 #import bevy_rppm::photon_lists::{photons, listed_tiles, list_head, in_kernel}
 
@@ -23,10 +23,11 @@ fn gather_list(imp: Importon, m: Material, out: Outgoing, pixel: u32, head: u32)
     var sum = vec3<f32>(0.0);
     var node = head;
     let r = imp.radius;
+    let both_sides = translucency(m) > 0.0;
     for (var guard = 0u; node != 0u && guard < arrayLength(&photons); guard += 1u) {
         let photon = node - 1u;
         node = photons[photon].next;
-        if !in_kernel(params, photon, imp.position, imp.normal, r, pixel) {
+        if !in_kernel(params, photon, imp.position, imp.normal, r, pixel, both_sides) {
             continue;
         }
         let p = photons[photon];

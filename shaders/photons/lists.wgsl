@@ -27,14 +27,16 @@ fn listed_tiles(face: u32, p: vec3<f32>, r: f32) -> vec4<i32> {
 }
 
 // Whether photon `photon` is inside the gather kernel of `pixel` (centre, plane normal,
-// radius r): within r of the centre, near its plane and facing the same way, and kept by
-// the splat's roulette. Read field by field: most photons fail the first test.
-fn in_kernel(params: IterationParams, photon: u32, centre: vec3<f32>, plane: vec3<f32>, r: f32, pixel: u32) -> bool {
+// radius r): within r of the centre, near its plane and facing the same way (either way on
+// a surface that lets diffuse light through, `both_sides`), and kept by the splat's
+// roulette. Read field by field: most photons fail the first test.
+fn in_kernel(params: IterationParams, photon: u32, centre: vec3<f32>, plane: vec3<f32>, r: f32, pixel: u32, both_sides: bool) -> bool {
     let offset = photons[photon].position - centre;
     if dot(offset, offset) > r * r || abs(dot(offset, plane)) > params.kernel_flattening * r {
         return false;
     }
-    return dot(photons[photon].normal, plane) >= 0.5 && splat_survives(params, photon, pixel);
+    let facing = dot(photons[photon].normal, plane);
+    return select(facing, abs(facing), both_sides) >= 0.5 && splat_survives(params, photon, pixel);
 }
 
 // The head of the list of tile (x, y) of `face`.

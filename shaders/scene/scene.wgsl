@@ -124,9 +124,9 @@ fn resolved_kernel_normal(surface: vec4<u32>, shading: vec3<f32>) -> vec3<f32> {
 
 // The material on the side a ray arrives from: the back of a one-sided (not `double_sided`)
 // opaque surface absorbs all light and emits none, as a one-sided BSDF does in Mitsuba;
-// glass is two-sided by nature.
+// glass and surfaces that let diffuse light through are two-sided by nature.
 fn as_seen_from(m: Material, front: bool) -> Material {
-    if front || (m.flags & MATERIAL_DOUBLE_SIDED) != 0u || m.specular_transmission > 0.0 {
+    if front || (m.flags & MATERIAL_DOUBLE_SIDED) != 0u || m.specular_transmission > 0.0 || m.diffuse_transmission > 0.0 {
         return m;
     }
     var black = m;

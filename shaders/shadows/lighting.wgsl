@@ -7,7 +7,7 @@
 #define_import_path bevy_rppm::lighting
 
 #import bevy_rppm::common::{Material, Light, IterationParams, PI, LIGHT_SPOT, LIGHT_DIRECTIONAL, face_of, random, basis_around, cosine_direction}
-#import bevy_rppm::bsdf::bsdf_eval
+#import bevy_rppm::bsdf::{bsdf_eval, translucency}
 #import bevy_rppm::scene::{shadow_views, lights, triangles, triangle_at, material_at, emitters, light_cdf, find_source, triangle_point, uniform_barycentrics, part_barycentrics}
 #ifdef TRACED_SHADOWS
 #import bevy_rppm::cubemap::occluded
@@ -184,9 +184,17 @@ fn surface_light(m: Material, x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, front: 
             s.li *= weight;
         } else if k == punctual {
 #ifdef SKY
-            // One direction drawn by cosine around n (pdf cos/π), a ray to infinity.
-            let wi = cosine_direction(n, vec2<f32>(random(rng), random(rng)));
-            s = LightSample(wi, 1.0e30, params.sky.rgb * PI, true);
+            // One direction drawn by cosine around n (pdf cos/π), a ray to infinity; through
+            // to the other side by the share of diffuse light that goes through.
+            var wi = cosine_direction(n, vec2<f32>(random(rng), random(rng)));
+            var li = params.sky.rgb * PI;
+            let through = translucency(m);
+            if through > 0.0 {
+                let back = random(rng) < through;
+                wi = select(wi, -wi, back);
+                li /= select(1.0 - through, through, back);
+            }
+            s = LightSample(wi, 1.0e30, li, true);
 #endif
         } else {
             s = emitter_sample(x, origin_triangle, rng);
@@ -194,10 +202,11 @@ fn surface_light(m: Material, x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, front: 
         if all(s.li <= vec3<f32>(0.0)) {
             continue;
         }
-        let c = max(dot(n, s.wi), 0.0);
+        // |cos|: light from behind reaches only what lets diffuse light through (bsdf_eval).
+        let c = abs(dot(n, s.wi));
         let lit = bsdf_eval(m, n, wo, s.wi) * s.li * select(c, sign(c), s.cosine_drawn);
-        // No shadow ray where nothing would arrive (behind the surface, outside a cone, a
-        // delta lobe).
+        // No shadow ray where nothing would arrive (behind an opaque surface, outside a
+        // cone, a delta lobe).
         if any(lit > vec3<f32>(0.0)) {
             sum += lit * visibility(x, s.wi, s.distance, origin_triangle);
         }

@@ -9,7 +9,7 @@
 // in shaders/accumulate/accumulate.wgsl, which applies each full-resolution pixel's own BSDF.
 #import bevy_rppm::common::{Material, Outgoing, Photon, IterationParams, PI, faces_reached, gather_radius, splat_weight, subsample_representative}
 #import bevy_rppm::scene::{gbuffer_material, resolved_material, resolved_kernel_normal, kernel_normal}
-#import bevy_rppm::bsdf::{bsdf_from, bsdf_gathered}
+#import bevy_rppm::bsdf::{bsdf_from, bsdf_gathered, translucency}
 #import bevy_rppm::cubemap::cubemap
 #import bevy_rppm::photon_lists::{photons, listed_tiles, list_head, in_kernel}
 
@@ -40,10 +40,11 @@ fn gather_list(k: Kernel, m: Material, out: Outgoing, shading: vec3<f32>, wo: ve
     var node = head;
     let r = k.radius;
     let bent = any(k.plane != shading);
+    let both_sides = translucency(m) > 0.0;
     for (var guard = 0u; node != 0u && guard < arrayLength(&photons); guard += 1u) {
         let photon = node - 1u;
         node = photons[photon].next;
-        if !in_kernel(params, photon, k.position, k.plane, r, k.index) {
+        if !in_kernel(params, photon, k.position, k.plane, r, k.index, both_sides) {
             continue;
         }
         let p = photons[photon];

@@ -220,3 +220,46 @@ fn a_clearcoat_reflects_over_its_layers_and_a_tint_colours_the_specular_layer() 
     }
     assert!(failures.is_empty(), "{}", failures.join("\n"));
 }
+
+/// Diffuse transmission t (Bevy's `diffuse_transmission`) splits the base colour: a white
+/// surface reflects 1 − t of uniform light toward any direction (within 0.01: the reflected
+/// layers keep their shape) and photons keep all their flux, t of it sent through (mean
+/// weight 1 ± 0.02).
+#[test]
+fn diffuse_transmission_reflects_one_minus_t_and_keeps_the_rest() {
+    let mut cases = Vec::new();
+    for t in [0.3, 0.7, 1.0] {
+        for roughness in [0.3, 1.0] {
+            for cos_theta in [0.3, 1.0] {
+                let material = GpuMaterial {
+                    diffuse_transmission: t,
+                    ..material(1.0, 0.0, roughness)
+                };
+                cases.push((
+                    t,
+                    roughness,
+                    FurnaceCase {
+                        material,
+                        cos_theta,
+                    },
+                ));
+            }
+        }
+    }
+    let rows = furnace(cases.iter().map(|c| c.2).collect());
+    let mut failures = Vec::new();
+    for ((t, roughness, case), row) in cases.iter().zip(&rows) {
+        let (eval, photon) = (row.eval[1], row.photon[1]);
+        println!(
+            "t {t} roughness {roughness} cos {}: reflects {eval:.4}, photons keep {photon:.4}",
+            case.cos_theta
+        );
+        if !((eval - (1.0 - t)).abs() <= 0.01 && (photon - 1.0).abs() <= 0.02) {
+            failures.push(format!(
+                "t {t}, roughness {roughness}, cos {}: reflects {eval:.4}, photons keep {photon:.4}",
+                case.cos_theta
+            ));
+        }
+    }
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}

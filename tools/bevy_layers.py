@@ -1,12 +1,19 @@
-"""bevy_rppm's clearcoat as a Mitsuba 3 BSDF (`bevy_coat`), for references of the model the
-renderer implements (`shaders/common/bsdf.wgsl`): over any BSDF, a GGX lobe of α =
-roughness² (height-correlated Smith) with Schlick's Fresnel from 0.04 to 1, times the coat's
-strength c, below roughness 0.02 a mirror; the BSDF under it sees (1 − c E(μi))(1 − c E(μo))
-of the light, E(μ) being what the lobe reflects from cosine μ. Single scattering, as Bevy's
-coat; what it loses between the two passes is not given back.
+"""bevy_rppm's extra layers as Mitsuba 3 BSDFs, for references of the model the renderer
+implements (`shaders/common/bsdf.wgsl`):
 
-    import bevy_coat; bevy_coat.register()  # after mi.set_variant (and bevy_metal.register())
+`bevy_coat`, the clearcoat: over any BSDF, a GGX lobe of α = roughness² (height-correlated
+Smith) with Schlick's Fresnel from 0.04 to 1, times the coat's strength c, below roughness
+0.02 a mirror; the BSDF under it sees (1 − c E(μi))(1 − c E(μo)) of the light, E(μ) being
+what the lobe reflects from cosine μ. Single scattering, as Bevy's coat; what it loses
+between the two passes is not given back.
+
+`bevy_translucent`, diffuse transmission: Lambert of albedo ρ that reflects (1 − t) of what it
+scatters and sends t through to the other side (Bevy's `diffuse_transmission` t), alike from
+both sides.
+
+    import bevy_layers; bevy_layers.register()  # after mi.set_variant
     {"type": "bevy_coat", "strength": 1.0, "roughness": 0.1, "bsdf": {"type": "diffuse", ...}}
+    {"type": "bevy_translucent", "transmission": 0.5, "reflectance": {"type": "rgb", ...}}
 """
 
 import math
@@ -136,3 +143,53 @@ def register():
             return f"BevyCoat[strength={self.strength}, roughness={self.roughness}, base={self.base}]"
 
     mi.register_bsdf("bevy_coat", lambda props: BevyCoat(props))
+
+    class BevyTranslucent(mi.BSDF):
+        def __init__(self, props):
+            mi.BSDF.__init__(self, props)
+            self.transmission = float(props.get("transmission", 0.0))
+            self.albedo = props.get("reflectance", mi.ScalarColor3f(0.5))
+            if not isinstance(self.albedo, mi.Texture):
+                self.albedo = mi.load_dict({"type": "rgb", "value": self.albedo})
+            self.m_flags = (mi.BSDFFlags.DiffuseReflection | mi.BSDFFlags.DiffuseTransmission
+                            | mi.BSDFFlags.FrontSide | mi.BSDFFlags.BackSide)
+            self.m_components = [self.m_flags]
+
+        def share(self, wi, wo):
+            """The lobe's share toward wo: 1 − t on wi's side, t through."""
+            same = mi.Frame3f.cos_theta(wi) * mi.Frame3f.cos_theta(wo) > 0
+            return dr.select(same, 1 - self.transmission, self.transmission)
+
+        def eval_pdf(self, ctx, si, wo, active=True):
+            density = self.share(si.wi, wo) * dr.abs(mi.Frame3f.cos_theta(wo)) / math.pi
+            return self.albedo.eval(si, active) * density, density
+
+        def eval(self, ctx, si, wo, active=True):
+            return self.eval_pdf(ctx, si, wo, active)[0]
+
+        def pdf(self, ctx, si, wo, active=True):
+            return self.eval_pdf(ctx, si, wo, active)[1]
+
+        def sample(self, ctx, si, sample1, sample2, active=True):
+            wo = mi.warp.square_to_cosine_hemisphere(sample2)
+            # On wi's side, or through with probability t.
+            side = dr.select(mi.Frame3f.cos_theta(si.wi) >= 0, 1.0, -1.0)
+            side = dr.select(sample1 < self.transmission, -side, side)
+            wo = mi.Vector3f(wo.x, wo.y, wo.z * side)
+            bs = dr.zeros(mi.BSDFSample3f)
+            bs.wo = wo
+            bs.pdf = self.pdf(ctx, si, wo, active)
+            bs.eta = 1.0
+            through = mi.Frame3f.cos_theta(si.wi) * wo.z < 0
+            bs.sampled_type = dr.select(through, mi.UInt32(+mi.BSDFFlags.DiffuseTransmission),
+                                        mi.UInt32(+mi.BSDFFlags.DiffuseReflection))
+            bs.sampled_component = mi.UInt32(0)
+            return bs, dr.select(active & (bs.pdf > 0), self.albedo.eval(si, active), 0.0)
+
+        def traverse(self, callback):
+            pass
+
+        def to_string(self):
+            return f"BevyTranslucent[transmission={self.transmission}]"
+
+    mi.register_bsdf("bevy_translucent", lambda props: BevyTranslucent(props))

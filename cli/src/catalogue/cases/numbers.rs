@@ -32,6 +32,8 @@ pub fn numbers() -> Vec<Case> {
         ("a light of an unknown type", "/extensions/KHR_lights_punctual/lights/0/type", json!("laser")),
         ("a light radius of -1", "/extensions/KHR_lights_punctual/lights/0/extras", json!({"rppm_radius": -1.0})),
         ("a light radius that is text", "/extensions/KHR_lights_punctual/lights/0/extras", json!({"rppm_radius": "big"})),
+        ("a diffuse transmission of 2", "/materials/0/extensions", json!({"KHR_materials_diffuse_transmission": {"diffuseTransmissionFactor": 2.0}})),
+        ("a diffuse transmission that is text", "/materials/0/extensions", json!({"KHR_materials_diffuse_transmission": {"diffuseTransmissionFactor": "half"}})),
     ]
     .into_iter()
     .map(|(name, pointer, value)| edited(name, g, error(bad), move |s| set(s, pointer, value)))
@@ -87,6 +89,16 @@ pub fn numbers() -> Vec<Case> {
             "a light range of 0",
             "/extensions/KHR_lights_punctual/lights/0/range",
             json!(0.0),
+        ),
+        (
+            "a clearcoat of 5 and roughness -1",
+            "/materials/0/extensions",
+            json!({"KHR_materials_clearcoat": {"clearcoatFactor": 5.0, "clearcoatRoughnessFactor": -1.0}}),
+        ),
+        (
+            "a specular colour of [1000, -1, 0]",
+            "/materials/0/extensions",
+            json!({"KHR_materials_specular": {"specularColorFactor": [1000.0, -1.0, 0.0]}}),
         ),
         (
             "alpha cutoff -1",

@@ -20,7 +20,7 @@ import math
 
 import numpy as np
 
-from bevy_metal import TABLE, directional_albedo
+from bevy_metal import TABLE, directional_albedo, ggx_pdf, ggx_reflect, ggx_terms, table_at
 
 DELTA_ROUGHNESS = 0.02
 F0 = 0.04
@@ -51,24 +51,14 @@ def register():
         def albedo_at(self, mu):
             if self.mirror:
                 return self.strength * (F0 + (1 - F0) * dr.power(1 - dr.clamp(mu, 0, 1), 5))
-            x = dr.clamp(mu * TABLE - 0.5, 0, TABLE - 1)
-            i = dr.minimum(mi.UInt32(x), TABLE - 2)
-            f = x - mi.Float(i)
-            return dr.lerp(dr.gather(mi.Float, self.albedo, i), dr.gather(mi.Float, self.albedo, i + 1), f)
+            return table_at(dr, mi, self.albedo, mu)
 
         def lobe_cos(self, wi, wo):
             """The coat lobe's f·cos θo (0 for a mirror coat)."""
             if self.mirror:
                 return mi.Float(0.0)
             mu_i, mu_o = mi.Frame3f.cos_theta(wi), mi.Frame3f.cos_theta(wo)
-            h = dr.normalize(wi + wo)
-            n_dot_h = mi.Frame3f.cos_theta(h)
-            a2 = self.alpha * self.alpha
-            d = n_dot_h * n_dot_h * (a2 - 1) + 1
-            ggx_d = a2 / (math.pi * d * d)
-            gv = mu_o * dr.sqrt(mu_i * mu_i * (1 - a2) + a2)
-            gl = mu_i * dr.sqrt(mu_o * mu_o * (1 - a2) + a2)
-            vis = 0.5 / dr.maximum(gv + gl, 1e-8)
+            ggx_d, vis, h = ggx_terms(dr, mi, wi, wo, self.alpha)
             fresnel = F0 + (1 - F0) * dr.power(1 - dr.clamp(dr.dot(wi, h), 0, 1), 5)
             value = self.strength * fresnel * ggx_d * vis * mu_o
             return dr.select((mu_i > 0) & (mu_o > 0), value, 0.0)
@@ -76,11 +66,8 @@ def register():
         def lobe_pdf(self, wi, wo):
             if self.mirror:
                 return mi.Float(0.0)
-            h = dr.normalize(wi + wo)
-            n_dot_h = mi.Frame3f.cos_theta(h)
-            a2 = self.alpha * self.alpha
-            d = n_dot_h * n_dot_h * (a2 - 1) + 1
-            pdf = a2 / (math.pi * d * d) * n_dot_h / (4 * dr.maximum(dr.dot(wo, h), 1e-8))
+            pdf = ggx_pdf(dr, mi, wi, wo, self.alpha)
+            n_dot_h = mi.Frame3f.cos_theta(dr.normalize(wi + wo))
             return dr.select((mi.Frame3f.cos_theta(wo) > 0) & (n_dot_h > 0), pdf, 0.0)
 
         def through(self, wi, wo):
@@ -119,12 +106,7 @@ def register():
                 out = 1 - self.albedo_at(mi.Frame3f.cos_theta(bs.wo))
                 weight = dr.select(coat, mi.Color3f(1.0), base_weight * out)
                 return bs, dr.select(active & (bs.pdf > 0), weight, 0.0)
-            u = sample2
-            cos_h = dr.sqrt((1 - u.x) / (1 + (self.alpha * self.alpha - 1) * u.x))
-            sin_h = dr.sqrt(dr.maximum(1 - cos_h * cos_h, 0))
-            phi = 2 * math.pi * u.y
-            h = mi.Vector3f(sin_h * dr.cos(phi), sin_h * dr.sin(phi), cos_h)
-            reflected = 2 * dr.dot(wi, h) * h - wi
+            reflected = ggx_reflect(dr, mi, wi, sample2, self.alpha)
             base_delta = mi.has_flag(bs.sampled_type, mi.BSDFFlags.Delta) & ~coat
             bs.wo = dr.select(coat, reflected, bs.wo)
             bs.eta = dr.select(coat, 1.0, bs.eta)

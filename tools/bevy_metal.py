@@ -55,6 +55,43 @@ def smith_visibility(n_dot_v, n_dot_l, a):
 TABLE = 128
 
 
+# GGX pieces on Dr.Jit arrays (local frame, n = z), shared with bevy_layers.py.
+
+def ggx_terms(dr, mi, wi, wo, alpha):
+    """(D(h), height-correlated Smith V, h) for wi and wo."""
+    mu_i, mu_o = mi.Frame3f.cos_theta(wi), mi.Frame3f.cos_theta(wo)
+    h = dr.normalize(wi + wo)
+    n_dot_h = mi.Frame3f.cos_theta(h)
+    a2 = alpha * alpha
+    d = n_dot_h * n_dot_h * (a2 - 1) + 1
+    gv = mu_o * dr.sqrt(mu_i * mu_i * (1 - a2) + a2)
+    gl = mu_i * dr.sqrt(mu_o * mu_o * (1 - a2) + a2)
+    return a2 / (math.pi * d * d), 0.5 / dr.maximum(gv + gl, 1e-8), h
+
+
+def ggx_pdf(dr, mi, wi, wo, alpha):
+    """The density of wo reflected about a normal drawn from D(h) cos θh."""
+    d, _, h = ggx_terms(dr, mi, wi, wo, alpha)
+    return d * mi.Frame3f.cos_theta(h) / (4 * dr.maximum(dr.dot(wo, h), 1e-8))
+
+
+def ggx_reflect(dr, mi, wi, u, alpha):
+    """wi reflected about a microfacet normal drawn from D(h) cos θh with u."""
+    cos_h = dr.sqrt((1 - u.x) / (1 + (alpha * alpha - 1) * u.x))
+    sin_h = dr.sqrt(dr.maximum(1 - cos_h * cos_h, 0))
+    phi = 2 * math.pi * u.y
+    h = mi.Vector3f(sin_h * dr.cos(phi), sin_h * dr.sin(phi), cos_h)
+    return 2 * dr.dot(wi, h) * h - wi
+
+
+def table_at(dr, mi, table, mu):
+    """A table of TABLE values at cosines (k + ½)/TABLE, read linearly at mu."""
+    x = dr.clamp(mu * TABLE - 0.5, 0, TABLE - 1)
+    i = dr.minimum(mi.UInt32(x), TABLE - 2)
+    f = x - mi.Float(i)
+    return dr.lerp(dr.gather(mi.Float, table, i), dr.gather(mi.Float, table, i + 1), f)
+
+
 def register():
     import drjit as dr
     import mitsuba as mi
@@ -76,23 +113,13 @@ def register():
             self.m_components = [self.m_flags]
 
         def lost_at(self, mu):
-            x = dr.clamp(mu * TABLE - 0.5, 0, TABLE - 1)
-            i = dr.minimum(mi.UInt32(x), TABLE - 2)
-            f = x - mi.Float(i)
-            return dr.lerp(dr.gather(mi.Float, self.lost, i), dr.gather(mi.Float, self.lost, i + 1), f)
+            return table_at(dr, mi, self.lost, mu)
 
         def f_cos(self, si, wi, wo, active):
             """f·cos θo with wi toward the viewer, wo toward the light (local frame)."""
             mu_i, mu_o = mi.Frame3f.cos_theta(wi), mi.Frame3f.cos_theta(wo)
             active = active & (mu_i > 0) & (mu_o > 0)
-            h = dr.normalize(wi + wo)
-            n_dot_h = mi.Frame3f.cos_theta(h)
-            a2 = self.alpha * self.alpha
-            d = n_dot_h * n_dot_h * (a2 - 1) + 1
-            ggx_d = a2 / (math.pi * d * d)
-            gv = mu_o * dr.sqrt(mu_i * mu_i * (1 - a2) + a2)
-            gl = mu_i * dr.sqrt(mu_o * mu_o * (1 - a2) + a2)
-            vis = 0.5 / dr.maximum(gv + gl, 1e-8)
+            ggx_d, vis, h = ggx_terms(dr, mi, wi, wo, self.alpha)
             f0 = self.base.eval(si, active)
             f90 = dr.clamp(16.5 * (f0[0] + f0[1] + f0[2]), 0.0, 1.0)
             fc = dr.power(1 - dr.clamp(dr.dot(wi, h), 0, 1), 5)
@@ -103,24 +130,14 @@ def register():
 
         def pdf_of(self, wi, wo, active):
             mu_i, mu_o = mi.Frame3f.cos_theta(wi), mi.Frame3f.cos_theta(wo)
-            h = dr.normalize(wi + wo)
-            n_dot_h = mi.Frame3f.cos_theta(h)
-            a2 = self.alpha * self.alpha
-            d = n_dot_h * n_dot_h * (a2 - 1) + 1
-            ggx = a2 / (math.pi * d * d) * n_dot_h / (4 * dr.maximum(dr.dot(wo, h), 1e-8))
-            p = 0.5 * ggx + 0.5 * mu_o / math.pi
+            p = 0.5 * ggx_pdf(dr, mi, wi, wo, self.alpha) + 0.5 * mu_o / math.pi
             return dr.select(active & (mu_i > 0) & (mu_o > 0), p, 0.0)
 
         def sample(self, ctx, si, sample1, sample2, active=True):
             wi = si.wi
             # GGX half vector (D cos θh) or a cosine direction.
-            u = sample2
-            cos_h = dr.sqrt((1 - u.x) / (1 + (self.alpha * self.alpha - 1) * u.x))
-            sin_h = dr.sqrt(dr.maximum(1 - cos_h * cos_h, 0))
-            phi = 2 * math.pi * u.y
-            h = mi.Vector3f(sin_h * dr.cos(phi), sin_h * dr.sin(phi), cos_h)
-            reflected = 2 * dr.dot(wi, h) * h - wi
-            cosine = mi.warp.square_to_cosine_hemisphere(u)
+            reflected = ggx_reflect(dr, mi, wi, sample2, self.alpha)
+            cosine = mi.warp.square_to_cosine_hemisphere(sample2)
             wo = dr.select(sample1 < 0.5, reflected, cosine)
             bs = dr.zeros(mi.BSDFSample3f)
             bs.wo = wo

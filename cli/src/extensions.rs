@@ -98,7 +98,7 @@ fn diffuse_transmission(root: &Value) -> Result<Vec<(usize, f32)>, String> {
 
 /// Gives the loaded scene what [`SceneExtras`] says: sphere lights and the materials'
 /// diffuse transmission (`file` is the scene's asset path).
-pub(crate) fn apply(world: &mut World, file: &str, extras: &SceneExtras) {
+pub fn apply(world: &mut World, file: &str, extras: &SceneExtras) {
     sphere_lights(world);
     for &(index, factor) in &extras.diffuse_transmission {
         for is_scale_inverted in [false, true] {

@@ -4,7 +4,7 @@
 //! Each example uses part of it.
 #![allow(dead_code, reason = "each example uses part of the shared helpers")]
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use bevy::camera::{Exposure, Hdr, RenderTarget};
 use bevy::core_pipeline::tonemapping::Tonemapping;
@@ -17,7 +17,7 @@ use bevy::world_serialization::WorldAssetRoot;
 
 use bevy_rppm::stats::diagnostics::{ITERATIONS, MEMORY_MIB, stage_path};
 use bevy_rppm::stats::timing::Stage;
-use bevy_rppm::{PhotonCount, PhotonMapping, RppmMode, RppmPlugin};
+use bevy_rppm::{PhotonCount, PhotonMapping, RppmMode, RppmPlugin, RppmStats};
 use clap::Parser;
 
 /// Command-line options every example takes.
@@ -66,13 +66,23 @@ pub struct ExampleKeys(pub &'static str);
 
 /// A Bevy app with the photon-mapping plugin: windowed, or headless per `args`.
 pub fn example_app(title: &'static str, keys: &'static str, args: ExampleArgs) -> App {
+    example_app_in(title, keys, args, &asset_root())
+}
+
+/// [`example_app`] reading its assets from `root`.
+pub fn example_app_in(
+    title: &'static str,
+    keys: &'static str,
+    args: ExampleArgs,
+    root: &Path,
+) -> App {
     let mut app = App::new();
     if args.headless {
         // A stale file would pass for the new screenshot.
         if let Some(out) = &args.out {
             let _ = std::fs::remove_file(out);
         }
-        app = bevy_rppm_cli::headless::headless_app_unfinished(&asset_root());
+        app = bevy_rppm_cli::headless::headless_app_unfinished(root);
         app.add_systems(Update, (offscreen_camera, save_and_exit));
     } else {
         app.add_plugins((
@@ -85,7 +95,7 @@ pub fn example_app(title: &'static str, keys: &'static str, args: ExampleArgs) -
                     ..default()
                 })
                 .set(AssetPlugin {
-                    file_path: asset_root().display().to_string(),
+                    file_path: root.display().to_string(),
                     ..default()
                 }),
             RppmPlugin,
@@ -108,14 +118,26 @@ pub struct OrbitTarget(pub Vec3);
 /// An example that shows a glTF scene from `assets/` through its own camera, with photon
 /// mapping and the keys of [`GLTF_KEYS`]; the camera orbits `target` when dragged.
 pub fn gltf_example(title: &'static str, scene: &'static str, target: Vec3) -> App {
-    let mut app = example_app(title, GLTF_KEYS, ExampleArgs::from_env());
+    gltf_example_in(title, &asset_root(), scene, target, ExampleArgs::from_env())
+}
+
+/// [`gltf_example`] for the scene file `scene` under `root`.
+pub fn gltf_example_in(
+    title: &'static str,
+    root: &Path,
+    scene: &str,
+    target: Vec3,
+    args: ExampleArgs,
+) -> App {
+    let mut app = example_app_in(title, GLTF_KEYS, args, root);
+    let scene = scene.to_string();
     // Photon mapping replaces ambient light; the scenes' lights are a few candela.
     app.insert_resource(GlobalAmbientLight::NONE)
         .insert_resource(OrbitTarget(target))
         .add_systems(
             Startup,
             move |mut commands: Commands, assets: Res<AssetServer>| {
-                let handle = assets.load(GltfAssetLabel::Scene(0).from_asset(scene));
+                let handle = assets.load(GltfAssetLabel::Scene(0).from_asset(scene.clone()));
                 commands.spawn(WorldAssetRoot(handle));
             },
         )
@@ -216,13 +238,28 @@ fn offscreen_camera(
 fn save_and_exit(
     mut commands: Commands,
     args: Res<ExampleArgs>,
-    cameras: Query<&RenderTarget, With<ExampleCamera>>,
+    cameras: Query<(Entity, &RenderTarget), With<ExampleCamera>>,
+    stats: Res<RppmStats>,
     mut frame: Local<u32>,
+    mut waited: Local<u32>,
     mut exit: MessageWriter<AppExit>,
 ) {
+    // Frames count from the camera's first iteration (or after 600 frames without one): a
+    // scene still loading, or pipelines still compiling on a busy machine, would otherwise be
+    // saved black.
+    let started = cameras
+        .iter()
+        .next()
+        .and_then(|(camera, _)| stats.views.get(&camera))
+        .is_some_and(|s| s.iteration > 0);
+    *waited += 1;
+    if !started && *frame == 0 && *waited < 600 {
+        return;
+    }
     *frame += 1;
     if *frame == args.frames
-        && let (Some(out), Some(RenderTarget::Image(image))) = (&args.out, cameras.iter().next())
+        && let (Some(out), Some((_, RenderTarget::Image(image)))) =
+            (&args.out, cameras.iter().next())
     {
         commands
             .spawn(Screenshot::image(image.handle.clone()))

@@ -3,15 +3,20 @@ use super::util::*;
 #[test]
 fn examples_run_headless_and_save_their_view() {
     check_gpu_adapter().unwrap_or_else(|hint| panic!("{hint}"));
-    for (name, frames) in [
-        ("toggle", "12"),
-        ("cornell", "12"),
-        ("bunny", "12"),
-        ("pool", "3"),
-        ("fox", "3"),
+    let translucent = Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/suite/translucent.gltf");
+    let scene = translucent.to_str().unwrap();
+    for (name, frames, extra) in [
+        ("toggle", "12", None),
+        ("cornell", "12", None),
+        ("bunny", "12", None),
+        ("pool", "3", None),
+        ("fox", "3", None),
+        // Lit only through diffuse transmission, which the example reads as rppm does.
+        ("scene", "12", Some(scene)),
     ] {
         let out = temp(&format!("example_{name}.png"));
         let run = Command::new(example_binary(name))
+            .args(extra)
             .args(["--headless", "--frames", frames, "--out"])
             .arg(&out)
             .output()

@@ -141,7 +141,8 @@ pub fn gltf_example_in(
                 commands.spawn(WorldAssetRoot(handle));
             },
         )
-        .add_systems(Update, (adopt_camera, cast_shadows, gi_keys, orbit));
+        .add_observer(adopt_camera)
+        .add_systems(Update, (cast_shadows, gi_keys, orbit));
     app
 }
 
@@ -159,27 +160,31 @@ fn cast_shadows(
     }
 }
 
-/// Gives the glTF camera photon mapping once the scene has spawned it.
+/// Gives the glTF camera photon mapping as the scene spawns it (before its first frame, which
+/// Bevy's default tonemapper would render with a lookup table this crate leaves out).
 fn adopt_camera(
+    add: On<Add, Camera3d>,
     mut commands: Commands,
-    cameras: Query<Entity, (With<Camera3d>, Without<PhotonMapping>)>,
+    gi: Query<(), With<PhotonMapping>>,
 ) {
-    for camera in &cameras {
-        commands.entity(camera).insert((
-            PhotonMapping {
-                photons_per_iteration: PhotonCount::Fixed(65_536),
-                ..default()
-            },
-            Hdr,
-            // A tonemapper that needs no lookup table (the crate leaves out Bevy's LUTs).
-            Tonemapping::AcesFitted,
-            // Exposure 1: radiance shown as it is (Bevy: 1 / (2^ev100 · 1.2)).
-            Exposure {
-                ev100: -(1.2f32).log2(),
-            },
-            ExampleCamera,
-        ));
+    let camera = add.entity;
+    if gi.contains(camera) {
+        return;
     }
+    commands.entity(camera).insert((
+        PhotonMapping {
+            photons_per_iteration: PhotonCount::Fixed(65_536),
+            ..default()
+        },
+        Hdr,
+        // A tonemapper that needs no lookup table (the crate leaves out Bevy's LUTs).
+        Tonemapping::AcesFitted,
+        // Exposure 1: radiance shown as it is (Bevy: 1 / (2^ev100 · 1.2)).
+        Exposure {
+            ev100: -(1.2f32).log2(),
+        },
+        ExampleCamera,
+    ));
 }
 
 /// G: GI on/off, M: Full/Indirect, + / −: photons per iteration (then fixed), R: restart.

@@ -52,8 +52,8 @@ fn gather_list(k: Kernel, m: Material, out: Outgoing, shading: vec3<f32>, wo: ve
         sum += p.flux;
 #else
         // The photons' density is irradiance on the kernel's plane; a normal map's bent
-        // normal receives it by its own cosine instead.
-        let bend = select(1.0, dot(shading, p.incoming) / max(dot(k.plane, p.incoming), 0.05), bent);
+        // normal receives it by its own cosine instead (on either side: diffuse transmission).
+        let bend = select(1.0, abs(dot(shading, p.incoming)) / max(abs(dot(k.plane, p.incoming)), 0.05), bent);
         sum += bsdf_gathered(m, out, shading, wo, p.incoming) * (bend * p.flux);
 #endif
     }

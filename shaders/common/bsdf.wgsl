@@ -199,9 +199,11 @@ fn bsdf_from(m: Material, n: vec3<f32>, wo: vec3<f32>) -> Outgoing {
 
 // f(wo, wi) from `out = bsdf_from(m, n, wo)`.
 fn bsdf_toward(m: Material, out: Outgoing, n: vec3<f32>, wo: vec3<f32>, wi: vec3<f32>) -> vec3<f32> {
-    var f = under_coat(m, out, n, wo, wi);
+    var f = bsdf_gathered(m, out, n, wo, wi);
 #ifdef CLEARCOAT
-    f = f * coat_through(m, out, n, wi) + vec3<f32>(coat_lobe(m, n, wo, wi));
+    if coat_traced(m) {
+        f += vec3<f32>(coat_lobe(m, n, wo, wi));
+    }
 #endif
     return f;
 }

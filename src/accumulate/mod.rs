@@ -21,7 +21,7 @@ use bevy::shader::Shader;
 
 use crate::gbuffer::GBuffer;
 use crate::importons::EyePaths;
-use crate::scene::{ScatterPaths, texture_defs};
+use crate::scene::{ScatterPaths, material_defs};
 use crate::shaders::RppmShaders;
 use crate::splat::SplatTarget;
 use crate::stats::timing::{Stage, StageTimer};
@@ -72,8 +72,7 @@ impl SpecializedComputePipeline for AccumulatePipeline {
     type Key = AccumulateKey;
 
     fn specialize(&self, key: AccumulateKey) -> ComputePipelineDescriptor {
-        let mut shader_defs = texture_defs(key.textured);
-        shader_defs.extend(key.layers.shader_defs().into_iter().map(Into::into));
+        let mut shader_defs = material_defs(key.textured, key.layers);
         if key.subsampled {
             shader_defs.push("SUBSAMPLED".into());
         }

@@ -16,7 +16,7 @@ use crate::accumulate::{AccumulateKey, AccumulatePipeline, Changes, HistoryFlags
 use crate::cubemap::{self, BuildContext, CubemapConfig, CubemapPipelines};
 use crate::gbuffer::GBufferPipeline;
 use crate::importons::{EyePathKey, EyePathPipeline};
-use crate::indirect_splat::IndirectSplatPipeline;
+use crate::indirect_splat::{IndirectSplatKey, IndirectSplatPipeline};
 use crate::output::{OutputPipeline, output_key};
 use crate::photons::{PhotonKey, PhotonPipeline, device_photon_count, list_heads, store_capacity};
 use crate::ppm::{next_radius2, radius2_after};
@@ -43,7 +43,8 @@ pub(crate) struct Pipelines<'w> {
     photon_variants: ResMut<'w, SpecializedComputePipelines<PhotonPipeline>>,
     splat: Res<'w, SplatPipeline>,
     splat_variants: ResMut<'w, SpecializedComputePipelines<SplatPipeline>>,
-    indirect_splat: ResMut<'w, IndirectSplatPipeline>,
+    indirect_splat: Res<'w, IndirectSplatPipeline>,
+    indirect_splat_variants: ResMut<'w, SpecializedComputePipelines<IndirectSplatPipeline>>,
     accumulate: Res<'w, AccumulatePipeline>,
     accumulate_variants: ResMut<'w, SpecializedComputePipelines<AccumulatePipeline>>,
     output: Res<'w, OutputPipeline>,
@@ -133,8 +134,13 @@ fn select_stages(
                 },
             )
         }),
-        indirect_splat: (traced && state.importons)
-            .then(|| pipelines.indirect_splat.id(cache, textured, layers)),
+        indirect_splat: (traced && state.importons).then(|| {
+            pipelines.indirect_splat_variants.specialize(
+                cache,
+                &pipelines.indirect_splat,
+                IndirectSplatKey { textured, layers },
+            )
+        }),
         accumulate: pipelines.accumulate_variants.specialize(
             cache,
             &pipelines.accumulate,

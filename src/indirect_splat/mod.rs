@@ -15,7 +15,7 @@ use bevy::render::{RenderApp, RenderStartup};
 use crate::cubemap::{TracingGroups, tracing_pipeline};
 use crate::importons::{EyePaths, GATHER_DISPATCH};
 use crate::photons::PhotonStore;
-use crate::scene::{ScatterPaths, texture_defs};
+use crate::scene::{ScatterPaths, material_defs};
 use crate::shaders::RppmShaders;
 use crate::stats::timing::{Stage, StageTimer};
 use crate::view::ViewLayouts;
@@ -25,45 +25,41 @@ pub(crate) struct IndirectSplatPlugin;
 impl Plugin for IndirectSplatPlugin {
     fn build(&self, app: &mut App) {
         if let Some(render_app) = app.get_sub_app_mut(RenderApp) {
-            render_app.add_systems(RenderStartup, init_indirect_splat_pipeline);
+            render_app
+                .init_resource::<SpecializedComputePipelines<IndirectSplatPipeline>>()
+                .add_systems(RenderStartup, init_indirect_splat_pipeline);
         }
     }
 }
 
-/// The indirect-splat stage, specialized by whether the scene is textured (`TEXTURED`) and by
-/// its extra BSDF layers ([`ScatterPaths::LAYERS`]).
-/// Each variant is queued the first time a view makes importons.
+/// The indirect-splat stage, specialized by [`IndirectSplatKey`]. Each variant is queued the
+/// first time a view makes importons.
 #[derive(Resource)]
 pub struct IndirectSplatPipeline {
     /// 0 photons, 1 the tiles' photon lists' heads, 2 importons, 3 gathered radiance per
     /// importon.
     pub layout: BindGroupLayoutDescriptor,
     descriptor: ComputePipelineDescriptor,
-    /// Per (textured, layers).
-    gather: Vec<((bool, ScatterPaths), CachedComputePipelineId)>,
 }
 
-impl IndirectSplatPipeline {
-    /// The gathering pipeline, queued now if it never was.
-    pub fn id(
-        &mut self,
-        cache: &PipelineCache,
-        textured: bool,
-        layers: ScatterPaths,
-    ) -> CachedComputePipelineId {
-        let key = (textured, layers);
-        if let Some((_, id)) = self.gather.iter().find(|(k, _)| *k == key) {
-            return *id;
-        }
-        let mut shader_defs = texture_defs(textured);
-        shader_defs.extend(layers.shader_defs().into_iter().map(Into::into));
-        let id = cache.queue_compute_pipeline(ComputePipelineDescriptor {
-            shader_defs,
+/// Which indirect-splat variant a view runs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct IndirectSplatKey {
+    /// The scene's texture lookups (`TEXTURED`).
+    pub textured: bool,
+    /// The scene's extra BSDF layers ([`ScatterPaths::LAYERS`]).
+    pub layers: ScatterPaths,
+}
+
+impl SpecializedComputePipeline for IndirectSplatPipeline {
+    type Key = IndirectSplatKey;
+
+    fn specialize(&self, key: IndirectSplatKey) -> ComputePipelineDescriptor {
+        ComputePipelineDescriptor {
+            shader_defs: material_defs(key.textured, key.layers),
             entry_point: Some("gather".into()),
             ..self.descriptor.clone()
-        });
-        self.gather.push((key, id));
-        id
+        }
     }
 }
 
@@ -87,11 +83,7 @@ fn init_indirect_splat_pipeline(
         &layout,
         &shaders.indirect_splat,
     );
-    commands.insert_resource(IndirectSplatPipeline {
-        layout,
-        descriptor,
-        gather: Vec::new(),
-    });
+    commands.insert_resource(IndirectSplatPipeline { layout, descriptor });
 }
 
 /// The group binding one camera's photons to its importons.

@@ -280,6 +280,15 @@ pub fn texture_defs(textured: bool) -> Vec<bevy::shader::ShaderDefVal> {
     }
 }
 
+/// What a stage that evaluates the BSDF (a gather) needs of the materials: the texture
+/// lookups and the extra layers among `paths` ([`ScatterPaths::LAYERS`]).
+pub fn material_defs(textured: bool, paths: ScatterPaths) -> Vec<bevy::shader::ShaderDefVal> {
+    let mut defs = texture_defs(textured);
+    let layers = paths & ScatterPaths::LAYERS;
+    defs.extend(layers.shader_defs().into_iter().map(Into::into));
+    defs
+}
+
 impl SceneData {
     /// Whether `other` holds the same tables (a transform set to its own value, a paused
     /// animation writing its pose again): then nothing changed.

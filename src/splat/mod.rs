@@ -20,7 +20,7 @@ use bevy::render::{RenderApp, RenderStartup};
 use crate::cubemap::{TracingGroups, tracing_pipeline};
 use crate::gbuffer::{GBuffer, target};
 use crate::photons::PhotonStore;
-use crate::scene::{ScatterPaths, texture_defs};
+use crate::scene::{ScatterPaths, material_defs};
 use crate::shaders::RppmShaders;
 use crate::stats::timing::{Stage, StageTimer};
 use crate::view::ViewLayouts;
@@ -64,8 +64,7 @@ impl SpecializedComputePipeline for SplatPipeline {
     type Key = SplatKey;
 
     fn specialize(&self, key: SplatKey) -> ComputePipelineDescriptor {
-        let mut shader_defs = texture_defs(key.textured);
-        shader_defs.extend(key.layers.shader_defs().into_iter().map(Into::into));
+        let mut shader_defs = material_defs(key.textured, key.layers);
         if key.subsampled {
             shader_defs.push("SUBSAMPLED".into());
         }

@@ -2,7 +2,8 @@
 
 use bevy::prelude::*;
 
-use super::{GpuMaterial, MaterialFlags, NO_TEXTURE};
+use super::{GpuMaterial, MaterialFlags, NO_TEXTURE, luminance};
+use crate::bsdf::{DELTA_ROUGHNESS, specular_energy_average};
 
 pub(super) fn material_to_gpu(m: &StandardMaterial, textures: [u32; 4]) -> GpuMaterial {
     let base = m.base_color.to_linear();
@@ -69,6 +70,32 @@ pub(super) fn material_to_gpu(m: &StandardMaterial, textures: [u32; 4]) -> GpuMa
         ],
         diffuse_transmission: finite(m.diffuse_transmission, 0.0).clamp(0.0, 1.0),
         _pad_transmission: 0,
+    }
+}
+
+impl GpuMaterial {
+    /// `SceneData::max_scatter_probability` of the layers under a clearcoat.
+    pub(super) fn under_coat_scatter_probability(&self) -> f32 {
+        let m = self;
+        let base = [m.base_color[0], m.base_color[1], m.base_color[2]];
+        let diffuse = (1.0 - m.metallic) * (1.0 - m.specular_transmission);
+        if m.perceptual_roughness < DELTA_ROUGHNESS {
+            let delta = luminance(base) * m.metallic + m.glass_share();
+            return (diffuse * luminance(base) + delta).min(1.0);
+        }
+        // The tint's largest channel, as `dielectric_f0` in bsdf.wgsl.
+        let tint = m.specular_tint[..3].iter().fold(0.0_f32, |a, &t| a.max(t));
+        let dielectric = (0.16 * (m.reflectance * tint).powi(2)).min(1.0);
+        let f0 = base.map(|c| dielectric + (c - dielectric) * m.metallic);
+        let specular = specular_energy_average(m.perceptual_roughness, f0);
+        // The dielectric part's diffuse lobe (cosine_lobes in bsdf.wgsl) beside it.
+        let own = specular_energy_average(m.perceptual_roughness, [dielectric; 3])[0];
+        let albedo = [0, 1, 2].map(|k| {
+            (1.0 - m.metallic) * (base[k] * (1.0 - m.specular_transmission) - own).max(0.0)
+                + specular[k]
+        });
+        // Rough glass reflects or refracts nearly all it receives.
+        luminance(albedo).max(m.glass_share()).min(1.0)
     }
 }
 

@@ -434,32 +434,6 @@ impl SceneData {
     }
 }
 
-impl GpuMaterial {
-    /// `SceneData::max_scatter_probability` of the layers under a clearcoat.
-    fn under_coat_scatter_probability(&self) -> f32 {
-        let m = self;
-        let base = [m.base_color[0], m.base_color[1], m.base_color[2]];
-        let diffuse = (1.0 - m.metallic) * (1.0 - m.specular_transmission);
-        if m.perceptual_roughness < DELTA_ROUGHNESS {
-            let delta = luminance(base) * m.metallic + m.glass_share();
-            return (diffuse * luminance(base) + delta).min(1.0);
-        }
-        // The tint's largest channel, as `dielectric_f0` in bsdf.wgsl.
-        let tint = m.specular_tint[..3].iter().fold(0.0_f32, |a, &t| a.max(t));
-        let dielectric = (0.16 * (m.reflectance * tint).powi(2)).min(1.0);
-        let f0 = base.map(|c| dielectric + (c - dielectric) * m.metallic);
-        let specular = specular_energy_average(m.perceptual_roughness, f0);
-        // The dielectric part's diffuse lobe (cosine_lobes in bsdf.wgsl) beside it.
-        let own = specular_energy_average(m.perceptual_roughness, [dielectric; 3])[0];
-        let albedo = [0, 1, 2].map(|k| {
-            (1.0 - m.metallic) * (base[k] * (1.0 - m.specular_transmission) - own).max(0.0)
-                + specular[k]
-        });
-        // Rough glass reflects or refracts nearly all it receives.
-        luminance(albedo).max(m.glass_share()).min(1.0)
-    }
-}
-
 /// Luminance of linear RGB (Rec. 709 weights).
 pub(crate) fn luminance(rgb: [f32; 3]) -> f32 {
     0.2126 * rgb[0] + 0.7152 * rgb[1] + 0.0722 * rgb[2]

@@ -34,7 +34,10 @@ fn specular_f90(f0: vec3<f32>) -> f32 {
 }
 
 fn fresnel_schlick(f0: vec3<f32>, f90: f32, cos_theta: f32) -> vec3<f32> {
-    let f = pow(1.0 - clamp(cos_theta, 0.0, 1.0), 5.0);
+    // (1 − cos)⁵ by products: pow is exp2(5·log2(·)), costly where it is emulated.
+    let x = 1.0 - clamp(cos_theta, 0.0, 1.0);
+    let x2 = x * x;
+    let f = x2 * x2 * x;
     return f0 + (vec3<f32>(f90) - f0) * f;
 }
 

@@ -92,7 +92,7 @@ fn consider(o: vec3<f32>, d: vec3<f32>, id: u32, t_min: f32, best: ptr<function,
     // Equal distances (an edge two triangles share) go to the lower index, not to whichever
     // the list, filled by atomics in no set order, gives first.
     let nearer = h.x < (*best).t || (h.x == (*best).t && id < (*best).triangle);
-    if h.x > t_min && nearer && opaque_at(id, h.yz) {
+    if h.x > t_min && nearer {
         *best = Hit(h.x, id, h.yz);
     }
 }
@@ -403,9 +403,8 @@ fn trace_bvh(o: vec3<f32>, d: vec3<f32>, t_min: f32, t_max: f32, ignore: u32, an
     return best;
 }
 
-// Nearest hit in (t_min, t_max) by the view's tracer: the deep cubemap, or with BVH the
-// hierarchy.
-fn trace_ray(o: vec3<f32>, d: vec3<f32>, t_min: f32, t_max: f32, ignore: u32) -> Hit {
+// Nearest triangle in (t_min, t_max), alpha aside.
+fn nearest_triangle(o: vec3<f32>, d: vec3<f32>, t_min: f32, t_max: f32, ignore: u32) -> Hit {
 #ifdef BVH
     return trace_bvh(o, d, t_min, min(t_max, FAR), ignore, false);
 #else
@@ -413,11 +412,44 @@ fn trace_ray(o: vec3<f32>, d: vec3<f32>, t_min: f32, t_max: f32, ignore: u32) ->
 #endif
 }
 
-// Whether anything lies in (t_min, t_max) along the ray: the hierarchy stops at its first hit.
+// Most cut-out layers a ray passes (a ray past this many is taken as a miss).
+const ALPHA_LAYERS: u32 = 64u;
+
+// Nearest hit in (t_min, t_max) by the view's tracer: the deep cubemap, or with BVH the
+// hierarchy. With cut-outs or blended alpha (ALPHA_TEST), the nearest triangle, then on past
+// it while the ray meets a hole there: alpha is looked up once per hit, not for every
+// triangle tested (in the triangle loop, llvmpipe paid for the lookup at every test, taken
+// or not, and traced at half speed even in scenes without alpha).
+fn trace_ray(o: vec3<f32>, d: vec3<f32>, t_min: f32, t_max: f32, ignore: u32) -> Hit {
+#ifdef ALPHA_TEST
+    var near = t_min;
+    var skip = ignore;
+    for (var layer = 0u; layer < ALPHA_LAYERS; layer += 1u) {
+        let hit = nearest_triangle(o, d, near, t_max, skip);
+        if hit.triangle == NO_HIT || opaque_at(hit.triangle, hit.uv) {
+            return hit;
+        }
+        // On from just short of the hole, past its triangle: a triangle at the same distance
+        // (a cut-out decal on a floor) is still met.
+        near = max(near, hit.t * (1.0 - 1e-6));
+        skip = hit.triangle;
+    }
+    return Hit(min(t_max, FAR), NO_HIT, vec2<f32>(0.0));
+#else
+    return nearest_triangle(o, d, t_min, t_max, ignore);
+#endif
+}
+
+// Whether anything lies in (t_min, t_max) along the ray: the hierarchy stops at its first hit
+// (with alpha, the first hit found need not be the nearest, so the nearest is looked for).
 fn occluded(o: vec3<f32>, d: vec3<f32>, t_min: f32, t_max: f32, ignore: u32) -> bool {
+#ifdef ALPHA_TEST
+    return trace_ray(o, d, t_min, t_max, ignore).triangle != NO_HIT;
+#else
 #ifdef BVH
     return trace_bvh(o, d, t_min, min(t_max, FAR), ignore, true).triangle != NO_HIT;
 #else
     return trace_cubemap(o, d, t_min, t_max, ignore).triangle != NO_HIT;
+#endif
 #endif
 }

@@ -8,7 +8,7 @@
 #import bevy_rppm::scene::{triangle_at, barycentrics, material_at}
 #import bevy_rppm::bsdf::{bsdf_from, bsdf_toward, translucency}
 #import bevy_rppm::cubemap::cubemap
-#import bevy_rppm::photon_lists::{photons, listed_tiles, list_head, in_kernel}
+#import bevy_rppm::photon_lists::{photons, listed_tiles, list_head, next_in_kernel}
 
 @group(1) @binding(0) var<uniform> params: IterationParams;
 
@@ -21,17 +21,13 @@
 // bsdf_from) gathers.
 fn gather_list(imp: Importon, m: Material, out: Outgoing, pixel: u32, head: u32) -> vec3<f32> {
     var sum = vec3<f32>(0.0);
-    var node = head;
-    let r = imp.radius;
+    var walked = 0u;
     let both_sides = translucency(m) > 0.0;
-    for (var guard = 0u; node != 0u && guard < arrayLength(&photons); guard += 1u) {
-        let photon = node - 1u;
-        node = photons[photon].next;
-        if !in_kernel(params, photon, imp.position, imp.normal, r, pixel, both_sides) {
-            continue;
-        }
-        let p = photons[photon];
+    var node = next_in_kernel(head, &walked, params, imp.position, imp.normal, imp.radius, pixel, both_sides);
+    while node != 0u {
+        let p = photons[node - 1u];
         sum += bsdf_toward(m, out, imp.normal, imp.outgoing, p.incoming) * p.flux;
+        node = next_in_kernel(p.next, &walked, params, imp.position, imp.normal, imp.radius, pixel, both_sides);
     }
     return sum;
 }

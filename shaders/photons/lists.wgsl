@@ -39,6 +39,25 @@ fn in_kernel(params: IterationParams, photon: u32, centre: vec3<f32>, plane: vec
     return select(facing, abs(facing), both_sides) >= 0.5 && splat_survives(params, photon, pixel);
 }
 
+// From list node `node` (photon index + 1) on, the first photon inside the kernel of `pixel`
+// (in_kernel), as a node; 0 at the end of the list or after `walked` reaches the photon count
+// (a guard). The gathers evaluate the BSDF only for these: llvmpipe runs a loop body's code
+// for every lane, so a BSDF behind a `continue` was paid for every photon walked past.
+fn next_in_kernel(node: u32, walked: ptr<function, u32>, params: IterationParams, centre: vec3<f32>, plane: vec3<f32>, r: f32, pixel: u32, both_sides: bool) -> u32 {
+    var at = node;
+    loop {
+        if at == 0u || *walked >= arrayLength(&photons) {
+            return 0u;
+        }
+        *walked += 1u;
+        if in_kernel(params, at - 1u, centre, plane, r, pixel, both_sides) {
+            return at;
+        }
+        at = photons[at - 1u].next;
+    }
+    return 0u;
+}
+
 // The head of the list of tile (x, y) of `face`.
 fn list_head(face: u32, x: i32, y: i32) -> u32 {
     return photon_heads[(face * cubemap.grid + u32(y)) * cubemap.grid + u32(x)];

@@ -174,8 +174,11 @@ fn srgb_to_linear(c: vec3<f32>) -> vec3<f32> {
     return select(pow((c + 0.055) / 1.055, vec3<f32>(2.4)), c / 12.92, c <= vec3<f32>(0.04045));
 }
 
+// Texel `at` of a level `size` texels wide, for at in [-1, size] (sample_texture's four):
+// wrapped by comparisons, not `%` (integer division, one lane at a time on llvmpipe).
 fn texel(t: Texture, offset: u32, size: vec2<i32>, at: vec2<i32>) -> vec4<f32> {
-    let wrapped = ((at % size) + size) % size;
+    let low = select(at, at + size, at < vec2<i32>(0));
+    let wrapped = clamp(select(low, low - size, low >= size), vec2<i32>(0), size - 1);
     let c = unpack4x8unorm(texels[offset + u32(wrapped.y * size.x + wrapped.x)]);
     if t.srgb != 0u {
         return vec4<f32>(srgb_to_linear(c.rgb), c.a);
@@ -211,9 +214,11 @@ fn base_color_at(m: Material, triangle: u32, b: vec2<f32>, uv: vec3<f32>, footpr
     let a = attributes[triangle];
     let w = vec3<f32>(1.0 - b.x - b.y, b);
     var c = m.base_color * (vertex_color(a.color_a) * w.x + vertex_color(a.color_b) * w.y + vertex_color(a.color_c) * w.z);
+#ifdef BASE_COLOR_TEXTURE
     if m.textures.x != NO_TEXTURE {
         c *= sample_texture(m.textures.x, uv.xy, footprint * uv.z);
     }
+#endif
     return c;
 }
 
@@ -226,15 +231,19 @@ fn material_at(triangle: u32, b: vec2<f32>, footprint: f32) -> Material {
     if (m.flags & MATERIAL_TEXTURED) != 0u {
         let uv = surface_uv(m, triangle, b);
         m.base_color = base_color_at(m, triangle, b, uv, footprint);
+#ifdef METALLIC_ROUGHNESS_TEXTURE
         if m.textures.y != NO_TEXTURE {
             let mr = sample_texture(m.textures.y, uv.xy, footprint * uv.z);
             // A rough factor stays a rough lobe: the scene's variants hold no mirror for it.
             m.perceptual_roughness = max(m.perceptual_roughness * mr.g, min(m.perceptual_roughness, DELTA_ROUGHNESS));
             m.metallic *= mr.b;
         }
+#endif
+#ifdef EMISSIVE_TEXTURE
         if m.textures.z != NO_TEXTURE {
             m.emissive = vec4<f32>(m.emissive.rgb * sample_texture(m.textures.z, uv.xy, footprint * uv.z).rgb, m.emissive.w);
         }
+#endif
     }
     if (m.flags & MATERIAL_UNLIT) != 0u {
         // Seen in its base colour, which lights nothing and reflects nothing.
@@ -252,7 +261,7 @@ fn material_at(triangle: u32, b: vec2<f32>, footprint: f32) -> Material {
 // cutoff) and, for blended alpha, with probability alpha, hashed on the hit point (hashed
 // alpha testing: the camera's jitter and every new path average it out).
 fn opaque_at(triangle: u32, b: vec2<f32>) -> bool {
-#ifdef TEXTURED
+#ifdef ALPHA_TEST
     let m = materials[triangles[triangle].material];
     if (m.flags & (MATERIAL_ALPHA_MASK | MATERIAL_ALPHA_HASHED)) == 0u {
         return true;
@@ -274,7 +283,7 @@ fn opaque_at(triangle: u32, b: vec2<f32>) -> bool {
 // The shading normal at barycentrics b: the interpolated normal `n` bent by the normal map in
 // the tangent frame of the triangle's texture coordinates (glTF's: texture +Y towards −v).
 fn normal_at(triangle: u32, b: vec2<f32>, n: vec3<f32>, footprint: f32) -> vec3<f32> {
-#ifdef TEXTURED
+#ifdef NORMAL_MAP
     let m = materials[triangles[triangle].material];
     if (m.flags & MATERIAL_TEXTURED) == 0u || m.textures.w == NO_TEXTURE {
         return n;
@@ -315,7 +324,7 @@ fn normal_at(triangle: u32, b: vec2<f32>, n: vec3<f32>, footprint: f32) -> vec3<
 // the interpolated normal, on the shading normal's side, where a normal map bends it (bumps
 // seen by the kernel would turn away the photons of their own flat surface).
 fn kernel_normal(position: vec4<f32>, shading: vec3<f32>) -> vec3<f32> {
-#ifdef TEXTURED
+#ifdef NORMAL_MAP
     let triangle = u32(abs(position.w)) - 1u;
     let t = triangle_at(triangle);
     let m = materials[t.material];

@@ -11,7 +11,7 @@
 #import bevy_rppm::scene::{gbuffer_material, resolved_material, resolved_kernel_normal, kernel_normal}
 #import bevy_rppm::bsdf::{bsdf_from, bsdf_gathered, translucency}
 #import bevy_rppm::cubemap::cubemap
-#import bevy_rppm::photon_lists::{photons, listed_tiles, list_head, in_kernel}
+#import bevy_rppm::photon_lists::{photons, listed_tiles, list_head, next_in_kernel}
 
 @group(1) @binding(0) var<uniform> params: IterationParams;
 
@@ -37,17 +37,13 @@ struct Kernel {
 // (`out` its bsdf_from; a smooth clearcoat's lobe left to the camera path) with shading normal `shading` (Σ Φ, subsampled).
 fn gather_list(k: Kernel, m: Material, out: Outgoing, shading: vec3<f32>, wo: vec3<f32>, head: u32) -> vec3<f32> {
     var sum = vec3<f32>(0.0);
-    var node = head;
-    let r = k.radius;
+    var walked = 0u;
     let bent = any(k.plane != shading);
     let both_sides = translucency(m) > 0.0;
-    for (var guard = 0u; node != 0u && guard < arrayLength(&photons); guard += 1u) {
-        let photon = node - 1u;
-        node = photons[photon].next;
-        if !in_kernel(params, photon, k.position, k.plane, r, k.index, both_sides) {
-            continue;
-        }
-        let p = photons[photon];
+    var node = next_in_kernel(head, &walked, params, k.position, k.plane, k.radius, k.index, both_sides);
+    while node != 0u {
+        let p = photons[node - 1u];
+        node = next_in_kernel(p.next, &walked, params, k.position, k.plane, k.radius, k.index, both_sides);
 #ifdef SUBSAMPLED
         sum += p.flux;
 #else

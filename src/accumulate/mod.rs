@@ -21,7 +21,7 @@ use bevy::shader::Shader;
 
 use crate::gbuffer::GBuffer;
 use crate::importons::EyePaths;
-use crate::scene::{ScatterPaths, material_defs};
+use crate::scene::{Lookups, ScatterPaths, material_defs};
 use crate::shaders::RppmShaders;
 use crate::splat::SplatTarget;
 use crate::stats::timing::{Stage, StageTimer};
@@ -60,8 +60,8 @@ pub struct AccumulateKey {
     pub subsampled: bool,
     /// Importons gathered photons too (`IMPORTONS`).
     pub importons: bool,
-    /// The scene's texture lookups (`TEXTURED`).
-    pub textured: bool,
+    /// The scene's material lookups.
+    pub lookups: Lookups,
     /// The scene's extra BSDF layers ([`ScatterPaths::LAYERS`]).
     pub layers: ScatterPaths,
     /// History kept through motion (`HISTORY`): `RppmHistory::Reuse`.
@@ -72,7 +72,7 @@ impl SpecializedComputePipeline for AccumulatePipeline {
     type Key = AccumulateKey;
 
     fn specialize(&self, key: AccumulateKey) -> ComputePipelineDescriptor {
-        let mut shader_defs = material_defs(key.textured, key.layers);
+        let mut shader_defs = material_defs(key.lookups, key.layers);
         if key.subsampled {
             shader_defs.push("SUBSAMPLED".into());
         }

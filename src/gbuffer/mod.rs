@@ -8,7 +8,7 @@ use bevy::render::renderer::RenderDevice;
 use bevy::render::texture::TextureCache;
 use bevy::render::{RenderApp, RenderStartup};
 
-use crate::scene::texture_defs;
+use crate::scene::{Lookups, texture_defs};
 use crate::shaders::RppmShaders;
 use crate::shadows::depth_state;
 use crate::stats::timing::{Stage, StageTimer};
@@ -29,8 +29,8 @@ impl Plugin for GBufferPlugin {
     }
 }
 
-/// The G-buffer stage, specialized by whether the scene is textured (`TEXTURED`: normal
-/// maps and alpha cut-outs).
+/// The G-buffer stage, specialized by the scene's material lookups (normal maps, alpha
+/// cut-outs).
 #[derive(Resource)]
 pub struct GBufferPipeline {
     layouts: ViewLayouts,
@@ -38,10 +38,10 @@ pub struct GBufferPipeline {
 }
 
 impl SpecializedRenderPipeline for GBufferPipeline {
-    type Key = bool;
+    type Key = Lookups;
 
-    fn specialize(&self, textured: bool) -> RenderPipelineDescriptor {
-        let shader_defs = texture_defs(textured);
+    fn specialize(&self, lookups: Lookups) -> RenderPipelineDescriptor {
+        let shader_defs = texture_defs(lookups);
         let target = Some(ColorTargetState {
             format: GBUFFER_FORMAT,
             blend: None,

@@ -94,19 +94,19 @@ fn select_stages(
     let cache = &pipelines.cache;
     let traced = state.photons > 0 && state.cubemap.cubemap.is_some();
     let subsampled = state.key.subsampling > 1;
-    let textured = scene.data.is_textured();
+    let lookups = scene.data.lookups();
     let layers = scene.paths & ScatterPaths::LAYERS;
     StageIds {
         gbuffer: pipelines
             .gbuffer_variants
-            .specialize(cache, &pipelines.gbuffer, textured),
+            .specialize(cache, &pipelines.gbuffer, lookups),
         eye_paths: pipelines.eye_path_variants.specialize(
             cache,
             &pipelines.eye_paths,
             EyePathKey {
                 importons: state.importons.then_some(scene.paths),
                 traced_shadows: state.traced_shadows,
-                textured,
+                lookups,
                 sky: scene.paths.contains(ScatterPaths::SKY),
                 layers,
                 bvh: state.key.bvh,
@@ -118,7 +118,7 @@ fn select_stages(
                 &pipelines.photons,
                 PhotonKey {
                     paths: scene.paths,
-                    textured,
+                    lookups,
                     bvh: state.key.bvh,
                 },
             )
@@ -129,7 +129,7 @@ fn select_stages(
                 &pipelines.splat,
                 SplatKey {
                     subsampled,
-                    textured,
+                    lookups,
                     layers,
                 },
             )
@@ -138,7 +138,7 @@ fn select_stages(
             pipelines.indirect_splat_variants.specialize(
                 cache,
                 &pipelines.indirect_splat,
-                IndirectSplatKey { textured, layers },
+                IndirectSplatKey { lookups, layers },
             )
         }),
         accumulate: pipelines.accumulate_variants.specialize(
@@ -147,7 +147,7 @@ fn select_stages(
             AccumulateKey {
                 subsampled,
                 importons: state.importons,
-                textured,
+                lookups,
                 layers,
                 history: state.key.history,
             },

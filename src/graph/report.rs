@@ -78,7 +78,7 @@ pub(crate) fn report_views(
             s.paths
                 .shader_defs()
                 .into_iter()
-                .chain(s.data.is_textured().then_some(crate::scene::TEXTURED_DEF))
+                .chain(s.data.lookups().shader_defs())
                 .map(|p| p.to_string())
                 .collect()
         })

@@ -15,7 +15,7 @@ use bevy::shader::Shader;
 
 use crate::cubemap;
 use crate::gbuffer::GBuffer;
-use crate::scene::{ScatterPaths, texture_defs};
+use crate::scene::{Lookups, ScatterPaths, texture_defs};
 use crate::shaders::RppmShaders;
 use crate::shadows::ShadowMaps;
 use crate::stats::timing::{Stage, StageTimer};
@@ -57,8 +57,8 @@ pub struct EyePathKey {
     /// Shadows by rays through the view's deep cubemap (`TRACED_SHADOWS`) instead of shadow
     /// maps: whenever the view has a cubemap.
     pub traced_shadows: bool,
-    /// The scene's texture lookups (`TEXTURED`).
-    pub textured: bool,
+    /// The scene's material lookups.
+    pub lookups: Lookups,
     /// The scene has a sky (`SKY`): direct light samples it, escaping paths see it.
     pub sky: bool,
     /// The scene's extra BSDF layers ([`ScatterPaths::LAYERS`]), which direct light
@@ -96,7 +96,7 @@ impl SpecializedComputePipeline for EyePathPipeline {
         if key.bvh {
             shader_defs.push("BVH".into());
         }
-        shader_defs.extend(texture_defs(key.textured));
+        shader_defs.extend(texture_defs(key.lookups));
         ComputePipelineDescriptor {
             label: Some("rppm_local_illumination_pipeline".into()),
             layout,

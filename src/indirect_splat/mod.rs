@@ -15,7 +15,7 @@ use bevy::render::{RenderApp, RenderStartup};
 use crate::cubemap::{TracingGroups, tracing_pipeline};
 use crate::importons::{EyePaths, GATHER_DISPATCH};
 use crate::photons::PhotonStore;
-use crate::scene::{ScatterPaths, material_defs};
+use crate::scene::{Lookups, ScatterPaths, material_defs};
 use crate::shaders::RppmShaders;
 use crate::stats::timing::{Stage, StageTimer};
 use crate::view::ViewLayouts;
@@ -45,8 +45,8 @@ pub struct IndirectSplatPipeline {
 /// Which indirect-splat variant a view runs.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct IndirectSplatKey {
-    /// The scene's texture lookups (`TEXTURED`).
-    pub textured: bool,
+    /// The scene's material lookups.
+    pub lookups: Lookups,
     /// The scene's extra BSDF layers ([`ScatterPaths::LAYERS`]).
     pub layers: ScatterPaths,
 }
@@ -56,7 +56,7 @@ impl SpecializedComputePipeline for IndirectSplatPipeline {
 
     fn specialize(&self, key: IndirectSplatKey) -> ComputePipelineDescriptor {
         ComputePipelineDescriptor {
-            shader_defs: material_defs(key.textured, key.layers),
+            shader_defs: material_defs(key.lookups, key.layers),
             entry_point: Some("gather".into()),
             ..self.descriptor.clone()
         }

@@ -13,7 +13,7 @@ use bevy::render::renderer::RenderDevice;
 use bevy::render::{RenderApp, RenderStartup};
 
 use crate::cubemap::tracing_pipeline;
-use crate::scene::{ScatterPaths, texture_defs};
+use crate::scene::{Lookups, ScatterPaths, texture_defs};
 use crate::settings::PhotonCount;
 use crate::shaders::RppmShaders;
 use crate::view::ViewLayouts;
@@ -78,8 +78,8 @@ pub struct PhotonPipeline {
 pub struct PhotonKey {
     /// The scattering lobes of the scene's materials.
     pub paths: ScatterPaths,
-    /// The scene's texture lookups (`TEXTURED`).
-    pub textured: bool,
+    /// The scene's material lookups.
+    pub lookups: Lookups,
     /// Rays through the hierarchy (`BVH`): `RppmTracer::Bvh`.
     pub bvh: bool,
 }
@@ -95,7 +95,7 @@ impl SpecializedComputePipeline for PhotonPipeline {
             .into_iter()
             .map(Into::into)
             .collect();
-        descriptor.shader_defs.extend(texture_defs(key.textured));
+        descriptor.shader_defs.extend(texture_defs(key.lookups));
         if key.bvh {
             descriptor.shader_defs.push("BVH".into());
         }

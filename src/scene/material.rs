@@ -2,8 +2,85 @@
 
 use bevy::prelude::*;
 
-use super::{GpuMaterial, MaterialFlags, NO_TEXTURE, luminance};
+use super::{GpuMaterial, MaterialFlags, NO_TEXTURE, ScatterPaths, luminance};
 use crate::bsdf::{DELTA_ROUGHNESS, specular_energy_average};
+
+bitflags::bitflags! {
+    /// What the scene's materials look up per surface point (material_at, normal_at,
+    /// opaque_at in shaders/scene/scene.wgsl). Every stage that reads materials compiles only
+    /// the lookups some material makes: a lookup compiled in costs llvmpipe at every call,
+    /// taken or not (the alpha test alone halved the speed of tracing in textured scenes).
+    #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+    pub struct Lookups: u8 {
+        /// Per-triangle attributes (texture coordinates, vertex colours), alpha or unlit.
+        const TEXTURED = 1 << 0;
+        const BASE_COLOR_TEXTURE = 1 << 1;
+        const METALLIC_ROUGHNESS_TEXTURE = 1 << 2;
+        const EMISSIVE_TEXTURE = 1 << 3;
+        const NORMAL_MAP = 1 << 4;
+        /// Cut-outs or blended alpha: a ray goes on through a hole it hits.
+        const ALPHA_TEST = 1 << 5;
+    }
+}
+
+impl Lookups {
+    /// The lookups `materials` make.
+    pub fn of(materials: &[GpuMaterial]) -> Self {
+        let mut lookups = Self::empty();
+        for m in materials {
+            let flags = MaterialFlags::from_bits_truncate(m.flags);
+            if !flags.contains(MaterialFlags::TEXTURED) {
+                continue;
+            }
+            lookups |= Self::TEXTURED;
+            let slots = [
+                Self::BASE_COLOR_TEXTURE,
+                Self::METALLIC_ROUGHNESS_TEXTURE,
+                Self::EMISSIVE_TEXTURE,
+                Self::NORMAL_MAP,
+            ];
+            for (texture, slot) in m.textures.iter().zip(slots) {
+                lookups.set(slot, lookups.contains(slot) || *texture != NO_TEXTURE);
+            }
+            if flags.intersects(MaterialFlags::ALPHA_MASK | MaterialFlags::ALPHA_HASHED) {
+                lookups |= Self::ALPHA_TEST;
+            }
+        }
+        lookups
+    }
+
+    /// The shader defs of these lookups.
+    pub fn shader_defs(self) -> Vec<&'static str> {
+        [
+            (Self::TEXTURED, "TEXTURED"),
+            (Self::BASE_COLOR_TEXTURE, "BASE_COLOR_TEXTURE"),
+            (
+                Self::METALLIC_ROUGHNESS_TEXTURE,
+                "METALLIC_ROUGHNESS_TEXTURE",
+            ),
+            (Self::EMISSIVE_TEXTURE, "EMISSIVE_TEXTURE"),
+            (Self::NORMAL_MAP, "NORMAL_MAP"),
+            (Self::ALPHA_TEST, "ALPHA_TEST"),
+        ]
+        .into_iter()
+        .filter_map(|(lookup, def)| self.contains(lookup).then_some(def))
+        .collect()
+    }
+}
+
+/// The shader defs of `lookups`, for a stage's pipeline.
+pub fn texture_defs(lookups: Lookups) -> Vec<bevy::shader::ShaderDefVal> {
+    lookups.shader_defs().into_iter().map(Into::into).collect()
+}
+
+/// What a stage that evaluates the BSDF (a gather) needs of the materials: the lookups and
+/// the extra layers among `paths` ([`ScatterPaths::LAYERS`]).
+pub fn material_defs(lookups: Lookups, paths: ScatterPaths) -> Vec<bevy::shader::ShaderDefVal> {
+    let mut defs = texture_defs(lookups);
+    let layers = paths & ScatterPaths::LAYERS;
+    defs.extend(layers.shader_defs().into_iter().map(Into::into));
+    defs
+}
 
 pub(super) fn material_to_gpu(m: &StandardMaterial, textures: [u32; 4]) -> GpuMaterial {
     let base = m.base_color.to_linear();
@@ -165,5 +242,41 @@ mod tests {
             ..glass
         };
         assert!(absorption(&nan).iter().all(|v| v.is_finite()));
+    }
+
+    #[test]
+    fn lookups_are_those_some_material_makes() {
+        let plain = material_to_gpu(&StandardMaterial::default(), [NO_TEXTURE; 4]);
+        assert_eq!(Lookups::of(&[plain]), Lookups::empty());
+        assert!(Lookups::of(&[]).shader_defs().is_empty());
+        // A normal map on one material, a cut-out on another: those and no more.
+        let bumps = material_to_gpu(
+            &StandardMaterial::default(),
+            [NO_TEXTURE, NO_TEXTURE, NO_TEXTURE, 0],
+        );
+        let cut_out = material_to_gpu(
+            &StandardMaterial {
+                alpha_mode: AlphaMode::Mask(0.5),
+                ..default()
+            },
+            [1, NO_TEXTURE, NO_TEXTURE, NO_TEXTURE],
+        );
+        let lookups = Lookups::of(&[plain, bumps, cut_out]);
+        assert_eq!(
+            lookups.shader_defs(),
+            ["TEXTURED", "BASE_COLOR_TEXTURE", "NORMAL_MAP", "ALPHA_TEST"]
+        );
+        // Blended alpha tests alpha too, with no texture at all.
+        let glassy = material_to_gpu(
+            &StandardMaterial {
+                alpha_mode: AlphaMode::Blend,
+                ..default()
+            },
+            [NO_TEXTURE; 4],
+        );
+        assert_eq!(
+            Lookups::of(&[glassy]),
+            Lookups::TEXTURED | Lookups::ALPHA_TEST
+        );
     }
 }

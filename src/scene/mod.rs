@@ -30,6 +30,7 @@ use crate::bsdf::{DELTA_ROUGHNESS, GLOSSY_STORE_ROUGHNESS, specular_energy_avera
 
 pub use instances::{GpuInstance, SceneMesh};
 pub use lights::{LightKind, RppmSky, spot_cone_fraction};
+pub use material::{Lookups, material_defs, texture_defs};
 pub use packed::PackedTriangle;
 pub use prepare::{SceneBuffers, SceneRefused};
 pub use textures::{GpuTexture, NO_TEXTURE, PackedTexture};
@@ -266,29 +267,6 @@ pub struct SceneData {
     pub bounds: (Vec3, Vec3),
 }
 
-/// The shader def of the texture lookups (`material_at`, `normal_at`, `opaque_at` in
-/// shaders/scene/scene.wgsl): every stage that reads materials is specialized by it, so an
-/// untextured scene compiles none of them.
-pub const TEXTURED_DEF: &str = "TEXTURED";
-
-/// `TEXTURED_DEF` when `textured`.
-pub fn texture_defs(textured: bool) -> Vec<bevy::shader::ShaderDefVal> {
-    if textured {
-        vec![TEXTURED_DEF.into()]
-    } else {
-        Vec::new()
-    }
-}
-
-/// What a stage that evaluates the BSDF (a gather) needs of the materials: the texture
-/// lookups and the extra layers among `paths` ([`ScatterPaths::LAYERS`]).
-pub fn material_defs(textured: bool, paths: ScatterPaths) -> Vec<bevy::shader::ShaderDefVal> {
-    let mut defs = texture_defs(textured);
-    let layers = paths & ScatterPaths::LAYERS;
-    defs.extend(layers.shader_defs().into_iter().map(Into::into));
-    defs
-}
-
 impl SceneData {
     /// Whether `other` holds the same tables (a transform set to its own value, a paused
     /// animation writing its pose again): then nothing changed.
@@ -319,10 +297,14 @@ impl SceneData {
     }
 
     /// Whether some material varies over its surfaces (textures, vertex colours), has alpha
-    /// or is unlit: the stages then compile the texture lookups ([`TEXTURED_DEF`]).
+    /// or is unlit: the scene then holds per-triangle attributes and texels.
     pub fn is_textured(&self) -> bool {
-        let textured = MaterialFlags::TEXTURED.bits();
-        self.materials.iter().any(|m| m.flags & textured != 0)
+        self.lookups().contains(Lookups::TEXTURED)
+    }
+
+    /// The lookups the scene's materials make, which the stages compile ([`texture_defs`]).
+    pub fn lookups(&self) -> Lookups {
+        Lookups::of(&self.materials)
     }
 
     /// Total emitted power (luminance-weighted W) of every light and emitter.

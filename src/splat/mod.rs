@@ -20,7 +20,7 @@ use bevy::render::{RenderApp, RenderStartup};
 use crate::cubemap::{TracingGroups, tracing_pipeline};
 use crate::gbuffer::{GBuffer, target};
 use crate::photons::PhotonStore;
-use crate::scene::{ScatterPaths, material_defs};
+use crate::scene::{Lookups, ScatterPaths, material_defs};
 use crate::shaders::RppmShaders;
 use crate::stats::timing::{Stage, StageTimer};
 use crate::view::ViewLayouts;
@@ -54,8 +54,8 @@ pub struct SplatPipeline {
 pub struct SplatKey {
     /// Photons gather at one pixel of every n×n block (`SUBSAMPLED`).
     pub subsampled: bool,
-    /// The scene's texture lookups (`TEXTURED`).
-    pub textured: bool,
+    /// The scene's material lookups.
+    pub lookups: Lookups,
     /// The scene's extra BSDF layers ([`ScatterPaths::LAYERS`]).
     pub layers: ScatterPaths,
 }
@@ -64,7 +64,7 @@ impl SpecializedComputePipeline for SplatPipeline {
     type Key = SplatKey;
 
     fn specialize(&self, key: SplatKey) -> ComputePipelineDescriptor {
-        let mut shader_defs = material_defs(key.textured, key.layers);
+        let mut shader_defs = material_defs(key.lookups, key.layers);
         if key.subsampled {
             shader_defs.push("SUBSAMPLED".into());
         }

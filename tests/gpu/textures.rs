@@ -168,19 +168,20 @@ fn textured_scenes_match_their_references() {
 }
 
 /// Alpha passes light as Bevy blends it. A plane cut out everywhere (alpha 0 under
-/// `Mask(0.5)`) between a point light and a lit floor changes nothing. A black plane of alpha
-/// 0.5 (`Blend`: hashed) passes half the light on its way in and half the view on its way
-/// out, so the floor reads a quarter.
+/// `Mask(0.5)`) between a point light and a lit floor changes nothing, nor does one lying on
+/// the floor (a decal's hole: rays go on past it to the floor at the same distance). A black
+/// plane of alpha 0.5 (`Blend`: hashed) passes half the light on its way in and half the
+/// view on its way out, so the floor reads a quarter.
 #[test]
 fn alpha_cut_outs_and_blending_pass_their_share_of_light() {
-    let floor = |occluder: Option<(AlphaMode, f32)>| -> f64 {
+    let floor = |occluder: Option<(AlphaMode, f32, f32)>| -> f64 {
         let mut app = gpu_app();
         let (camera, _) = lit_plane(&mut app, 1000.0, 2.0, 32);
-        if let Some((alpha_mode, alpha)) = occluder {
+        if let Some((alpha_mode, alpha, height)) = occluder {
             spawn_occluder(
                 &mut app,
                 5.0,
-                1.0,
+                height,
                 StandardMaterial {
                     base_color: Color::linear_rgba(0.0, 0.0, 0.0, alpha),
                     reflectance: 0.0,
@@ -193,9 +194,17 @@ fn alpha_cut_outs_and_blending_pass_their_share_of_light() {
         region_mean(&estimate_after(&mut app, camera, 16, "alpha"), 8..24, 8..24)
     };
     let open = floor(None);
-    let cut_out = floor(Some((AlphaMode::Mask(0.5), 0.0))) / open;
-    let blended = floor(Some((AlphaMode::Blend, 0.5))) / open;
-    println!("floor under a cut-out plane {cut_out:.4}, under a half-transparent one {blended:.4}");
+    let cut_out = floor(Some((AlphaMode::Mask(0.5), 0.0, 1.0))) / open;
+    let on_floor = floor(Some((AlphaMode::Mask(0.5), 0.0, 0.0))) / open;
+    let blended = floor(Some((AlphaMode::Blend, 0.5, 1.0))) / open;
+    println!(
+        "floor under a cut-out plane {cut_out:.4}, with one lying on it {on_floor:.4}, \
+         under a half-transparent one {blended:.4}"
+    );
     assert!((cut_out - 1.0).abs() < 0.02, "cut-out: {cut_out}");
+    assert!(
+        (on_floor - 1.0).abs() < 0.02,
+        "cut-out on the floor: {on_floor}"
+    );
     assert!((blended - 0.25).abs() < 0.025, "alpha 0.5: {blended}");
 }

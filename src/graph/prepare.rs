@@ -20,7 +20,7 @@ use crate::indirect_splat::{IndirectSplatKey, IndirectSplatPipeline};
 use crate::output::{OutputPipeline, output_key};
 use crate::photons::{PhotonKey, PhotonPipeline, device_photon_count, list_heads, store_capacity};
 use crate::ppm::{next_radius2, radius2_after};
-use crate::scene::{ScatterPaths, SceneBuffers, SceneData};
+use crate::scene::{Lookups, ScatterPaths, SceneBuffers, SceneData};
 use crate::settings::{PhotonMapping, RppmDebugView, RppmMode};
 use crate::shadows::{ShadowPipeline, cube_views};
 use crate::splat::{SplatKey, SplatPipeline};
@@ -94,7 +94,7 @@ fn select_stages(
     let cache = &pipelines.cache;
     let traced = state.photons > 0 && state.cubemap.cubemap.is_some();
     let subsampled = state.key.subsampling > 1;
-    let lookups = scene.data.lookups();
+    let lookups = scene.lookups;
     let layers = scene.paths & ScatterPaths::LAYERS;
     StageIds {
         gbuffer: pipelines
@@ -239,7 +239,7 @@ pub(crate) fn prepare_views(
             bvh: settings
                 .tracer
                 .uses_bvh(adapter.device_type == wgpu::DeviceType::Cpu),
-            textured: scene.data.is_textured(),
+            textured: scene.lookups.contains(Lookups::TEXTURED),
         };
         let fresh = |pipelines: &Pipelines, textures: &mut TextureCache| {
             RppmViewState::new(

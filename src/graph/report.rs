@@ -78,7 +78,7 @@ pub(crate) fn report_views(
             s.paths
                 .shader_defs()
                 .into_iter()
-                .chain(s.data.lookups().shader_defs())
+                .chain(s.lookups.shader_defs())
                 .map(|p| p.to_string())
                 .collect()
         })

@@ -40,7 +40,9 @@ impl Lookups {
                 Self::NORMAL_MAP,
             ];
             for (texture, slot) in m.textures.iter().zip(slots) {
-                lookups.set(slot, lookups.contains(slot) || *texture != NO_TEXTURE);
+                if *texture != NO_TEXTURE {
+                    lookups |= slot;
+                }
             }
             if flags.intersects(MaterialFlags::ALPHA_MASK | MaterialFlags::ALPHA_HASHED) {
                 lookups |= Self::ALPHA_TEST;

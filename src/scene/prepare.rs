@@ -13,7 +13,7 @@ use bytemuck::Pod;
 
 use super::place::PlacePipeline;
 use super::upload::Upload;
-use super::{GpuTriangleAttributes, PackedTriangle, RppmScene, ScatterPaths, SceneData};
+use super::{GpuTriangleAttributes, Lookups, PackedTriangle, RppmScene, ScatterPaths, SceneData};
 use crate::bsdf::ggx_albedo_table;
 
 /// Why the scene's tables were refused (too big for the GPU), while they are; every view
@@ -44,6 +44,8 @@ pub struct SceneBuffers {
     pub texels: Buffer,
     /// The scattering paths the materials have (made once per scene change).
     pub paths: ScatterPaths,
+    /// The lookups the materials make (made once per scene change).
+    pub lookups: Lookups,
     /// The largest probability a photon goes on after a hit (sizes the photon store).
     pub max_scatter: f32,
     /// Bytes written to the GPU by the latest scene change: what changed, not the scene.
@@ -256,6 +258,7 @@ pub(crate) fn prepare_scene(
         epoch: scene.epoch,
         data: data.clone(),
         paths: data.scatter_paths(),
+        lookups: data.lookups(),
         max_scatter: data.max_scatter_probability(),
         triangles,
         meshes,

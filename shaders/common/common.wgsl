@@ -205,7 +205,8 @@ struct IterationParams {
     sky: vec4<f32>,
     // Index of this iteration's random numbers: the iteration, shifted by the seed.
     sequence: u32,
-    pad_a: u32,
+    // Invocations tracing the photons (photons/trace.wgsl regenerates paths).
+    photon_lanes: u32,
     pad_b: u32,
     pad_c: u32,
 }
@@ -224,6 +225,15 @@ struct Outgoing {
     average: vec2<f32>,
     // What a clearcoat lets through toward wo (1 without one).
     coat: f32,
+}
+
+// Texel i of a texture read as a flat array, rows of 1 << TEXEL_ROW_SHIFT texels (TEXELS_WIDE
+// in src/cubemap/bvh/texels.rs). Data that hot loops read lives in such textures: llvmpipe
+// fetches a texel for its 8 lanes at once but reads a storage buffer a lane at a time.
+const TEXEL_ROW_SHIFT: u32 = 12u;
+
+fn row_texel(i: u32) -> vec2<u32> {
+    return vec2<u32>(i & ((1u << TEXEL_ROW_SHIFT) - 1u), i >> TEXEL_ROW_SHIFT);
 }
 
 // A stored photon (64 bytes, the RPPM budget).

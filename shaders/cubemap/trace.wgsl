@@ -6,7 +6,7 @@
 // that the ray's depth interval crosses are tested, exactly and watertight.
 #define_import_path bevy_rppm::cubemap
 
-#import bevy_rppm::common::{CubemapParams, face_basis, level_offset, face_of, BIG_TRIANGLES}
+#import bevy_rppm::common::{CubemapParams, face_basis, level_offset, face_of, BIG_TRIANGLES, row_texel}
 #import bevy_rppm::scene::{triangles, triangle_at, opaque_at}
 
 @group(3) @binding(0) var<uniform> cubemap: CubemapParams;
@@ -15,22 +15,29 @@
 @group(3) @binding(3) var<storage, read> nodes: array<vec2<u32>>;
 // [count, ids…] of the triangles kept out of the lists (build.wgsl's `classify`).
 @group(3) @binding(4) var<storage, read> big: array<u32>;
-// The hierarchy that RppmTracer::Bvh traces instead (a stand-in otherwise).
-// BvhNode in src/cubemap/bvh/build.rs: a leaf's triangles are bvh_indices[first..first + count];
-// an inner node (count INNER) has children first and first + 1.
+// The hierarchy that RppmTracer::Bvh traces instead (a stand-in otherwise), in two float
+// textures (src/cubemap/bvh/texels.rs; `row_texel`): llvmpipe fetches a texel for 8 lanes at
+// once, where it reads a storage buffer one lane and one load at a time (3x cheaper). Node i is texels 2i, 2i + 1: (min, first), (max, count), count -1 for an
+// inner node (children first and first + 1), else a leaf of triangles first..first + count;
+// triangle k of the leaves is texels 3k..3k + 2: its corners, the first's w its id.
+@group(3) @binding(5) var bvh_nodes: texture_2d<f32>;
+@group(3) @binding(6) var bvh_triangles: texture_2d<f32>;
+
 struct BvhNode {
     min: vec3<f32>,
     first: u32,
     max: vec3<f32>,
-    count: u32,
+    // -1: an inner node.
+    count: f32,
 }
 
-const INNER: u32 = 0xffffffffu;
 // MAX_DEPTH in src/cubemap/bvh/build.rs.
 const BVH_STACK: u32 = 48u;
-
-@group(3) @binding(5) var<storage, read> bvh_nodes: array<BvhNode>;
-@group(3) @binding(6) var<storage, read> bvh_indices: array<u32>;
+fn bvh_node(i: u32) -> BvhNode {
+    let lo = textureLoad(bvh_nodes, row_texel(2u * i), 0);
+    let hi = textureLoad(bvh_nodes, row_texel(2u * i + 1u), 0);
+    return BvhNode(lo.xyz, u32(lo.w), hi.xyz, hi.w);
+}
 
 const NO_HIT: u32 = 0xffffffffu;
 const FAR: f32 = 1.0e30;
@@ -42,37 +49,50 @@ struct Hit {
     uv: vec2<f32>,
 }
 
-// Watertight ray/triangle intersection (Woop, Benthin, Wald 2013): edges are tested in a
-// ray-aligned shear space, so a ray through a shared edge hits one of its two triangles.
-// Returns (t, u, v) with t < 0 on a miss.
-fn intersect_triangle(o: vec3<f32>, d: vec3<f32>, id: u32) -> vec3<f32> {
-    let tri = triangle_at(id);
+// A ray in the watertight test's shear space (Woop, Benthin, Wald 2013), found once per ray:
+// rows x, y, z take a point relative to the origin to the permuted, sheared coordinates.
+struct RayFrame {
+    o: vec3<f32>,
+    x: vec3<f32>,
+    y: vec3<f32>,
+    z: vec3<f32>,
+}
+
+fn ray_frame(o: vec3<f32>, d: vec3<f32>) -> RayFrame {
     let ad = abs(d);
-    var kz = 0u;
+    // The axis along which d is largest becomes z; x and y follow it cyclically, swapped
+    // where d points down z so that the winding is kept.
+    var ez = vec3<f32>(1.0, 0.0, 0.0);
     if ad.y > ad.x && ad.y >= ad.z {
-        kz = 1u;
+        ez = vec3<f32>(0.0, 1.0, 0.0);
     } else if ad.z > ad.x && ad.z > ad.y {
-        kz = 2u;
+        ez = vec3<f32>(0.0, 0.0, 1.0);
     }
-    var kx = (kz + 1u) % 3u;
-    var ky = (kx + 1u) % 3u;
-    if d[kz] < 0.0 {
-        let swap = kx;
-        kx = ky;
-        ky = swap;
+    var ex = ez.zxy;
+    var ey = ez.yzx;
+    let dz = dot(ez, d);
+    if dz < 0.0 {
+        let swap = ex;
+        ex = ey;
+        ey = swap;
     }
-    let sx = d[kx] / d[kz];
-    let sy = d[ky] / d[kz];
-    let sz = 1.0 / d[kz];
-    let a = tri.position_a - o;
-    let b = tri.position_b - o;
-    let c = tri.position_c - o;
-    let ax = a[kx] - sx * a[kz];
-    let ay = a[ky] - sy * a[kz];
-    let bx = b[kx] - sx * b[kz];
-    let by = b[ky] - sy * b[kz];
-    let cx = c[kx] - sx * c[kz];
-    let cy = c[ky] - sy * c[kz];
+    let sz = 1.0 / dz;
+    return RayFrame(o, ex - (dot(ex, d) * sz) * ez, ey - (dot(ey, d) * sz) * ez, sz * ez);
+}
+
+// Watertight ray/triangle intersection: edges are tested in the ray's shear space, where each
+// vertex is placed alone, so a ray through a shared edge hits one of its two triangles.
+// Returns (t, u, v) with t < 0 on a miss.
+fn intersect_triangle(r: RayFrame, pa: vec3<f32>, pb: vec3<f32>, pc: vec3<f32>) -> vec3<f32> {
+    let a = pa - r.o;
+    let b = pb - r.o;
+    let c = pc - r.o;
+    let ax = dot(r.x, a);
+    let ay = dot(r.y, a);
+    let bx = dot(r.x, b);
+    let by = dot(r.y, b);
+    let cx = dot(r.x, c);
+    let cy = dot(r.y, c);
     let u = cx * by - cy * bx;
     let v = ax * cy - ay * cx;
     let w = bx * ay - by * ax;
@@ -83,12 +103,18 @@ fn intersect_triangle(o: vec3<f32>, d: vec3<f32>, id: u32) -> vec3<f32> {
     if det == 0.0 {
         return vec3<f32>(-1.0);
     }
-    let t = (u * a[kz] + v * b[kz] + w * c[kz]) * sz / det;
+    let t = (u * dot(r.z, a) + v * dot(r.z, b) + w * dot(r.z, c)) / det;
     return vec3<f32>(t, v / det, w / det);
 }
 
-fn consider(o: vec3<f32>, d: vec3<f32>, id: u32, t_min: f32, best: ptr<function, Hit>) {
-    let h = intersect_triangle(o, d, id);
+fn consider(r: RayFrame, id: u32, t_min: f32, best: ptr<function, Hit>) {
+    let t = triangle_at(id);
+    consider_corners(r, t.position_a, t.position_b, t.position_c, id, t_min, best);
+}
+
+// Triangle `id` of corners pa, pb, pc.
+fn consider_corners(r: RayFrame, pa: vec3<f32>, pb: vec3<f32>, pc: vec3<f32>, id: u32, t_min: f32, best: ptr<function, Hit>) {
+    let h = intersect_triangle(r, pa, pb, pc);
     // Equal distances (an edge two triangles share) go to the lower index, not to whichever
     // the list, filled by atomics in no set order, gives first.
     let nearer = h.x < (*best).t || (h.x == (*best).t && id < (*best).triangle);
@@ -98,22 +124,22 @@ fn consider(o: vec3<f32>, d: vec3<f32>, id: u32, t_min: f32, best: ptr<function,
 }
 
 // Triangle `id` where it is below `count` and not `ignore`.
-fn consider_some(o: vec3<f32>, d: vec3<f32>, id: u32, count: u32, t_min: f32, ignore: u32, best: ptr<function, Hit>) {
+fn consider_some(r: RayFrame, id: u32, count: u32, t_min: f32, ignore: u32, best: ptr<function, Hit>) {
     if id < count && id != ignore {
-        consider(o, d, id, t_min, best);
+        consider(r, id, t_min, best);
     }
 }
 
 // Eight consecutive triangles from `first`, written out (no loop: see trace_brute_force).
-fn consider_eight(o: vec3<f32>, d: vec3<f32>, first: u32, count: u32, t_min: f32, ignore: u32, best: ptr<function, Hit>) {
-    consider_some(o, d, first, count, t_min, ignore, best);
-    consider_some(o, d, first + 1u, count, t_min, ignore, best);
-    consider_some(o, d, first + 2u, count, t_min, ignore, best);
-    consider_some(o, d, first + 3u, count, t_min, ignore, best);
-    consider_some(o, d, first + 4u, count, t_min, ignore, best);
-    consider_some(o, d, first + 5u, count, t_min, ignore, best);
-    consider_some(o, d, first + 6u, count, t_min, ignore, best);
-    consider_some(o, d, first + 7u, count, t_min, ignore, best);
+fn consider_eight(r: RayFrame, first: u32, count: u32, t_min: f32, ignore: u32, best: ptr<function, Hit>) {
+    consider_some(r, first, count, t_min, ignore, best);
+    consider_some(r, first + 1u, count, t_min, ignore, best);
+    consider_some(r, first + 2u, count, t_min, ignore, best);
+    consider_some(r, first + 3u, count, t_min, ignore, best);
+    consider_some(r, first + 4u, count, t_min, ignore, best);
+    consider_some(r, first + 5u, count, t_min, ignore, best);
+    consider_some(r, first + 6u, count, t_min, ignore, best);
+    consider_some(r, first + 7u, count, t_min, ignore, best);
 }
 
 // The reference: every triangle, nearest hit in (t_min, t_max), skipping `ignore`. llvmpipe
@@ -121,19 +147,20 @@ fn consider_eight(o: vec3<f32>, d: vec3<f32>, first: u32, count: u32, t_min: f32
 // are taken 32 at a time, in two loops: up to 4 M triangles.
 fn trace_brute_force(o: vec3<f32>, d: vec3<f32>, t_min: f32, t_max: f32, ignore: u32) -> Hit {
     var best = Hit(t_max, NO_HIT, vec2<f32>(0.0));
+    let r = ray_frame(o, d);
     let count = arrayLength(&triangles);
     let half = (count / 64u + 1u) * 32u;
     for (var i = 0u; i < half; i += 32u) {
-        consider_eight(o, d, i, count, t_min, ignore, &best);
-        consider_eight(o, d, i + 8u, count, t_min, ignore, &best);
-        consider_eight(o, d, i + 16u, count, t_min, ignore, &best);
-        consider_eight(o, d, i + 24u, count, t_min, ignore, &best);
+        consider_eight(r, i, count, t_min, ignore, &best);
+        consider_eight(r, i + 8u, count, t_min, ignore, &best);
+        consider_eight(r, i + 16u, count, t_min, ignore, &best);
+        consider_eight(r, i + 24u, count, t_min, ignore, &best);
     }
     for (var i = half; i < count; i += 32u) {
-        consider_eight(o, d, i, count, t_min, ignore, &best);
-        consider_eight(o, d, i + 8u, count, t_min, ignore, &best);
-        consider_eight(o, d, i + 16u, count, t_min, ignore, &best);
-        consider_eight(o, d, i + 24u, count, t_min, ignore, &best);
+        consider_eight(r, i, count, t_min, ignore, &best);
+        consider_eight(r, i + 8u, count, t_min, ignore, &best);
+        consider_eight(r, i + 16u, count, t_min, ignore, &best);
+        consider_eight(r, i + 24u, count, t_min, ignore, &best);
     }
     return best;
 }
@@ -174,7 +201,7 @@ fn grid_at(ray: FaceRay, t: f32) -> vec2<f32> {
 }
 
 // Marches the part [t0, t1] of the ray that lies in face f.
-fn trace_face(o: vec3<f32>, d: vec3<f32>, f: u32, t0: f32, t1: f32, t_min: f32, ignore: u32, best: ptr<function, Hit>) {
+fn trace_face(r: RayFrame, o: vec3<f32>, d: vec3<f32>, f: u32, t0: f32, t1: f32, t_min: f32, ignore: u32, best: ptr<function, Hit>) {
     let basis = transpose(face_basis(f));
     let lo = basis * (o - cubemap.centre.xyz);
     let ld = basis * d;
@@ -231,7 +258,7 @@ fn trace_face(o: vec3<f32>, d: vec3<f32>, f: u32, t0: f32, t1: f32, t_min: f32, 
             continue;
         }
         if overlaps {
-            test_tile(o, d, f, cell, zr, range, t_min, ignore, best);
+            test_tile(r, f, cell, zr, range, t_min, ignore, best);
             if (*best).t <= t_exit {
                 return;
             }
@@ -260,7 +287,7 @@ fn trace_face(o: vec3<f32>, d: vec3<f32>, f: u32, t0: f32, t1: f32, t_min: f32, 
 }
 
 // Tests the triangles of the tile's bins that the ray's depth interval `zr` crosses.
-fn test_tile(o: vec3<f32>, d: vec3<f32>, f: u32, cell: vec2<i32>, zr: vec2<f32>, range: vec2<f32>, t_min: f32, ignore: u32, best: ptr<function, Hit>) {
+fn test_tile(r: RayFrame, f: u32, cell: vec2<i32>, zr: vec2<f32>, range: vec2<f32>, t_min: f32, ignore: u32, best: ptr<function, Hit>) {
     let grid = cubemap.grid;
     let tile = (f * grid + u32(cell.y)) * grid + u32(cell.x);
     let width = (range.y - range.x) / f32(cubemap.bins);
@@ -275,7 +302,7 @@ fn test_tile(o: vec3<f32>, d: vec3<f32>, f: u32, cell: vec2<i32>, zr: vec2<f32>,
         for (var guard = 0u; node != 0u && guard < cubemap.node_capacity; guard += 1u) {
             let entry = nodes[node - 1u];
             if entry.x != ignore {
-                consider(o, d, entry.x, t_min, best);
+                consider(r, entry.x, t_min, best);
             }
             node = entry.y;
         }
@@ -286,13 +313,14 @@ fn test_tile(o: vec3<f32>, d: vec3<f32>, f: u32, cell: vec2<i32>, zr: vec2<f32>,
 // a bounce ray leaves; NO_HIT for none). `d` need not be normalised; t is in its units.
 fn trace_cubemap(o: vec3<f32>, d: vec3<f32>, t_min: f32, t_max: f32, ignore: u32) -> Hit {
     var best = Hit(min(t_max, FAR), NO_HIT, vec2<f32>(0.0));
+    let r = ray_frame(o, d);
     // The big triangles first: a near hit among them ends the march early.
     let bigs = big[0];
     if bigs <= BIG_TRIANGLES {
         for (var i = 0u; i < bigs; i += 1u) {
             let id = big[1u + i];
             if id != ignore {
-                consider(o, d, id, t_min, &best);
+                consider(r, id, t_min, &best);
             }
         }
     }
@@ -328,7 +356,7 @@ fn trace_cubemap(o: vec3<f32>, d: vec3<f32>, t_min: f32, t_max: f32, ignore: u32
         }
         if t1 > t0 {
             let mid = t0 + 0.5 * min(t1 - t0, 1.0e20);
-            trace_face(o, d, face_of(oc + d * mid), t0, t1, t_min, ignore, &best);
+            trace_face(r, o, d, face_of(oc + d * mid), t0, t1, t_min, ignore, &best);
         }
         t0 = max(t0, t1);
     }
@@ -356,29 +384,34 @@ fn enter_box(o: vec3<f32>, inv: vec3<f32>, n: BvhNode, t_max: f32) -> f32 {
 // brute force tests them. With `any`, the first hit found (a shadow ray's question).
 fn trace_bvh(o: vec3<f32>, d: vec3<f32>, t_min: f32, t_max: f32, ignore: u32, any: bool) -> Hit {
     var best = Hit(t_max, NO_HIT, vec2<f32>(0.0));
+    let r = ray_frame(o, d);
     // A zero component's reciprocal as a huge number of its sign, never NaN in the slabs.
     let inv = 1.0 / select(d, vec3<f32>(1e-30), abs(d) < vec3<f32>(1e-30));
     var stack: array<u32, BVH_STACK>;
     var top = 0u;
     var node = 0u;
-    if enter_box(o, inv, bvh_nodes[0], t_max) == FAR_BOX {
+    if enter_box(o, inv, bvh_node(0u), t_max) == FAR_BOX {
         return best;
     }
     loop {
-        let n = bvh_nodes[node];
-        if n.count != INNER {
-            for (var k = n.first; k < n.first + n.count; k += 1u) {
-                let id = bvh_indices[k];
+        let n = bvh_node(node);
+        if n.count >= 0.0 {
+            let end = n.first + u32(n.count);
+            for (var k = n.first; k < end; k += 1u) {
+                let a = textureLoad(bvh_triangles, row_texel(3u * k), 0);
+                let id = u32(a.w);
                 if id != ignore {
-                    consider(o, d, id, t_min, &best);
+                    let b = textureLoad(bvh_triangles, row_texel(3u * k + 1u), 0).xyz;
+                    let c = textureLoad(bvh_triangles, row_texel(3u * k + 2u), 0).xyz;
+                    consider_corners(r, a.xyz, b, c, id, t_min, &best);
                 }
             }
             if any && best.triangle != NO_HIT {
                 return best;
             }
         } else {
-            let a = enter_box(o, inv, bvh_nodes[n.first], best.t);
-            let b = enter_box(o, inv, bvh_nodes[n.first + 1u], best.t);
+            let a = enter_box(o, inv, bvh_node(n.first), best.t);
+            let b = enter_box(o, inv, bvh_node(n.first + 1u), best.t);
             let near = select(n.first + 1u, n.first, a <= b);
             if min(a, b) < FAR_BOX {
                 if max(a, b) < FAR_BOX && top < BVH_STACK {
@@ -394,7 +427,7 @@ fn trace_bvh(o: vec3<f32>, d: vec3<f32>, t_min: f32, t_max: f32, ignore: u32, an
         while top > 0u && !found {
             top -= 1u;
             node = stack[top];
-            found = enter_box(o, inv, bvh_nodes[node], best.t) < FAR_BOX;
+            found = enter_box(o, inv, bvh_node(node), best.t) < FAR_BOX;
         }
         if !found {
             break;

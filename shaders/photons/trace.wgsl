@@ -125,56 +125,79 @@ fn store(x: vec3<f32>, ray: Ray, n: vec3<f32>) {
     }
 }
 
+// The random numbers of photon `index` this iteration.
+fn photon_seed(index: u32) -> u32 {
+    return pcg_hash(index ^ pcg_hash(params.sequence * 0x9e3779b9u + 0x632be5abu));
+}
+
+// Path regeneration: `photon_lanes` invocations trace the iteration's photons, each taking
+// the next (index + lanes) when its photon ends, so the lanes of a SIMD group stay busy
+// until all their photons are done instead of idling behind the longest path of the group.
 @compute @workgroup_size(64, 1, 1)
 fn trace(@builtin(global_invocation_id) id: vec3<u32>) {
-    if id.x >= params.photons {
+    let lanes = params.photon_lanes;
+    var index = id.x;
+    if index >= lanes || index >= params.photons {
         return;
     }
-    var rng = pcg_hash(id.x ^ pcg_hash(params.sequence * 0x9e3779b9u + 0x632be5abu));
+    var rng = photon_seed(index);
     var ray = emit(&rng);
+    var depth = 0u;
     let t_min = params.scene_sphere.w * 1e-6;
 #ifdef ABSORPTION
     // σ of the coloured glass the photon is in (lights are outside every medium).
     var medium = vec3<f32>(0.0);
 #endif
-    for (var depth = 0u; depth < params.max_photon_depth; depth += 1u) {
+    // Segments this invocation may trace: its photons × the depth each may reach.
+    let steps = ((params.photons - 1u - index) / lanes + 1u) * params.max_photon_depth;
+    for (var step = 0u; step < steps; step += 1u) {
+        var ended = true;
         let hit = trace_ray(ray.origin, ray.direction, t_min, 1.0e30, ray.ignore);
-        if hit.triangle == NO_HIT {
-            return;
-        }
+        if hit.triangle != NO_HIT {
 #ifdef ABSORPTION
-        ray.flux *= exp(-medium * hit.t);
+            ray.flux *= exp(-medium * hit.t);
 #endif
-        let t = triangle_at(hit.triangle);
-        let x = ray.origin + ray.direction * hit.t;
-        let geometric = normalize(cross(t.position_b - t.position_a, t.position_c - t.position_a));
-        let front = dot(geometric, ray.direction) < 0.0;
-        let m = as_seen_from(material_at(hit.triangle, hit.uv, 0.0), front);
-        // Shading normal (normal map applied) and the kernel's (stored), on the side the
-        // photon arrives from.
-        var interpolated = interpolated_normal(t, hit.uv);
-        var n = normal_at(hit.triangle, hit.uv, interpolated, 0.0);
-        if !front {
-            n = -n;
-            interpolated = -interpolated;
-        }
-        let direct_only = params.direct_photons != 0u;
-        if (depth > 0u || direct_only) && stores_photons(m) {
-            store(x, ray, interpolated);
-        }
-        if direct_only {
-            return;
-        }
-        let s = scatter_photon(m, n, -ray.direction, front, &rng);
-        if all(s.weight <= vec3<f32>(0.0)) {
-            return;
-        }
+            let t = triangle_at(hit.triangle);
+            let x = ray.origin + ray.direction * hit.t;
+            let geometric = normalize(cross(t.position_b - t.position_a, t.position_c - t.position_a));
+            let front = dot(geometric, ray.direction) < 0.0;
+            let m = as_seen_from(material_at(hit.triangle, hit.uv, 0.0), front);
+            // Shading normal (normal map applied) and the kernel's (stored), on the side the
+            // photon arrives from.
+            var interpolated = interpolated_normal(t, hit.uv);
+            var n = normal_at(hit.triangle, hit.uv, interpolated, 0.0);
+            if !front {
+                n = -n;
+                interpolated = -interpolated;
+            }
+            let direct_only = params.direct_photons != 0u;
+            if (depth > 0u || direct_only) && stores_photons(m) {
+                store(x, ray, interpolated);
+            }
+            let s = scatter_photon(m, n, -ray.direction, front, &rng);
+            if !direct_only && any(s.weight > vec3<f32>(0.0)) && depth + 1u < params.max_photon_depth {
 #ifdef ABSORPTION
-        medium = medium_after(medium, m, front, dot(s.direction, n) < 0.0);
+                medium = medium_after(medium, m, front, dot(s.direction, n) < 0.0);
 #endif
-        ray.origin = x;
-        ray.direction = s.direction;
-        ray.flux *= s.weight;
-        ray.ignore = hit.triangle;
+                ray.origin = x;
+                ray.direction = s.direction;
+                ray.flux *= s.weight;
+                ray.ignore = hit.triangle;
+                depth += 1u;
+                ended = false;
+            }
+        }
+        if ended {
+            index += lanes;
+            if index >= params.photons {
+                return;
+            }
+            rng = photon_seed(index);
+            ray = emit(&rng);
+            depth = 0u;
+#ifdef ABSORPTION
+            medium = vec3<f32>(0.0);
+#endif
+        }
     }
 }

@@ -68,8 +68,8 @@ fn trace_group(
             heads.as_entire_binding(),
             nodes.as_entire_binding(),
             big.as_entire_binding(),
-            bvh.nodes.as_entire_binding(),
-            bvh.indices.as_entire_binding(),
+            &bvh.nodes_view,
+            &bvh.corners_view,
         )),
     )
 }

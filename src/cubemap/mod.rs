@@ -15,7 +15,8 @@ use std::num::NonZeroU64;
 
 use bevy::prelude::*;
 use bevy::render::render_resource::binding_types::{
-    storage_buffer_read_only_sized, storage_buffer_sized, uniform_buffer_sized,
+    storage_buffer_read_only_sized, storage_buffer_sized, texture_2d, texture_storage_2d,
+    uniform_buffer_sized,
 };
 use bevy::render::render_resource::*;
 use bevy::render::{RenderApp, RenderStartup};
@@ -42,7 +43,8 @@ impl Plugin for CubemapPlugin {
 }
 
 /// Group 3 of any shader that traces rays: 0 params, 1 hierarchy, 2 heads, 3 nodes, 4 the big
-/// triangles ([`BIG_TRIANGLES`]), 5 and 6 the hierarchy's nodes and triangle ids ([`bvh`]).
+/// triangles ([`BIG_TRIANGLES`]), 5 and 6 the hierarchy's nodes and triangles' corners,
+/// textures ([`bvh`]).
 pub fn trace_layout() -> BindGroupLayoutDescriptor {
     let read = || storage_buffer_read_only_sized(false, None);
     BindGroupLayoutDescriptor::new(
@@ -55,8 +57,8 @@ pub fn trace_layout() -> BindGroupLayoutDescriptor {
                 read(),
                 read(),
                 read(),
-                read(),
-                read(),
+                texture_2d(TextureSampleType::Float { filterable: false }),
+                texture_2d(TextureSampleType::Float { filterable: false }),
             ),
         ),
     )
@@ -76,6 +78,9 @@ pub struct CubemapPipelines {
     pub(crate) insert: CachedRenderPipelineId,
     pub(crate) hierarchy_base: CachedComputePipelineId,
     pub(crate) hierarchy_reduce: CachedComputePipelineId,
+    /// `bvh_fill.wgsl`'s group 1: 0 the leaf order, 1 the corners texture it writes.
+    pub bvh_fill_layout: BindGroupLayoutDescriptor,
+    pub(crate) bvh_fill: CachedComputePipelineId,
 }
 
 fn storage_rw() -> BindGroupLayoutEntryBuilder {
@@ -121,6 +126,16 @@ impl CubemapPipelines {
             ),
         );
         let trace_layout = trace_layout();
+        let bvh_fill_layout = BindGroupLayoutDescriptor::new(
+            "rppm_bvh_fill_layout",
+            &BindGroupLayoutEntries::sequential(
+                ShaderStages::COMPUTE,
+                (
+                    storage_buffer_read_only_sized(false, None),
+                    texture_storage_2d(TextureFormat::Rgba32Float, StorageTextureAccess::WriteOnly),
+                ),
+            ),
+        );
         let raster = |entry: &'static str| RenderPipelineDescriptor {
             label: Some(format!("rppm_cubemap_{entry}").into()),
             layout: vec![scene_layout.clone(), build_layout.clone()],
@@ -173,10 +188,18 @@ impl CubemapPipelines {
                     level_layout.clone(),
                 ],
             ),
+            bvh_fill: cache.queue_compute_pipeline(ComputePipelineDescriptor {
+                label: Some("rppm_bvh_fill".into()),
+                layout: vec![scene_layout.clone(), bvh_fill_layout.clone()],
+                shader: shaders.bvh_fill.clone(),
+                entry_point: Some("fill".into()),
+                ..default()
+            }),
             build_layout,
             classify_layout,
             level_layout,
             trace_layout,
+            bvh_fill_layout,
         }
     }
 
@@ -187,6 +210,7 @@ impl CubemapPipelines {
             && cache.get_render_pipeline(self.insert).is_some()
             && cache.get_compute_pipeline(self.hierarchy_base).is_some()
             && cache.get_compute_pipeline(self.hierarchy_reduce).is_some()
+            && cache.get_compute_pipeline(self.bvh_fill).is_some()
     }
 }
 

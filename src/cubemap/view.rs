@@ -128,7 +128,7 @@ impl ViewCubemap {
         // light or a material): refitted while it moves, built again once it stays.
         let device = ctx.device;
         let build = |cubemap: &mut DeepCubemap| {
-            let buffers = BvhBuffers::build(device, &scene.data);
+            let buffers = BvhBuffers::build(device, ctx.queue, &scene.data);
             cubemap.bind_bvh(device, &layout(), &buffers);
             buffers
         };

@@ -386,8 +386,11 @@ pub(super) fn run_cubemap_bench(
         scene_group,
         empty_group,
         rays,
-        bvh: BvhBuffers::build(&device, &scene.data),
+        bvh: BvhBuffers::build(&device, &queue, &scene.data),
     };
+    let mut encoder = device.create_command_encoder(&CommandEncoderDescriptor::default());
+    (gpu.bvh).encode_fill(&mut encoder, &device, &cache, &cubemap, &gpu.scene_group);
+    gpu.submit(encoder);
     let count = request.rays.len() as u32;
     let mut rows = Vec::new();
     let mut brute: Option<(Vec<[f32; 4]>, f64)> = None;

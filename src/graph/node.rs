@@ -18,6 +18,7 @@ use crate::view::PARAMS_STRIDE;
 /// Pipelines the node records with, all compiled.
 struct NodePipelines<'a> {
     cache: &'a PipelineCache,
+    device: &'a RenderDevice,
     cubemap: &'a CubemapPipelines,
     shadow: &'a RenderPipeline,
     gbuffer: &'a RenderPipeline,
@@ -52,6 +53,7 @@ pub(crate) fn rppm_node(
     };
     let node = NodePipelines {
         cache: &cache,
+        device: &device,
         cubemap: &cubemap_pipelines,
         shadow,
         gbuffer,
@@ -168,6 +170,16 @@ fn encode_iteration(
         cubemap.encode_build(encoder, node.cache, node.cubemap, &state.scene_group, timer);
         mark(checkpoints, encoder, Stage::CubemapBuild);
     }
+    if let Some(bvh) = &state.cubemap.bvh {
+        let device = node.device;
+        (bvh.buffers).encode_fill(
+            encoder,
+            device,
+            node.cache,
+            node.cubemap,
+            &state.scene_group,
+        );
+    }
     if state.importons {
         state.eye_paths.encode_clear(encoder);
     }
@@ -193,7 +205,8 @@ fn encode_iteration(
             offset,
             cubemap: &cubemap.trace_group,
         };
-        store.encode_trace(encoder, trace, &groups, state.photons, timer);
+        let lanes = state.photons.div_ceil(state.key.photons_per_lane);
+        store.encode_trace(encoder, trace, &groups, [state.photons, lanes], timer);
         mark(checkpoints, encoder, Stage::PhotonTrace);
     }
 }

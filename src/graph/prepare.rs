@@ -236,10 +236,15 @@ pub(crate) fn prepare_views(
             photon_lists: list_heads(cubemap::fitted(cubemap_config(settings), &device).grid()),
             subsampling: settings.indirect_subsampling,
             history: settings.history.window().is_some(),
+            // A hierarchy too large for this device's textures gives way to the cubemap.
             bvh: settings
                 .tracer
-                .uses_bvh(adapter.device_type == wgpu::DeviceType::Cpu),
+                .uses_bvh(adapter.device_type == wgpu::DeviceType::Cpu)
+                && cubemap::bvh::fits(&device, scene.triangle_count()),
             textured: scene.lookups.contains(Lookups::TEXTURED),
+            photons_per_lane: crate::photons::photons_per_lane(
+                adapter.device_type == wgpu::DeviceType::Cpu,
+            ),
         };
         let fresh = |pipelines: &Pipelines, textures: &mut TextureCache| {
             RppmViewState::new(
@@ -439,6 +444,7 @@ fn prepare_view(
         params.area_layer = state.shadows.light_layers;
         params.shadow_resolution = state.shadows.resolution;
         params.photons = state.photons;
+        params.photon_lanes = state.photons.div_ceil(key.photons_per_lane);
         params.max_photon_depth = settings.max_photon_depth;
         params.photon_capacity = key.photon_capacity;
         params.source_count = scene.data.light_cdf.len() as u32;

@@ -42,6 +42,8 @@ pub struct ResourceKey {
     pub bvh: bool,
     /// The scene has textures: each pixel's resolved surface is held for the splat.
     pub textured: bool,
+    /// Photons each tracing invocation takes in turn ([`crate::photons::photons_per_lane`]).
+    pub photons_per_lane: u32,
 }
 
 /// The pipelines a view's iteration runs, by its scene and settings.

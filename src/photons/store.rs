@@ -159,13 +159,13 @@ impl PhotonStore {
         }
     }
 
-    /// Photon tracing for one iteration.
+    /// Photon tracing for one iteration: `photons` by `lanes` invocations.
     pub fn encode_trace(
         &self,
         encoder: &mut CommandEncoder,
         pipeline: &ComputePipeline,
         groups: &TracingGroups,
-        photons: u32,
+        [photons, lanes]: [u32; 2],
         timer: &mut StageTimer,
     ) {
         encoder.clear_buffer(&self.count, 4, Some(4));
@@ -175,7 +175,7 @@ impl PhotonStore {
             timestamp_writes: timer.compute_pass(Stage::PhotonTrace),
         });
         groups.bind(&mut pass, pipeline, &self.group);
-        pass.dispatch_workgroups(photons.div_ceil(64), 1, 1);
+        pass.dispatch_workgroups(lanes.div_ceil(64), 1, 1);
         drop(pass);
         self.traced.store(photons, Ordering::Relaxed);
         if self.probe.encode_copy(encoder, &self.count) {

@@ -55,7 +55,9 @@ pub struct IterationParams {
     pub sky: [f32; 4],
     /// Index of the iteration's random numbers: `iteration`, shifted by `PhotonMapping::seed`.
     pub sequence: u32,
-    pub pad: [u32; 3],
+    /// Invocations that trace the photons, each taking the next when its photon ends.
+    pub photon_lanes: u32,
+    pub pad: [u32; 2],
 }
 
 /// The first slot of a params buffer, as group 1 binds it.

@@ -7,25 +7,41 @@
 
 mod build;
 mod refit;
+mod texels;
 
 pub use build::{Bvh, BvhNode, INNER, MAX_DEPTH};
+pub use texels::{TEXELS_WIDE, fits, most_texels, node_texels};
 
 use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
 use bevy::math::Vec3;
-use bevy::render::render_resource::Buffer;
+use bevy::render::render_resource::*;
 use bevy::render::renderer::{RenderDevice, RenderQueue};
 
+use super::CubemapPipelines;
+use crate::scene::place::dispatch_size;
 use crate::scene::prepare::storage_buffer;
 use crate::scene::{GpuInstance, SceneData};
 use refit::Refittable;
+use texels::{texels_texture, write_texels};
 
 /// A hierarchy on the GPU and what making it cost.
 pub struct BvhBuffers {
-    pub nodes: Buffer,
+    /// Two texels a node ([`node_texels`]).
+    pub nodes: Texture,
+    pub nodes_view: TextureView,
+    /// The leaves' triangles' corners, three texels each, copied from the scene's placed
+    /// triangles by `bvh_fill.wgsl` ([`BvhBuffers::encode_fill`]).
+    pub corners: Texture,
+    pub corners_view: TextureView,
+    /// The triangle ids in leaf order, which the copy follows.
     pub indices: Buffer,
+    leaf_triangles: u32,
     pub node_count: u32,
+    /// Whether the corners are to be copied again (built, or the geometry moved).
+    stale: AtomicBool,
     /// Bytes held on the GPU.
     pub bytes: u64,
     /// Wall-clock milliseconds of the CPU work of the last build or refit.
@@ -40,10 +56,20 @@ pub struct BvhBuffers {
 impl BvhBuffers {
     /// The stand-in a view tracing by the deep cubemap binds: an empty leaf.
     pub fn empty(device: &RenderDevice) -> Self {
+        // Zeroed texels: a leaf of no triangles.
+        let (nodes, nodes_view) =
+            texels_texture(device, "rppm_bvh_nodes", 2, TextureUsages::empty());
+        let (corners, corners_view) =
+            texels_texture(device, "rppm_bvh_corners", 1, TextureUsages::empty());
         Self {
-            nodes: storage_buffer(device, "rppm_bvh_nodes", &[BvhNode::default()]),
+            nodes,
+            nodes_view,
+            corners,
+            corners_view,
             indices: storage_buffer::<u32>(device, "rppm_bvh_indices", &[]),
+            leaf_triangles: 0,
             node_count: 1,
+            stale: AtomicBool::new(false),
             bytes: 0,
             build_ms: 0.0,
             upload_bytes: 0,
@@ -52,7 +78,7 @@ impl BvhBuffers {
         }
     }
 
-    pub fn build(device: &RenderDevice, data: &SceneData) -> Self {
+    pub fn build(device: &RenderDevice, queue: &RenderQueue, data: &SceneData) -> Self {
         let start = Instant::now();
         let triangles: Vec<_> = data
             .world_triangles()
@@ -62,14 +88,34 @@ impl BvhBuffers {
         let hierarchy = Refittable::build(triangles);
         let build_ms = start.elapsed().as_secs_f64() * 1e3;
         let bvh = &hierarchy.bvh;
-        let bytes = bvh.bytes();
+        let node_texels = node_texels(&bvh.nodes);
+        let (nodes, nodes_view) = texels_texture(
+            device,
+            "rppm_bvh_nodes",
+            node_texels.len() as u32,
+            TextureUsages::COPY_DST,
+        );
+        let sent = write_texels(queue, &nodes, 0, &node_texels);
+        let (corners, corners_view) = texels_texture(
+            device,
+            "rppm_bvh_corners",
+            3 * bvh.indices.len() as u32,
+            TextureUsages::STORAGE_BINDING,
+        );
+        // Three texels of corners and an id in the order buffer a triangle.
+        let bytes = sent + (3 * 16 + 4) * bvh.indices.len() as u64;
         Self {
-            nodes: storage_buffer(device, "rppm_bvh_nodes", &bvh.nodes),
+            nodes,
+            nodes_view,
+            corners,
+            corners_view,
             indices: storage_buffer(device, "rppm_bvh_indices", &bvh.indices),
+            leaf_triangles: bvh.indices.len() as u32,
             node_count: bvh.nodes.len() as u32,
+            stale: AtomicBool::new(true),
             bytes,
             build_ms,
-            upload_bytes: bytes,
+            upload_bytes: sent + 4 * bvh.indices.len() as u64,
             placed: placed(data),
             hierarchy,
         }
@@ -125,14 +171,51 @@ impl BvhBuffers {
                 end += 1;
             }
             let (a, b) = (changed[k] as usize, changed[end - 1] as usize + 1);
-            let bytes: &[u8] = bytemuck::cast_slice(&nodes[a..b]);
-            queue.write_buffer(&self.nodes, (a * size_of::<BvhNode>()) as u64, bytes);
-            sent += bytes.len() as u64;
+            sent += write_texels(queue, &self.nodes, 2 * a as u32, &node_texels(&nodes[a..b]));
             k = end;
         }
+        // The moved triangles' corners are copied again once the scene has placed them.
+        self.stale.store(true, Ordering::Relaxed);
         self.upload_bytes = sent;
         self.build_ms = start.elapsed().as_secs_f64() * 1e3;
         Follow::Refitted
+    }
+}
+
+impl BvhBuffers {
+    /// Copies the placed triangles' corners into the leaf-ordered texture when they are
+    /// stale; `scene_group` binds the scene's triangles. Nothing where the pipeline is still
+    /// compiling (the copy waits for the next call).
+    pub fn encode_fill(
+        &self,
+        encoder: &mut CommandEncoder,
+        device: &RenderDevice,
+        cache: &PipelineCache,
+        pipelines: &CubemapPipelines,
+        scene_group: &BindGroup,
+    ) {
+        if !self.stale.load(Ordering::Relaxed) {
+            return;
+        }
+        let Some(pipeline) = cache.get_compute_pipeline(pipelines.bvh_fill) else {
+            return;
+        };
+        let group = device.create_bind_group(
+            "rppm_bvh_fill_group",
+            &cache.get_bind_group_layout(&pipelines.bvh_fill_layout),
+            &BindGroupEntries::sequential((self.indices.as_entire_binding(), &self.corners_view)),
+        );
+        let mut pass = encoder.begin_compute_pass(&ComputePassDescriptor {
+            label: Some("rppm_bvh_fill"),
+            timestamp_writes: None,
+        });
+        pass.set_pipeline(pipeline);
+        pass.set_bind_group(0, scene_group, &[]);
+        pass.set_bind_group(1, &group, &[]);
+        let limit = device.limits().max_compute_workgroups_per_dimension;
+        let [x, y] = dispatch_size(self.leaf_triangles, limit);
+        pass.dispatch_workgroups(x, y, 1);
+        self.stale.store(false, Ordering::Relaxed);
     }
 }
 

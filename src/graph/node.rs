@@ -170,15 +170,10 @@ fn encode_iteration(
         cubemap.encode_build(encoder, node.cache, node.cubemap, &state.scene_group, timer);
         mark(checkpoints, encoder, Stage::CubemapBuild);
     }
+    // Under RppmTracer::Bvh, the corners of triangles placed since the last iteration.
     if let Some(bvh) = &state.cubemap.bvh {
-        let device = node.device;
-        (bvh.buffers).encode_fill(
-            encoder,
-            device,
-            node.cache,
-            node.cubemap,
-            &state.scene_group,
-        );
+        let (device, cache, pipelines) = (node.device, node.cache, node.cubemap);
+        (bvh.buffers).encode_fill(encoder, device, cache, pipelines, &state.scene_group);
     }
     if state.importons {
         state.eye_paths.encode_clear(encoder);
@@ -205,8 +200,8 @@ fn encode_iteration(
             offset,
             cubemap: &cubemap.trace_group,
         };
-        let lanes = state.photons.div_ceil(state.key.photons_per_lane);
-        store.encode_trace(encoder, trace, &groups, [state.photons, lanes], timer);
+        let counts = [state.photons, state.photon_lanes()];
+        store.encode_trace(encoder, trace, &groups, counts, timer);
         mark(checkpoints, encoder, Stage::PhotonTrace);
     }
 }

@@ -444,7 +444,7 @@ fn prepare_view(
         params.area_layer = state.shadows.light_layers;
         params.shadow_resolution = state.shadows.resolution;
         params.photons = state.photons;
-        params.photon_lanes = state.photons.div_ceil(key.photons_per_lane);
+        params.photon_lanes = state.photon_lanes();
         params.max_photon_depth = settings.max_photon_depth;
         params.photon_capacity = key.photon_capacity;
         params.source_count = scene.data.light_cdf.len() as u32;

@@ -139,6 +139,11 @@ pub struct StagePipelines<'a> {
 }
 
 impl RppmViewState {
+    /// Invocations that trace this frame's photons, each taking `photons_per_lane` in turn.
+    pub fn photon_lanes(&self) -> u32 {
+        self.photons.div_ceil(self.key.photons_per_lane)
+    }
+
     /// Every resource of a view with `key`, its targets taken from `textures` for this frame.
     pub fn new(
         key: ResourceKey,

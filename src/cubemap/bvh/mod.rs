@@ -10,7 +10,7 @@ mod refit;
 mod texels;
 
 pub use build::{Bvh, BvhNode, INNER, MAX_DEPTH};
-pub use texels::{TEXELS_WIDE, fits, most_texels, node_texels};
+pub use texels::{fits, node_texels};
 
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};

@@ -32,11 +32,6 @@ pub(super) fn texels_texture(
     (texture, view)
 }
 
-/// The most texels a texture of this device holds.
-pub fn most_texels(device: &RenderDevice) -> u64 {
-    TEXELS_WIDE as u64 * device.limits().max_texture_dimension_2d as u64
-}
-
 fn extent(count: u32) -> Extent3d {
     Extent3d {
         width: count.clamp(1, TEXELS_WIDE),
@@ -48,7 +43,8 @@ fn extent(count: u32) -> Extent3d {
 /// Whether a hierarchy over `triangles` fits textures of this device: at most 2n − 1 nodes
 /// of 2 texels, and 3 texels a triangle.
 pub fn fits(device: &RenderDevice, triangles: u32) -> bool {
-    4 * triangles as u64 <= most_texels(device)
+    let rows = (4 * triangles as u64).div_ceil(TEXELS_WIDE as u64);
+    rows <= device.limits().max_texture_dimension_2d as u64
 }
 
 /// Node `i` as texels 2i, 2i + 1: (min, first), (max, count), count −1 for an inner node.

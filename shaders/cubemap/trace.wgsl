@@ -380,58 +380,84 @@ fn enter_box(o: vec3<f32>, inv: vec3<f32>, n: BvhNode, t_max: f32) -> f32 {
     return select(FAR_BOX, near, near <= far);
 }
 
+// The stacked node the current best hit may still be beaten in, or BVH_DONE: its box was
+// entered at `entry`, before its far side, so only the best hit's distance can cull it now.
+fn bvh_pop(stack: ptr<function, array<u32, BVH_STACK>>, entry: ptr<function, array<f32, BVH_STACK>>, top: ptr<function, u32>, best: f32) -> u32 {
+    while *top > 0u {
+        *top -= 1u;
+        if (*entry)[*top] <= best * (1.0 + BOX_SLACK) {
+            return (*stack)[*top];
+        }
+    }
+    return BVH_DONE;
+}
+
+const BVH_DONE: u32 = 0xffffffffu;
+
 // Nearest hit by a stack walk of the hierarchy, nearer child first; triangles are tested as
 // brute force tests them. With `any`, the first hit found (a shadow ray's question).
+// While-while (Aila and Laine 2009): down through inner nodes until every lane is at a leaf,
+// then the leaves, so that lanes run the box tests together and the triangle tests together
+// (llvmpipe runs both sides of a branch for all 8 lanes). A node is fetched once, when its
+// parent tests its box; the other child is stacked with its entry distance.
 fn trace_bvh(o: vec3<f32>, d: vec3<f32>, t_min: f32, t_max: f32, ignore: u32, any: bool) -> Hit {
     var best = Hit(t_max, NO_HIT, vec2<f32>(0.0));
     let r = ray_frame(o, d);
     // A zero component's reciprocal as a huge number of its sign, never NaN in the slabs.
     let inv = 1.0 / select(d, vec3<f32>(1e-30), abs(d) < vec3<f32>(1e-30));
     var stack: array<u32, BVH_STACK>;
+    var entry: array<f32, BVH_STACK>;
     var top = 0u;
-    var node = 0u;
-    if enter_box(o, inv, bvh_node(0u), t_max) == FAR_BOX {
+    var n = bvh_node(0u);
+    if enter_box(o, inv, n, t_max) == FAR_BOX {
         return best;
     }
     loop {
-        let n = bvh_node(node);
-        if n.count >= 0.0 {
-            let end = n.first + u32(n.count);
-            for (var k = n.first; k < end; k += 1u) {
-                let a = textureLoad(bvh_triangles, row_texel(3u * k), 0);
-                let id = u32(a.w);
-                if id != ignore {
-                    let b = textureLoad(bvh_triangles, row_texel(3u * k + 1u), 0).xyz;
-                    let c = textureLoad(bvh_triangles, row_texel(3u * k + 2u), 0).xyz;
-                    consider_corners(r, a.xyz, b, c, id, t_min, &best);
-                }
-            }
-            if any && best.triangle != NO_HIT {
-                return best;
-            }
-        } else {
-            let a = enter_box(o, inv, bvh_node(n.first), best.t);
-            let b = enter_box(o, inv, bvh_node(n.first + 1u), best.t);
-            let near = select(n.first + 1u, n.first, a <= b);
+        var done = false;
+        while n.count < 0.0 {
+            let first = n.first;
+            let n0 = bvh_node(first);
+            let n1 = bvh_node(first + 1u);
+            let a = enter_box(o, inv, n0, best.t);
+            let b = enter_box(o, inv, n1, best.t);
             if min(a, b) < FAR_BOX {
+                let near_first = a <= b;
                 if max(a, b) < FAR_BOX && top < BVH_STACK {
-                    stack[top] = select(n.first, n.first + 1u, a <= b);
+                    stack[top] = select(first, first + 1u, near_first);
+                    entry[top] = max(a, b);
                     top += 1u;
                 }
-                node = near;
-                continue;
+                n = BvhNode(
+                    select(n1.min, n0.min, near_first),
+                    select(n1.first, n0.first, near_first),
+                    select(n1.max, n0.max, near_first),
+                    select(n1.count, n0.count, near_first),
+                );
+            } else {
+                let next = bvh_pop(&stack, &entry, &top, best.t);
+                done = next == BVH_DONE;
+                n = bvh_node(select(next, 0u, done));
+                n.count = select(n.count, 0.0, done);
             }
         }
-        // Pop the next node the current best may still be beaten in.
-        var found = false;
-        while top > 0u && !found {
-            top -= 1u;
-            node = stack[top];
-            found = enter_box(o, inv, bvh_node(node), best.t) < FAR_BOX;
+        let end = n.first + u32(n.count);
+        for (var k = n.first; k < end; k += 1u) {
+            let a = textureLoad(bvh_triangles, row_texel(3u * k), 0);
+            let id = u32(a.w);
+            if id != ignore {
+                let b = textureLoad(bvh_triangles, row_texel(3u * k + 1u), 0).xyz;
+                let c = textureLoad(bvh_triangles, row_texel(3u * k + 2u), 0).xyz;
+                consider_corners(r, a.xyz, b, c, id, t_min, &best);
+            }
         }
-        if !found {
+        if done || (any && best.triangle != NO_HIT) {
             break;
         }
+        let next = bvh_pop(&stack, &entry, &top, best.t);
+        if next == BVH_DONE {
+            break;
+        }
+        n = bvh_node(next);
     }
     return best;
 }

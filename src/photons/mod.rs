@@ -20,7 +20,7 @@ use crate::view::ViewLayouts;
 
 pub use budget::{FrameCost, MIN_PHOTONS, PhotonController, START_PHOTONS};
 pub(crate) use store::store_capacity;
-pub use store::{PhotonStore, StoreFit, list_heads};
+pub use store::{PhotonStore, StoreFit, list_grid, list_heads};
 
 /// The most threads one dimension of a 64-wide compute dispatch can have on this device.
 pub(crate) fn dispatch_limit(device: &RenderDevice) -> u32 {

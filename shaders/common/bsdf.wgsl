@@ -55,8 +55,8 @@ fn smith_visibility(n_dot_v: f32, n_dot_l: f32, a: f32) -> f32 {
     return 0.5 / max(gv + gl, 1e-8);
 }
 
-// The GGX lobe's directional albedo table (src/bsdf.rs): cosines at cell centres, perceptual
-// roughness at nodes, then one row of cosine-weighted averages.
+// The GGX lobe's directional albedo table (src/bsdf.rs): texel (x, y) at cosine x (cell
+// centres) and perceptual roughness y (nodes); row ALBEDO_SIZE the cosine-weighted averages.
 const ALBEDO_SIZE: u32 = 32u;
 
 // (A, B) with the single-scattering lobe reflecting F0·A + F90·B of light from cosine mu.
@@ -66,10 +66,10 @@ fn albedo_ab(roughness: f32, mu: f32) -> vec2<f32> {
     let y = clamp(roughness, 0.0, 1.0) * (size - 1.0);
     let x0 = min(u32(x), ALBEDO_SIZE - 2u);
     let y0 = min(u32(y), ALBEDO_SIZE - 2u);
-    let i = y0 * ALBEDO_SIZE + x0;
+    let at = vec2<u32>(x0, y0);
     let fx = x - f32(x0);
-    let low = mix(ggx_albedo[i].xy, ggx_albedo[i + 1u].xy, fx);
-    let high = mix(ggx_albedo[i + ALBEDO_SIZE].xy, ggx_albedo[i + ALBEDO_SIZE + 1u].xy, fx);
+    let low = mix(albedo_texel(at), albedo_texel(at + vec2<u32>(1u, 0u)), fx);
+    let high = mix(albedo_texel(at + vec2<u32>(0u, 1u)), albedo_texel(at + vec2<u32>(1u, 1u)), fx);
     return mix(low, high, y - f32(y0));
 }
 
@@ -77,8 +77,12 @@ fn albedo_ab(roughness: f32, mu: f32) -> vec2<f32> {
 fn albedo_ab_average(roughness: f32) -> vec2<f32> {
     let y = clamp(roughness, 0.0, 1.0) * f32(ALBEDO_SIZE - 1u);
     let y0 = min(u32(y), ALBEDO_SIZE - 2u);
-    let row = ALBEDO_SIZE * ALBEDO_SIZE + y0;
-    return mix(ggx_albedo[row].xy, ggx_albedo[row + 1u].xy, y - f32(y0));
+    let at = vec2<u32>(y0, ALBEDO_SIZE);
+    return mix(albedo_texel(at), albedo_texel(at + vec2<u32>(1u, 0u)), y - f32(y0));
+}
+
+fn albedo_texel(at: vec2<u32>) -> vec2<f32> {
+    return textureLoad(ggx_albedo, at, 0).xy;
 }
 
 // What the specular lobe does with light from cos μ: `single` is what single scattering

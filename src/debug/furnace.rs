@@ -14,7 +14,7 @@ use bytemuck::{Pod, Zeroable};
 use serde::Serialize;
 
 use super::bench::empty_layout;
-use crate::scene::prepare::{GgxAlbedoBuffer, storage_buffer};
+use crate::scene::prepare::{GgxAlbedo, storage_buffer};
 use crate::scene::{GpuMaterial, ScatterPaths};
 use crate::shaders::RppmShaders;
 use crate::stats::readback::read_back;
@@ -119,7 +119,7 @@ pub(super) fn run_furnace(
     queue: Res<RenderQueue>,
     cache: Res<PipelineCache>,
     layouts: Res<ViewLayouts>,
-    ggx_albedo: Res<GgxAlbedoBuffer>,
+    ggx_albedo: Res<GgxAlbedo>,
     furnace: Res<FurnacePipeline>,
     sender: Res<FurnaceSender>,
     mut done: Local<bool>,
@@ -156,7 +156,7 @@ pub(super) fn run_furnace(
             empty.as_entire_binding(),
             empty.as_entire_binding(),
             empty.as_entire_binding(),
-            ggx_albedo.as_entire_binding(),
+            &ggx_albedo.0,
             empty.as_entire_binding(),
             empty.as_entire_binding(),
             empty.as_entire_binding(),

@@ -6,7 +6,9 @@ use std::sync::Arc;
 use bevy::prelude::*;
 use bevy::render::render_resource::{
     BindGroup, BindGroupEntries, BindGroupLayoutDescriptor, Buffer, BufferDescriptor,
-    BufferInitDescriptor, BufferUsages, PipelineCache,
+    BufferInitDescriptor, BufferUsages, Extent3d, PipelineCache, TextureDataOrder,
+    TextureDescriptor, TextureDimension, TextureFormat, TextureUsages, TextureView,
+    TextureViewDescriptor,
 };
 use bevy::render::renderer::{RenderDevice, RenderQueue};
 use bytemuck::Pod;
@@ -14,7 +16,7 @@ use bytemuck::Pod;
 use super::place::PlacePipeline;
 use super::upload::Upload;
 use super::{GpuTriangleAttributes, Lookups, PackedTriangle, RppmScene, ScatterPaths, SceneData};
-use crate::bsdf::ggx_albedo_table;
+use crate::bsdf::{SIZE, ggx_albedo_table};
 
 /// Why the scene's tables were refused (too big for the GPU), while they are; every view
 /// reports it as its error.
@@ -35,8 +37,8 @@ pub struct SceneBuffers {
     pub lights: Buffer,
     pub emitters: Buffer,
     pub light_cdf: Buffer,
-    /// The GGX lobe's albedo table, shared ([`GgxAlbedoBuffer`]).
-    pub ggx_albedo: Buffer,
+    /// The GGX lobe's albedo table, shared ([`GgxAlbedo`]).
+    pub ggx_albedo: TextureView,
     /// Per-triangle UVs and colours, the texture table and its texels: one zeroed item each
     /// when no material is textured.
     pub attributes: Buffer,
@@ -72,7 +74,7 @@ impl SceneBuffers {
             ("scene_lights", self.lights.size()),
             ("scene_emitters", self.emitters.size()),
             ("scene_light_cdf", self.light_cdf.size()),
-            ("scene_ggx_albedo", self.ggx_albedo.size()),
+            ("scene_ggx_albedo", GgxAlbedo::BYTES),
             ("scene_attributes", self.attributes.size()),
             ("scene_textures", self.textures.size()),
             ("scene_texels", self.texels.size()),
@@ -97,7 +99,7 @@ impl SceneBuffers {
                 self.lights.as_entire_binding(),
                 self.emitters.as_entire_binding(),
                 self.light_cdf.as_entire_binding(),
-                self.ggx_albedo.as_entire_binding(),
+                &self.ggx_albedo,
                 self.attributes.as_entire_binding(),
                 self.textures.as_entire_binding(),
                 self.texels.as_entire_binding(),
@@ -127,16 +129,42 @@ pub fn storage_buffer<T: Pod + Default>(
 }
 
 /// The GGX albedo table ([`crate::bsdf::ggx_albedo_table`]) on the GPU: a constant, uploaded
-/// once and bound with every scene.
+/// once and bound with every scene. A float texture of `SIZE` × `SIZE + 1` texels (the last
+/// row the averages): llvmpipe fetches a texel for 8 lanes at once.
 #[derive(Resource, Clone, Deref)]
-pub struct GgxAlbedoBuffer(pub Buffer);
+pub struct GgxAlbedo(pub TextureView);
 
-pub(crate) fn init_ggx_albedo(mut commands: Commands, device: Res<RenderDevice>) {
-    commands.insert_resource(GgxAlbedoBuffer(storage_buffer(
-        &device,
-        "rppm_ggx_albedo",
-        ggx_albedo_table(),
-    )));
+impl GgxAlbedo {
+    pub const BYTES: u64 = (SIZE * (SIZE + 1) * 16) as u64;
+}
+
+pub(crate) fn init_ggx_albedo(
+    mut commands: Commands,
+    device: Res<RenderDevice>,
+    queue: Res<RenderQueue>,
+) {
+    let texture = device.create_texture_with_data(
+        &queue,
+        &TextureDescriptor {
+            label: Some("rppm_ggx_albedo"),
+            size: Extent3d {
+                width: SIZE as u32,
+                height: SIZE as u32 + 1,
+                depth_or_array_layers: 1,
+            },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: TextureDimension::D2,
+            format: TextureFormat::Rgba32Float,
+            usage: TextureUsages::TEXTURE_BINDING,
+            view_formats: &[],
+        },
+        TextureDataOrder::LayerMajor,
+        bytemuck::cast_slice(ggx_albedo_table()),
+    );
+    commands.insert_resource(GgxAlbedo(
+        texture.create_view(&TextureViewDescriptor::default()),
+    ));
 }
 
 /// Uploads what changed of the scene when its epoch moved, and places its triangles. A scene
@@ -152,7 +180,7 @@ pub(crate) fn prepare_scene(
     device: Res<RenderDevice>,
     queue: Res<RenderQueue>,
     cache: Res<PipelineCache>,
-    (ggx_albedo, place): (Res<GgxAlbedoBuffer>, Res<PlacePipeline>),
+    (ggx_albedo, place): (Res<GgxAlbedo>, Res<PlacePipeline>),
     mut refused_epoch: Local<Option<u64>>,
 ) {
     let Some(scene) = scene else { return };

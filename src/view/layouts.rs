@@ -5,7 +5,7 @@ use std::num::NonZeroU64;
 
 use bevy::prelude::*;
 use bevy::render::render_resource::binding_types::{
-    storage_buffer_read_only_sized, uniform_buffer_sized,
+    storage_buffer_read_only_sized, texture_2d, uniform_buffer_sized,
 };
 use bevy::render::render_resource::*;
 
@@ -42,7 +42,7 @@ impl Default for ViewLayouts {
                         read(),
                         read(),
                         read(),
-                        read(),
+                        texture_2d(TextureSampleType::Float { filterable: false }),
                         read(),
                         read(),
                         read(),

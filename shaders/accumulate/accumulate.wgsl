@@ -5,9 +5,9 @@
 #import bevy_rppm::common::{IterationParams, subsample_representative}
 #ifdef SUBSAMPLED
 #import bevy_rppm::bsdf::{bsdf_from, bsdf_gathered}
-#import bevy_rppm::scene::{gbuffer_material, materials, triangles}
+#import bevy_rppm::scene::{gbuffer_material, scene_material, triangles}
 #else ifdef HISTORY
-#import bevy_rppm::scene::{gbuffer_material, materials, triangles}
+#import bevy_rppm::scene::{gbuffer_material, scene_material, triangles}
 #endif
 
 @group(1) @binding(0) var<uniform> params: IterationParams;
@@ -90,7 +90,7 @@ fn emitter_nearby(pixel: vec2<u32>) -> bool {
     for (var k = 0; k < 9; k += 1) {
         let position = textureLoad(gbuffer_position, neighbour(pixel, k), 0);
         // The emissive factor (a texture only scales it), seen from the front.
-        let m = materials[triangles[u32(max(position.w, 1.0)) - 1u].material];
+        let m = scene_material(triangles[u32(max(position.w, 1.0)) - 1u].material);
         found = found || (position.w > 0.0 && any(m.emissive.rgb > vec3<f32>(0.0)));
     }
     return found;

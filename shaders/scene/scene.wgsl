@@ -6,7 +6,10 @@
 
 @group(0) @binding(0) var<storage, read> triangles: array<PackedTriangle>;
 @group(0) @binding(1) var<storage, read> shadow_views: array<ShadowView>;
-@group(0) @binding(2) var<storage, read> materials: array<Material>;
+// The materials (`GpuMaterial`, MATERIAL_TEXELS texels each, MATERIALS_ROW to a row; `scene_material`):
+// a texture, which llvmpipe fetches for 8 lanes at once (a storage buffer it reads lane by
+// lane). Unsigned texels, so that the flags and texture indices keep their bits.
+@group(0) @binding(2) var material_texels: texture_2d<u32>;
 @group(0) @binding(3) var<storage, read> lights: array<Light>;
 @group(0) @binding(4) var<storage, read> emitters: array<Emitter>;
 @group(0) @binding(5) var<storage, read> light_cdf: array<f32>;
@@ -18,6 +21,35 @@
 @group(0) @binding(7) var<storage, read> attributes: array<TriangleAttributes>;
 @group(0) @binding(8) var<storage, read> textures: array<Texture>;
 @group(0) @binding(9) var<storage, read> texels: array<u32>;
+
+// Texels a material takes, and materials a row of `material_texels` holds (src/scene/upload.rs).
+const MATERIAL_TEXELS: u32 = 10u;
+const MATERIALS_ROW: u32 = 64u;
+
+// Material i of the scene.
+fn scene_material(i: u32) -> Material {
+    let at = vec2<u32>((i % MATERIALS_ROW) * MATERIAL_TEXELS, i / MATERIALS_ROW);
+    let base_color = material_texel(at, 0u);
+    let emissive = material_texel(at, 1u);
+    let a = material_texel(at, 2u);
+    let b = textureLoad(material_texels, at + vec2<u32>(3u, 0u), 0);
+    let uv_transform = material_texel(at, 4u);
+    let uv_offset = material_texel(at, 5u);
+    let textures = textureLoad(material_texels, at + vec2<u32>(6u, 0u), 0);
+    let absorption = material_texel(at, 7u);
+    let specular_tint = material_texel(at, 8u);
+    let c = material_texel(at, 9u);
+    return Material(
+        base_color, emissive, a.x, a.y, a.z, a.w,
+        bitcast<f32>(b.x), b.y, bitcast<f32>(b.z), b.w,
+        uv_transform, uv_offset, textures, absorption, specular_tint,
+        c.xy, c.z, bitcast<u32>(c.w),
+    );
+}
+
+fn material_texel(at: vec2<u32>, k: u32) -> vec4<f32> {
+    return bitcast<vec4<f32>>(textureLoad(material_texels, at + vec2<u32>(k, 0u), 0));
+}
 
 // Barycentric weights (second, third vertex) of a point p on triangle t.
 fn barycentrics(t: Triangle, p: vec3<f32>) -> vec2<f32> {
@@ -106,7 +138,7 @@ fn resolve_surface(m: Material, kernel: vec3<f32>, shading: vec3<f32>) -> vec4<u
 
 // `gbuffer_material` from the texel's `resolve_surface`.
 fn resolved_material(position: vec4<f32>, surface: vec4<u32>) -> Material {
-    var m = materials[triangles[u32(abs(position.w)) - 1u].material];
+    var m = scene_material(triangles[u32(abs(position.w)) - 1u].material);
     m.base_color = vec4<f32>(unpack2x16float(surface.x), unpack2x16float(surface.y).x, m.base_color.a);
     let mr = unpack2x16unorm(surface.z);
     m.metallic = mr.x;
@@ -227,7 +259,7 @@ fn base_color_at(m: Material, triangle: u32, b: vec2<f32>, uv: vec3<f32>, footpr
 // (as Bevy's StandardMaterial multiplies them), read at the mip level of a footprint
 // `footprint` metres wide (0: the finest).
 fn material_at(triangle: u32, b: vec2<f32>, footprint: f32) -> Material {
-    var m = materials[triangles[triangle].material];
+    var m = scene_material(triangles[triangle].material);
 #ifdef TEXTURED
     if (m.flags & MATERIAL_TEXTURED) != 0u {
         let uv = surface_uv(m, triangle, b);
@@ -263,7 +295,7 @@ fn material_at(triangle: u32, b: vec2<f32>, footprint: f32) -> Material {
 // alpha testing: the camera's jitter and every new path average it out).
 fn opaque_at(triangle: u32, b: vec2<f32>) -> bool {
 #ifdef ALPHA_TEST
-    let m = materials[triangles[triangle].material];
+    let m = scene_material(triangles[triangle].material);
     if (m.flags & (MATERIAL_ALPHA_MASK | MATERIAL_ALPHA_HASHED)) == 0u {
         return true;
     }
@@ -285,7 +317,7 @@ fn opaque_at(triangle: u32, b: vec2<f32>) -> bool {
 // the tangent frame of the triangle's texture coordinates (glTF's: texture +Y towards −v).
 fn normal_at(triangle: u32, b: vec2<f32>, n: vec3<f32>, footprint: f32) -> vec3<f32> {
 #ifdef NORMAL_MAP
-    let m = materials[triangles[triangle].material];
+    let m = scene_material(triangles[triangle].material);
     if (m.flags & MATERIAL_TEXTURED) == 0u || m.textures.w == NO_TEXTURE {
         return n;
     }
@@ -328,7 +360,7 @@ fn kernel_normal(position: vec4<f32>, shading: vec3<f32>) -> vec3<f32> {
 #ifdef NORMAL_MAP
     let triangle = u32(abs(position.w)) - 1u;
     let t = triangle_at(triangle);
-    let m = materials[t.material];
+    let m = scene_material(t.material);
     if (m.flags & MATERIAL_TEXTURED) == 0u || m.textures.w == NO_TEXTURE {
         return shading;
     }

@@ -6,7 +6,7 @@ use std::sync::Arc;
 use bevy::prelude::*;
 use bevy::render::render_resource::{
     BindGroup, BindGroupEntries, BindGroupLayoutDescriptor, Buffer, BufferDescriptor,
-    BufferInitDescriptor, BufferUsages, Extent3d, PipelineCache, TextureDataOrder,
+    BufferInitDescriptor, BufferUsages, Extent3d, PipelineCache, Texture, TextureDataOrder,
     TextureDescriptor, TextureDimension, TextureFormat, TextureUsages, TextureView,
     TextureViewDescriptor,
 };
@@ -14,7 +14,7 @@ use bevy::render::renderer::{RenderDevice, RenderQueue};
 use bytemuck::Pod;
 
 use super::place::PlacePipeline;
-use super::upload::Upload;
+use super::upload::{Upload, material_rows};
 use super::{GpuTriangleAttributes, Lookups, PackedTriangle, RppmScene, ScatterPaths, SceneData};
 use crate::bsdf::{SIZE, ggx_albedo_table};
 
@@ -33,7 +33,9 @@ pub struct SceneBuffers {
     /// Every mesh's triangles in its own space, in [`SceneData::meshes`] order.
     pub meshes: Buffer,
     pub instances: Buffer,
-    pub materials: Buffer,
+    /// The materials as texels ([`Upload::materials`]), and its view.
+    pub materials: Texture,
+    pub material_view: TextureView,
     pub lights: Buffer,
     pub emitters: Buffer,
     pub light_cdf: Buffer,
@@ -70,7 +72,10 @@ impl SceneBuffers {
             ("scene_triangles", self.triangles.size()),
             ("scene_meshes", self.meshes.size()),
             ("scene_instances", self.instances.size()),
-            ("scene_materials", self.materials.size()),
+            (
+                "scene_materials",
+                self.materials.width() as u64 * self.materials.height() as u64 * 16,
+            ),
             ("scene_lights", self.lights.size()),
             ("scene_emitters", self.emitters.size()),
             ("scene_light_cdf", self.light_cdf.size()),
@@ -95,7 +100,7 @@ impl SceneBuffers {
             &BindGroupEntries::sequential((
                 self.triangles.as_entire_binding(),
                 shadow_views.as_entire_binding(),
-                self.materials.as_entire_binding(),
+                &self.material_view,
                 self.lights.as_entire_binding(),
                 self.emitters.as_entire_binding(),
                 self.light_cdf.as_entire_binding(),
@@ -203,6 +208,20 @@ pub(crate) fn prepare_scene(
     .into_iter()
     .max()
     .unwrap_or(0) as u64;
+    let rows = material_rows(data.materials.len());
+    if rows > device.limits().max_texture_dimension_2d {
+        let why = format!(
+            "the scene has {} materials, over the {} this GPU's textures hold; photon mapping \
+             is paused until the scene has fewer",
+            data.materials.len(),
+            device.limits().max_texture_dimension_2d as usize * super::upload::MATERIALS_ROW,
+        );
+        error!("bevy_rppm: {why}");
+        *refused_epoch = Some(scene.epoch);
+        commands.remove_resource::<SceneBuffers>();
+        commands.insert_resource(SceneRefused(why));
+        return;
+    }
     if bytes > limit {
         let why = format!(
             "the scene has {} triangles and {} texels (up to {bytes} bytes in one table), over \
@@ -247,13 +266,8 @@ pub(crate) fn prepare_scene(
         place.place(&device, &queue, &cache, buffers, count as u32, max_groups);
     }
     let attributes = upload.attributes(last, data);
-    let materials = upload.table(
-        last,
-        data,
-        |d| &d.materials,
-        |b| &b.materials,
-        "rppm_materials",
-    );
+    let materials = upload.materials(last, data);
+    let material_view = materials.create_view(&TextureViewDescriptor::default());
     let lights = upload.table(last, data, |d| &d.lights, |b| &b.lights, "rppm_lights");
     let emitters = upload.table(
         last,
@@ -292,6 +306,7 @@ pub(crate) fn prepare_scene(
         meshes,
         instances,
         materials,
+        material_view,
         lights,
         emitters,
         light_cdf,

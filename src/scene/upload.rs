@@ -3,12 +3,26 @@
 
 use std::sync::Arc;
 
-use bevy::render::render_resource::Buffer;
+use bevy::render::render_resource::{
+    Buffer, Extent3d, Texture, TextureDataOrder, TextureDescriptor, TextureDimension,
+    TextureFormat, TextureUsages,
+};
 use bevy::render::renderer::{RenderDevice, RenderQueue};
 use bytemuck::Pod;
 
 use super::prepare::{SceneBuffers, storage_buffer};
-use super::{GpuTriangleAttributes, PackedTriangle, SceneData};
+use super::{GpuMaterial, GpuTriangleAttributes, PackedTriangle, SceneData};
+
+/// Materials a row of the materials' texture holds, and the 16-byte texels each takes
+/// (`MATERIALS_ROW`, `MATERIAL_TEXELS` in shaders/scene/scene.wgsl).
+pub const MATERIALS_ROW: usize = 64;
+pub const MATERIAL_TEXELS: usize = std::mem::size_of::<GpuMaterial>() / 16;
+const _: () = assert!(std::mem::size_of::<GpuMaterial>() == 160);
+
+/// Rows of the materials' texture for `count` materials.
+pub fn material_rows(count: usize) -> u32 {
+    count.div_ceil(MATERIALS_ROW).max(1) as u32
+}
 
 /// Uploads of one scene change, and their bytes.
 pub(super) struct Upload<'a> {
@@ -106,6 +120,42 @@ impl Upload<'_> {
         }
         let packed: Vec<PackedTriangle> = data.meshes.iter().flat_map(|m| pack(m)).collect();
         (self.new_buffer("rppm_meshes", &packed), true)
+    }
+
+    /// The materials as an unsigned texture, `MATERIALS_ROW` a row (llvmpipe fetches a texel
+    /// for 8 lanes at once, where it reads a storage buffer lane by lane); the last one when
+    /// they did not change.
+    pub fn materials(&mut self, last: Option<&SceneBuffers>, data: &SceneData) -> Texture {
+        if let Some(l) = last
+            && same(&l.data.materials, &data.materials)
+        {
+            return l.materials.clone();
+        }
+        let rows = material_rows(data.materials.len());
+        let row_bytes = MATERIALS_ROW * std::mem::size_of::<GpuMaterial>();
+        let mut bytes = vec![0u8; rows as usize * row_bytes];
+        let items: &[u8] = bytemuck::cast_slice(&data.materials);
+        bytes[..items.len()].copy_from_slice(items);
+        self.bytes += bytes.len() as u64;
+        self.device.create_texture_with_data(
+            self.queue,
+            &TextureDescriptor {
+                label: Some("rppm_materials"),
+                size: Extent3d {
+                    width: (MATERIALS_ROW * MATERIAL_TEXELS) as u32,
+                    height: rows,
+                    depth_or_array_layers: 1,
+                },
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: TextureDimension::D2,
+                format: TextureFormat::Rgba32Uint,
+                usage: TextureUsages::TEXTURE_BINDING,
+                view_formats: &[],
+            },
+            TextureDataOrder::LayerMajor,
+            &bytes,
+        )
     }
 
     /// Per world-space triangle UVs and colours: kept while the instances show the same

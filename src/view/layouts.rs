@@ -38,7 +38,7 @@ impl Default for ViewLayouts {
                     (
                         read(),
                         read(),
-                        read(),
+                        texture_2d(TextureSampleType::Uint),
                         read(),
                         read(),
                         read(),

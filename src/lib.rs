@@ -201,4 +201,34 @@ mod tests {
         // One with traced shadows, two with shadow maps (the punctual lights, the area light).
         assert_eq!(calls(&lighting, "bsdf_eval"), 3);
     }
+
+    /// Layouts the shaders and the CPU share: each WGSL constant equals its Rust twin.
+    #[test]
+    fn shader_constants_mirror_the_cpu_side() {
+        let shaders = Path::new(env!("CARGO_MANIFEST_DIR")).join("shaders");
+        let value = |file: &str, name: &str| -> usize {
+            let text = std::fs::read_to_string(shaders.join(file)).unwrap();
+            let line = text
+                .lines()
+                .find(|l| l.starts_with(&format!("const {name}: u32 = ")))
+                .unwrap_or_else(|| panic!("{name} in {file}"));
+            line.rsplit(' ')
+                .next()
+                .unwrap()
+                .trim_end_matches(['u', ';'])
+                .parse()
+                .unwrap()
+        };
+        use crate::scene::upload::{MATERIAL_TEXELS, MATERIALS_ROW};
+        assert_eq!(
+            value("scene/scene.wgsl", "MATERIAL_TEXELS"),
+            MATERIAL_TEXELS
+        );
+        assert_eq!(value("scene/scene.wgsl", "MATERIALS_ROW"), MATERIALS_ROW);
+        assert_eq!(value("common/bsdf.wgsl", "ALBEDO_SIZE"), crate::bsdf::SIZE);
+        assert_eq!(
+            value("common/common.wgsl", "LIST_BLOCK"),
+            crate::photons::LIST_BLOCK as usize
+        );
+    }
 }

@@ -207,8 +207,7 @@ struct IterationParams {
     sequence: u32,
     // Invocations tracing the photons (photons/trace.wgsl regenerates paths).
     photon_lanes: u32,
-    // Tiles a face's edge of the photon lists (`list_frame`).
-    list_grid: u32,
+    pad_b: u32,
     pad_c: u32,
 }
 
@@ -464,14 +463,6 @@ const LIST_BLOCK: u32 = 8u;
 fn list_block(d: CubemapParams, face: u32, x: u32, y: u32) -> u32 {
     let blocks = (d.grid + LIST_BLOCK - 1u) / LIST_BLOCK;
     return 6u * d.grid * d.grid + (face * blocks + y / LIST_BLOCK) * blocks + x / LIST_BLOCK;
-}
-
-// The photon lists' frame: the cubemap's centre and faces, at this iteration's grid, its
-// tiles about a gather kernel wide (`list_grid` in src/photons/store.rs).
-fn list_frame(d: CubemapParams, params: IterationParams) -> CubemapParams {
-    var lists = d;
-    lists.grid = params.list_grid;
-    return lists;
 }
 
 // The faces a gather of radius r around p visits: x the face that holds p, y how many from

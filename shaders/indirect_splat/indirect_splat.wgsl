@@ -4,7 +4,7 @@
 // its radius, on its surface: throughput · f(wo, wi) · Φ / (π r²). The work is the photons
 // near importons, each importon's sum stays in registers (no atomics), and a large radius
 // elsewhere costs no one else.
-#import bevy_rppm::common::{Material, Outgoing, Photon, Importon, IterationParams, PI, NO_IMPORTON, faces_reached, splat_weight, list_frame}
+#import bevy_rppm::common::{Material, Outgoing, Photon, Importon, IterationParams, PI, NO_IMPORTON, faces_reached, splat_weight}
 #import bevy_rppm::scene::{triangle_at, barycentrics, material_at}
 #import bevy_rppm::bsdf::{bsdf_from, bsdf_toward, translucency}
 #import bevy_rppm::cubemap::cubemap
@@ -42,14 +42,13 @@ fn gather(@builtin(global_invocation_id) id: vec3<u32>) {
     let m = material_at(imp.triangle, barycentrics(triangle_at(imp.triangle), imp.position), 0.0);
     let out = bsdf_from(m, imp.normal, imp.outgoing);
     var sum = vec3<f32>(0.0);
-    let lists = list_frame(cubemap, params);
     let faces = faces_reached(cubemap, imp.position, imp.radius);
     for (var i = 0u; i < faces.y; i += 1u) {
         let face = (faces.x + i) % 6u;
-        let tiles = listed_tiles(lists, face, imp.position, imp.radius);
+        let tiles = listed_tiles(face, imp.position, imp.radius);
         for (var y = tiles.z; y <= tiles.w; y += 1) {
             for (var x = tiles.x; x <= tiles.y; x += 1) {
-                sum += gather_list(imp, m, out, pixel, list_head(lists, face, x, y));
+                sum += gather_list(imp, m, out, pixel, list_head(face, x, y));
             }
         }
     }

@@ -2,22 +2,23 @@
 // both splats (group 2, bindings 0 and 1 of their stages).
 #define_import_path bevy_rppm::photon_lists
 
-#import bevy_rppm::common::{CubemapParams, Photon, IterationParams, LIST_BLOCK, list_block, face_tiles, splat_survives}
+#import bevy_rppm::common::{Photon, IterationParams, LIST_BLOCK, list_block, face_tiles, splat_survives}
+#import bevy_rppm::cubemap::cubemap
 
 @group(2) @binding(0) var<storage, read> photons: array<Photon>;
 // Per cubemap tile, the head of its photon list (index + 1); then the blocks' flags.
 @group(2) @binding(1) var<storage, read> photon_heads: array<u32>;
 
-// The tiles of `face` of the lists (`list_frame`) that a sphere of radius r around p
-// reaches (face_tiles), or none (x0 > x1) when no photon is listed in the blocks they touch.
-fn listed_tiles(lists: CubemapParams, face: u32, p: vec3<f32>, r: f32) -> vec4<i32> {
-    let tiles = face_tiles(lists, p, r, face);
+// The tiles of `face` that a sphere of radius r around p reaches (face_tiles), or none
+// (x0 > x1) when no photon is listed in the blocks they touch.
+fn listed_tiles(face: u32, p: vec3<f32>, r: f32) -> vec4<i32> {
+    let tiles = face_tiles(cubemap, p, r, face);
     if tiles.x > tiles.y {
         return tiles;
     }
     for (var y = u32(tiles.z) / LIST_BLOCK; y <= u32(tiles.w) / LIST_BLOCK; y += 1u) {
         for (var x = u32(tiles.x) / LIST_BLOCK; x <= u32(tiles.y) / LIST_BLOCK; x += 1u) {
-            if photon_heads[list_block(lists, face, x * LIST_BLOCK, y * LIST_BLOCK)] != 0u {
+            if photon_heads[list_block(cubemap, face, x * LIST_BLOCK, y * LIST_BLOCK)] != 0u {
                 return tiles;
             }
         }
@@ -58,6 +59,6 @@ fn next_in_kernel(node: u32, walked: ptr<function, u32>, params: IterationParams
 }
 
 // The head of the list of tile (x, y) of `face`.
-fn list_head(lists: CubemapParams, face: u32, x: i32, y: i32) -> u32 {
-    return photon_heads[(face * lists.grid + u32(y)) * lists.grid + u32(x)];
+fn list_head(face: u32, x: i32, y: i32) -> u32 {
+    return photon_heads[(face * cubemap.grid + u32(y)) * cubemap.grid + u32(x)];
 }

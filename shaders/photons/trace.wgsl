@@ -2,7 +2,7 @@
 // cubemap; a photon is stored at every diffuse or rough-glossy hit after its first bounce
 // (direct light is the local-illumination stage's), then scattered by the material
 // (bsdf.wgsl's scatter_photon: diffuse, GGX glossy, mirror, Fresnel glass) or absorbed.
-#import bevy_rppm::common::{Light, Photon, IterationParams, PI, cubemap_tile, list_block, list_frame, LIGHT_POINT, LIGHT_SPOT, LIGHT_DIRECTIONAL, random, pcg_hash, basis_around, cosine_direction}
+#import bevy_rppm::common::{Light, Photon, IterationParams, PI, cubemap_tile, list_block, LIGHT_POINT, LIGHT_SPOT, LIGHT_DIRECTIONAL, random, pcg_hash, basis_around, cosine_direction}
 #import bevy_rppm::scene::{triangle_at, material_at, as_seen_from, normal_at, interpolated_normal, triangle_point, uniform_barycentrics, part_barycentrics, lights, emitters, light_cdf, find_source}
 #import bevy_rppm::cubemap::{cubemap, trace_ray, NO_HIT}
 #import bevy_rppm::bsdf::{stores_photons, scatter_photon}
@@ -114,10 +114,9 @@ fn emit(rng: ptr<function, u32>) -> Ray {
 fn store(x: vec3<f32>, ray: Ray, n: vec3<f32>) {
     let slot = atomicAdd(&photon_count[1], 1u);
     if slot < params.photon_capacity {
-        let lists = list_frame(cubemap, params);
-        let tile = cubemap_tile(lists, x);
+        let tile = cubemap_tile(cubemap, x);
         let next = atomicExchange(&photon_heads[tile.index], slot + 1u);
-        let block = list_block(lists, tile.face, u32(tile.cell.x), u32(tile.cell.y));
+        let block = list_block(cubemap, tile.face, u32(tile.cell.x), u32(tile.cell.y));
         // Read first: a flag set once stays shared between the cores' caches.
         if atomicLoad(&photon_heads[block]) == 0u {
             atomicStore(&photon_heads[block], 1u);

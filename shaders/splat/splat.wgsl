@@ -7,7 +7,7 @@
 // SUBSAMPLED (ISPM): the target has one texel per n×n pixels, gathered at one representative
 // pixel of the block, and holds incident light Σ Φ / (π r²) for the joint-bilateral upsampling
 // in shaders/accumulate/accumulate.wgsl, which applies each full-resolution pixel's own BSDF.
-#import bevy_rppm::common::{Material, Outgoing, Photon, IterationParams, PI, faces_reached, gather_radius, splat_weight, list_frame, subsample_representative}
+#import bevy_rppm::common::{Material, Outgoing, Photon, IterationParams, PI, faces_reached, gather_radius, splat_weight, subsample_representative}
 #import bevy_rppm::scene::{gbuffer_material, resolved_material, resolved_kernel_normal, kernel_normal}
 #import bevy_rppm::bsdf::{bsdf_from, bsdf_gathered, translucency}
 #import bevy_rppm::cubemap::cubemap
@@ -88,14 +88,13 @@ fn gather(@builtin(global_invocation_id) id: vec3<u32>) {
     let wo = normalize(params.camera_position.xyz - gp.xyz);
     let out = bsdf_from(m, gn.xyz, wo);
     var sum = vec3<f32>(0.0);
-    let lists = list_frame(cubemap, params);
     let faces = faces_reached(cubemap, k.position, k.radius);
     for (var i = 0u; i < faces.y; i += 1u) {
         let face = (faces.x + i) % 6u;
-        let tiles = listed_tiles(lists, face, k.position, k.radius);
+        let tiles = listed_tiles(face, k.position, k.radius);
         for (var y = tiles.z; y <= tiles.w; y += 1) {
             for (var x = tiles.x; x <= tiles.y; x += 1) {
-                sum += gather_list(k, m, out, gn.xyz, wo, list_head(lists, face, x, y));
+                sum += gather_list(k, m, out, gn.xyz, wo, list_head(face, x, y));
             }
         }
     }

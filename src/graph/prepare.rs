@@ -18,7 +18,7 @@ use crate::gbuffer::GBufferPipeline;
 use crate::importons::{EyePathKey, EyePathPipeline};
 use crate::indirect_splat::{IndirectSplatKey, IndirectSplatPipeline};
 use crate::output::{OutputPipeline, output_key};
-use crate::photons::{PhotonKey, PhotonPipeline, device_photon_count, list_grid, store_capacity};
+use crate::photons::{PhotonKey, PhotonPipeline, device_photon_count, list_heads, store_capacity};
 use crate::ppm::{next_radius2, radius2_after};
 use crate::scene::{Lookups, ScatterPaths, SceneBuffers, SceneData};
 use crate::settings::{PhotonMapping, RppmDebugView, RppmMode};
@@ -233,7 +233,7 @@ pub(crate) fn prepare_views(
                 settings, photons, scene, &device, &store_fit, store_now,
             ),
             importons: makes_importons(settings, &scene.data),
-            list_grid: cubemap::fitted(cubemap_config(settings), &device).grid(),
+            photon_lists: list_heads(cubemap::fitted(cubemap_config(settings), &device).grid()),
             subsampling: settings.indirect_subsampling,
             history: settings.history.window().is_some(),
             // A hierarchy too large for this device's textures gives way to the cubemap.
@@ -449,12 +449,6 @@ fn prepare_view(
         params.photon_capacity = key.photon_capacity;
         params.source_count = scene.data.light_cdf.len() as u32;
         params.splat_radius = state.radius2.sqrt() as f32;
-        params.list_grid = list_grid(
-            params.splat_radius,
-            params.pixel_spread,
-            params.orthographic != 0,
-            key.list_grid,
-        );
         params.max_eye_depth = settings.max_eye_depth;
         params.splat_russian_roulette = settings.splat_russian_roulette as u32;
         params.direct_photons = (settings.debug_view == RppmDebugView::DirectPhotons) as u32;

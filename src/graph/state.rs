@@ -12,7 +12,7 @@ use crate::gbuffer::GBuffer;
 use crate::importons::{EyePathPipeline, EyePaths};
 use crate::indirect_splat::{self, IndirectSplatPipeline};
 use crate::output::{self, OutputPipeline};
-use crate::photons::{PhotonController, PhotonPipeline, PhotonStore, StoreFit, list_heads};
+use crate::photons::{PhotonController, PhotonPipeline, PhotonStore, StoreFit};
 use crate::scene::SceneBuffers;
 use crate::settings::{RppmDebugView, RppmMode};
 use crate::shadows::ShadowMaps;
@@ -32,9 +32,8 @@ pub struct ResourceKey {
     pub photon_capacity: u32,
     /// Camera paths go past the G-buffer: importons are held.
     pub importons: bool,
-    /// The finest grid of the photon lists (the cubemap's tiles): their heads are held for
-    /// it, and each iteration lists on [`crate::photons::list_grid`] of its kernel.
-    pub list_grid: u32,
+    /// Heads of the photon lists (one a cubemap tile, one a block of them).
+    pub photon_lists: u32,
     /// Photons splat on every n-th pixel (the splat target's size follows).
     pub subsampling: u32,
     /// History is kept through motion (`RppmHistory::Reuse`): its buffers are held.
@@ -380,7 +379,7 @@ fn photon_store(
             cache,
             pipelines.photons,
             key.photon_capacity,
-            list_heads(key.list_grid),
+            key.photon_lists,
         )
     });
     let group = store.as_ref().filter(|_| key.importons).map(|store| {

@@ -19,8 +19,10 @@ use crate::shaders::RppmShaders;
 use crate::view::ViewLayouts;
 
 pub use budget::{FrameCost, MIN_PHOTONS, PhotonController, START_PHOTONS};
+#[cfg(test)]
+pub(crate) use store::LIST_BLOCK;
 pub(crate) use store::store_capacity;
-pub use store::{PhotonStore, StoreFit, list_grid, list_heads};
+pub use store::{PhotonStore, StoreFit, list_heads};
 
 /// The most threads one dimension of a 64-wide compute dispatch can have on this device.
 pub(crate) fn dispatch_limit(device: &RenderDevice) -> u32 {

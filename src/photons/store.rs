@@ -20,26 +20,13 @@ use crate::stats::timing::{Stage, StageTimer};
 pub const PHOTON_BYTES: u64 = 64;
 
 /// Tiles a side of a block of the photon lists (`LIST_BLOCK` in common.wgsl).
-const LIST_BLOCK: u32 = 8;
+pub(crate) const LIST_BLOCK: u32 = 8;
 
 /// The photon lists' heads for a cubemap of `grid`² tiles a face: one a tile, then one flag a
 /// block of tiles (`list_block` in common.wgsl).
 pub fn list_heads(grid: u32) -> u32 {
     let blocks = grid.div_ceil(LIST_BLOCK);
     6 * (grid * grid + blocks * blocks)
-}
-
-/// The photon lists' grid for a gather radius of `radius` pixels: tiles about as wide as a
-/// kernel, so that a pixel's kernel visits two or three tiles a side however the radius
-/// shrinks. Finer lists leave a gather reading many empty heads, coarser ones walking
-/// photons outside its kernel. A face spans tangents −1…1 and a pixel `spread` of them; an
-/// orthographic camera's kernels have no angle of their own: the finest grid, `most`.
-pub fn list_grid(radius: f32, spread: f32, orthographic: bool, most: u32) -> u32 {
-    let tiles = 1.0 / (radius * spread);
-    if orthographic || !tiles.is_finite() {
-        return most;
-    }
-    (tiles.ceil() as u32).clamp(LIST_BLOCK.min(most), most)
 }
 
 /// Weight of a lower count in the stores per photon remembered: a store shrinks over a few
@@ -216,21 +203,6 @@ impl PhotonStore {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn list_tiles_are_as_wide_as_a_kernel() {
-        // 256 pixels over tangents ±0.36 (40°): a 3-pixel kernel spans 1/117 of a face.
-        let spread = 0.72 / 256.0;
-        assert_eq!(list_grid(3.0, spread, false, 256), 119);
-        // Radii shrink over iterations: the grid grows, up to the cubemap's.
-        assert!(list_grid(1.5, spread, false, 256) > list_grid(3.0, spread, false, 256));
-        assert_eq!(list_grid(0.1, spread, false, 256), 256);
-        // Huge kernels still list on blocks' worth of tiles; no angle, no NaN: the finest.
-        assert_eq!(list_grid(1e6, spread, false, 256), LIST_BLOCK);
-        assert_eq!(list_grid(3.0, 0.01, true, 256), 256);
-        assert_eq!(list_grid(0.0, spread, false, 128), 128);
-        assert_eq!(list_grid(f32::NAN, spread, false, 128), 128);
-    }
 
     #[test]
     fn a_store_follows_the_counted_stores_and_holds_a_sudden_rise() {

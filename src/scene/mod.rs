@@ -15,7 +15,7 @@ pub mod parts;
 pub mod place;
 pub mod prepare;
 pub mod textures;
-mod upload;
+pub(crate) mod upload;
 
 use std::sync::Arc;
 

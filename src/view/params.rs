@@ -57,9 +57,7 @@ pub struct IterationParams {
     pub sequence: u32,
     /// Invocations that trace the photons, each taking the next when its photon ends.
     pub photon_lanes: u32,
-    /// Tiles a cube face's edge of the photon lists this iteration (`photons::list_grid`).
-    pub list_grid: u32,
-    pub pad: u32,
+    pub pad: [u32; 2],
 }
 
 /// The first slot of a params buffer, as group 1 binds it.

@@ -15,6 +15,7 @@ use serde::Serialize;
 
 use super::bench::empty_layout;
 use crate::scene::prepare::{GgxAlbedo, storage_buffer};
+use crate::scene::upload::material_texture;
 use crate::scene::{GpuMaterial, ScatterPaths};
 use crate::shaders::RppmShaders;
 use crate::stats::readback::read_back;
@@ -146,18 +147,8 @@ pub(super) fn run_furnace(
         .collect();
     // Group 0 as the stages bind it; the furnace reads only the albedo table.
     let empty = storage_buffer(&device, "rppm_furnace_empty", &[[0u32; 4]; 8]);
-    let material_view = device
-        .create_texture(&TextureDescriptor {
-            label: Some("rppm_furnace_no_materials"),
-            size: Extent3d::default(),
-            mip_level_count: 1,
-            sample_count: 1,
-            dimension: TextureDimension::D2,
-            format: TextureFormat::Rgba32Uint,
-            usage: TextureUsages::TEXTURE_BINDING,
-            view_formats: &[],
-        })
-        .create_view(&TextureViewDescriptor::default());
+    let material_view =
+        material_texture(&device, &queue, &[]).create_view(&TextureViewDescriptor::default());
     let scene_group = device.create_bind_group(
         "rppm_furnace_scene_group",
         &cache.get_bind_group_layout(&layouts.scene),

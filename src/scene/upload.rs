@@ -19,6 +19,38 @@ pub const MATERIALS_ROW: usize = 64;
 pub const MATERIAL_TEXELS: usize = std::mem::size_of::<GpuMaterial>() / 16;
 const _: () = assert!(std::mem::size_of::<GpuMaterial>() == 160);
 
+/// `materials` as the unsigned texture the shaders read (`scene_material`), zero-padded to
+/// whole rows (one row of zeros for none).
+pub(crate) fn material_texture(
+    device: &RenderDevice,
+    queue: &RenderQueue,
+    materials: &[GpuMaterial],
+) -> Texture {
+    let rows = material_rows(materials.len());
+    let mut bytes = vec![0u8; rows as usize * MATERIALS_ROW * std::mem::size_of::<GpuMaterial>()];
+    let items: &[u8] = bytemuck::cast_slice(materials);
+    bytes[..items.len()].copy_from_slice(items);
+    device.create_texture_with_data(
+        queue,
+        &TextureDescriptor {
+            label: Some("rppm_materials"),
+            size: Extent3d {
+                width: (MATERIALS_ROW * MATERIAL_TEXELS) as u32,
+                height: rows,
+                depth_or_array_layers: 1,
+            },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: TextureDimension::D2,
+            format: TextureFormat::Rgba32Uint,
+            usage: TextureUsages::TEXTURE_BINDING,
+            view_formats: &[],
+        },
+        TextureDataOrder::LayerMajor,
+        &bytes,
+    )
+}
+
 /// Rows of the materials' texture for `count` materials.
 pub fn material_rows(count: usize) -> u32 {
     count.div_ceil(MATERIALS_ROW).max(1) as u32
@@ -131,31 +163,9 @@ impl Upload<'_> {
         {
             return l.materials.clone();
         }
-        let rows = material_rows(data.materials.len());
-        let row_bytes = MATERIALS_ROW * std::mem::size_of::<GpuMaterial>();
-        let mut bytes = vec![0u8; rows as usize * row_bytes];
-        let items: &[u8] = bytemuck::cast_slice(&data.materials);
-        bytes[..items.len()].copy_from_slice(items);
-        self.bytes += bytes.len() as u64;
-        self.device.create_texture_with_data(
-            self.queue,
-            &TextureDescriptor {
-                label: Some("rppm_materials"),
-                size: Extent3d {
-                    width: (MATERIALS_ROW * MATERIAL_TEXELS) as u32,
-                    height: rows,
-                    depth_or_array_layers: 1,
-                },
-                mip_level_count: 1,
-                sample_count: 1,
-                dimension: TextureDimension::D2,
-                format: TextureFormat::Rgba32Uint,
-                usage: TextureUsages::TEXTURE_BINDING,
-                view_formats: &[],
-            },
-            TextureDataOrder::LayerMajor,
-            &bytes,
-        )
+        let texture = material_texture(self.device, self.queue, &data.materials);
+        self.bytes += texture.width() as u64 * texture.height() as u64 * 16;
+        texture
     }
 
     /// Per world-space triangle UVs and colours: kept while the instances show the same

@@ -147,8 +147,7 @@ pub(super) fn run_furnace(
         .collect();
     // Group 0 as the stages bind it; the furnace reads only the albedo table.
     let empty = storage_buffer(&device, "rppm_furnace_empty", &[[0u32; 4]; 8]);
-    let material_view =
-        material_texture(&device, &queue, &[]).create_view(&TextureViewDescriptor::default());
+    let material_view = material_texture(&device, &queue, &[]);
     let scene_group = device.create_bind_group(
         "rppm_furnace_scene_group",
         &cache.get_bind_group_layout(&layouts.scene),

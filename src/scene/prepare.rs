@@ -6,7 +6,7 @@ use std::sync::Arc;
 use bevy::prelude::*;
 use bevy::render::render_resource::{
     BindGroup, BindGroupEntries, BindGroupLayoutDescriptor, Buffer, BufferDescriptor,
-    BufferInitDescriptor, BufferUsages, Extent3d, PipelineCache, Texture, TextureDataOrder,
+    BufferInitDescriptor, BufferUsages, Extent3d, PipelineCache, TextureDataOrder,
     TextureDescriptor, TextureDimension, TextureFormat, TextureUsages, TextureView,
     TextureViewDescriptor,
 };
@@ -14,7 +14,7 @@ use bevy::render::renderer::{RenderDevice, RenderQueue};
 use bytemuck::Pod;
 
 use super::place::PlacePipeline;
-use super::upload::{Upload, material_rows};
+use super::upload::{MATERIALS_ROW, Upload, material_bytes, material_rows};
 use super::{GpuTriangleAttributes, Lookups, PackedTriangle, RppmScene, ScatterPaths, SceneData};
 use crate::bsdf::{SIZE, ggx_albedo_table};
 
@@ -33,9 +33,8 @@ pub struct SceneBuffers {
     /// Every mesh's triangles in its own space, in [`SceneData::meshes`] order.
     pub meshes: Buffer,
     pub instances: Buffer,
-    /// The materials as texels ([`Upload::materials`]), and its view.
-    pub materials: Texture,
-    pub material_view: TextureView,
+    /// The materials as texels ([`Upload::materials`]).
+    pub materials: TextureView,
     pub lights: Buffer,
     pub emitters: Buffer,
     pub light_cdf: Buffer,
@@ -72,10 +71,7 @@ impl SceneBuffers {
             ("scene_triangles", self.triangles.size()),
             ("scene_meshes", self.meshes.size()),
             ("scene_instances", self.instances.size()),
-            (
-                "scene_materials",
-                self.materials.width() as u64 * self.materials.height() as u64 * 16,
-            ),
+            ("scene_materials", material_bytes(self.data.materials.len())),
             ("scene_lights", self.lights.size()),
             ("scene_emitters", self.emitters.size()),
             ("scene_light_cdf", self.light_cdf.size()),
@@ -100,7 +96,7 @@ impl SceneBuffers {
             &BindGroupEntries::sequential((
                 self.triangles.as_entire_binding(),
                 shadow_views.as_entire_binding(),
-                &self.material_view,
+                &self.materials,
                 self.lights.as_entire_binding(),
                 self.emitters.as_entire_binding(),
                 self.light_cdf.as_entire_binding(),
@@ -148,28 +144,48 @@ pub(crate) fn init_ggx_albedo(
     device: Res<RenderDevice>,
     queue: Res<RenderQueue>,
 ) {
-    let texture = device.create_texture_with_data(
+    commands.insert_resource(GgxAlbedo(constant_texture(
+        &device,
         &queue,
-        &TextureDescriptor {
-            label: Some("rppm_ggx_albedo"),
-            size: Extent3d {
-                width: SIZE as u32,
-                height: SIZE as u32 + 1,
-                depth_or_array_layers: 1,
-            },
-            mip_level_count: 1,
-            sample_count: 1,
-            dimension: TextureDimension::D2,
-            format: TextureFormat::Rgba32Float,
-            usage: TextureUsages::TEXTURE_BINDING,
-            view_formats: &[],
-        },
-        TextureDataOrder::LayerMajor,
+        "rppm_ggx_albedo",
+        [SIZE as u32, SIZE as u32 + 1],
+        TextureFormat::Rgba32Float,
         bytemuck::cast_slice(ggx_albedo_table()),
-    );
-    commands.insert_resource(GgxAlbedo(
-        texture.create_view(&TextureViewDescriptor::default()),
-    ));
+    )));
+}
+
+/// A texture of 16-byte texels (`size` texels wide and high) holding `bytes` row by row,
+/// sampled by no one: the tables the shaders fetch texel by texel (llvmpipe fetches a texel
+/// for 8 lanes at once, where it reads a storage buffer lane by lane).
+pub fn constant_texture(
+    device: &RenderDevice,
+    queue: &RenderQueue,
+    label: &'static str,
+    size: [u32; 2],
+    format: TextureFormat,
+    bytes: &[u8],
+) -> TextureView {
+    device
+        .create_texture_with_data(
+            queue,
+            &TextureDescriptor {
+                label: Some(label),
+                size: Extent3d {
+                    width: size[0],
+                    height: size[1],
+                    depth_or_array_layers: 1,
+                },
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: TextureDimension::D2,
+                format,
+                usage: TextureUsages::TEXTURE_BINDING,
+                view_formats: &[],
+            },
+            TextureDataOrder::LayerMajor,
+            bytes,
+        )
+        .create_view(&TextureViewDescriptor::default())
 }
 
 /// Uploads what changed of the scene when its epoch moved, and places its triangles. A scene
@@ -208,28 +224,26 @@ pub(crate) fn prepare_scene(
     .into_iter()
     .max()
     .unwrap_or(0) as u64;
-    let rows = material_rows(data.materials.len());
-    if rows > device.limits().max_texture_dimension_2d {
-        let why = format!(
+    let rows = device.limits().max_texture_dimension_2d;
+    let refusal = if material_rows(data.materials.len()) > rows {
+        Some(format!(
             "the scene has {} materials, over the {} this GPU's textures hold; photon mapping \
              is paused until the scene has fewer",
             data.materials.len(),
-            device.limits().max_texture_dimension_2d as usize * super::upload::MATERIALS_ROW,
-        );
-        error!("bevy_rppm: {why}");
-        *refused_epoch = Some(scene.epoch);
-        commands.remove_resource::<SceneBuffers>();
-        commands.insert_resource(SceneRefused(why));
-        return;
-    }
-    if bytes > limit {
-        let why = format!(
+            rows as usize * MATERIALS_ROW,
+        ))
+    } else if bytes > limit {
+        Some(format!(
             "the scene has {} triangles and {} texels (up to {bytes} bytes in one table), over \
              this GPU's storage binding limit of {limit} bytes; photon mapping is paused until \
              the scene is smaller",
             data.triangle_count(),
             data.texels.len()
-        );
+        ))
+    } else {
+        None
+    };
+    if let Some(why) = refusal {
         error!("bevy_rppm: {why}");
         *refused_epoch = Some(scene.epoch);
         commands.remove_resource::<SceneBuffers>();
@@ -267,7 +281,6 @@ pub(crate) fn prepare_scene(
     }
     let attributes = upload.attributes(last, data);
     let materials = upload.materials(last, data);
-    let material_view = materials.create_view(&TextureViewDescriptor::default());
     let lights = upload.table(last, data, |d| &d.lights, |b| &b.lights, "rppm_lights");
     let emitters = upload.table(
         last,
@@ -306,7 +319,6 @@ pub(crate) fn prepare_scene(
         meshes,
         instances,
         materials,
-        material_view,
         lights,
         emitters,
         light_cdf,

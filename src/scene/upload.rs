@@ -3,14 +3,11 @@
 
 use std::sync::Arc;
 
-use bevy::render::render_resource::{
-    Buffer, Extent3d, Texture, TextureDataOrder, TextureDescriptor, TextureDimension,
-    TextureFormat, TextureUsages,
-};
+use bevy::render::render_resource::{Buffer, TextureFormat, TextureView};
 use bevy::render::renderer::{RenderDevice, RenderQueue};
 use bytemuck::Pod;
 
-use super::prepare::{SceneBuffers, storage_buffer};
+use super::prepare::{SceneBuffers, constant_texture, storage_buffer};
 use super::{GpuMaterial, GpuTriangleAttributes, PackedTriangle, SceneData};
 
 /// Materials a row of the materials' texture holds, and the 16-byte texels each takes
@@ -25,30 +22,25 @@ pub(crate) fn material_texture(
     device: &RenderDevice,
     queue: &RenderQueue,
     materials: &[GpuMaterial],
-) -> Texture {
+) -> TextureView {
     let rows = material_rows(materials.len());
-    let mut bytes = vec![0u8; rows as usize * MATERIALS_ROW * std::mem::size_of::<GpuMaterial>()];
+    let mut bytes = vec![0u8; material_bytes(materials.len()) as usize];
     let items: &[u8] = bytemuck::cast_slice(materials);
     bytes[..items.len()].copy_from_slice(items);
-    device.create_texture_with_data(
+    let width = (MATERIALS_ROW * MATERIAL_TEXELS) as u32;
+    constant_texture(
+        device,
         queue,
-        &TextureDescriptor {
-            label: Some("rppm_materials"),
-            size: Extent3d {
-                width: (MATERIALS_ROW * MATERIAL_TEXELS) as u32,
-                height: rows,
-                depth_or_array_layers: 1,
-            },
-            mip_level_count: 1,
-            sample_count: 1,
-            dimension: TextureDimension::D2,
-            format: TextureFormat::Rgba32Uint,
-            usage: TextureUsages::TEXTURE_BINDING,
-            view_formats: &[],
-        },
-        TextureDataOrder::LayerMajor,
+        "rppm_materials",
+        [width, rows],
+        TextureFormat::Rgba32Uint,
         &bytes,
     )
+}
+
+/// Bytes of the materials' texture for `count` materials (whole rows).
+pub fn material_bytes(count: usize) -> u64 {
+    (material_rows(count) as usize * MATERIALS_ROW * std::mem::size_of::<GpuMaterial>()) as u64
 }
 
 /// Rows of the materials' texture for `count` materials.
@@ -157,15 +149,14 @@ impl Upload<'_> {
     /// The materials as an unsigned texture, `MATERIALS_ROW` a row (llvmpipe fetches a texel
     /// for 8 lanes at once, where it reads a storage buffer lane by lane); the last one when
     /// they did not change.
-    pub fn materials(&mut self, last: Option<&SceneBuffers>, data: &SceneData) -> Texture {
+    pub fn materials(&mut self, last: Option<&SceneBuffers>, data: &SceneData) -> TextureView {
         if let Some(l) = last
             && same(&l.data.materials, &data.materials)
         {
             return l.materials.clone();
         }
-        let texture = material_texture(self.device, self.queue, &data.materials);
-        self.bytes += texture.width() as u64 * texture.height() as u64 * 16;
-        texture
+        self.bytes += material_bytes(data.materials.len());
+        material_texture(self.device, self.queue, &data.materials)
     }
 
     /// Per world-space triangle UVs and colours: kept while the instances show the same

@@ -227,8 +227,8 @@ mod tests {
         assert_eq!(value("scene/scene.wgsl", "MATERIALS_ROW"), MATERIALS_ROW);
         assert_eq!(value("common/bsdf.wgsl", "ALBEDO_SIZE"), crate::bsdf::SIZE);
         assert_eq!(
-            value("common/common.wgsl", "LIST_BLOCK"),
-            crate::photons::LIST_BLOCK as usize
+            value("photons/sort.wgsl", "SCAN_BLOCK"),
+            crate::photons::SCAN_BLOCK as usize
         );
     }
 }

@@ -17,7 +17,7 @@ macro_rules! wgsl {
 #[derive(Resource, Clone)]
 pub struct RppmShaders {
     /// Import-only libraries (`bevy_rppm::common`, `scene`, `bsdf`, `cubemap`, `lighting`,
-    /// `photon_lists`),
+    /// `photon_map`),
     /// held so they stay loaded.
     _libraries: Vec<Handle<Shader>>,
     pub place: Handle<Shader>,
@@ -27,6 +27,7 @@ pub struct RppmShaders {
     pub bvh_fill: Handle<Shader>,
     pub eye_paths: Handle<Shader>,
     pub photon_trace: Handle<Shader>,
+    pub photon_sort: Handle<Shader>,
     pub splat: Handle<Shader>,
     pub indirect_splat: Handle<Shader>,
     pub accumulate: Handle<Shader>,
@@ -48,7 +49,7 @@ impl RppmShaders {
                 wgsl!(shaders, "scene/scene.wgsl"),
                 wgsl!(shaders, "cubemap/trace.wgsl"),
                 wgsl!(shaders, "shadows/lighting.wgsl"),
-                wgsl!(shaders, "photons/lists.wgsl"),
+                wgsl!(shaders, "photons/map.wgsl"),
             ],
             place: wgsl!(shaders, "scene/place.wgsl"),
             shadow_map: wgsl!(shaders, "shadows/shadow_map.wgsl"),
@@ -57,6 +58,7 @@ impl RppmShaders {
             bvh_fill: wgsl!(shaders, "cubemap/bvh_fill.wgsl"),
             eye_paths: wgsl!(shaders, "importons/eye_paths.wgsl"),
             photon_trace: wgsl!(shaders, "photons/trace.wgsl"),
+            photon_sort: wgsl!(shaders, "photons/sort.wgsl"),
             splat: wgsl!(shaders, "splat/splat.wgsl"),
             indirect_splat: wgsl!(shaders, "indirect_splat/indirect_splat.wgsl"),
             accumulate: wgsl!(shaders, "accumulate/accumulate.wgsl"),

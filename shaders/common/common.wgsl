@@ -237,19 +237,16 @@ fn row_texel(i: u32) -> vec2<u32> {
 }
 
 // A stored photon (64 bytes, the RPPM budget).
+// A stored photon, 32 bytes: the gathers read every photon of the tiles they visit, and
+// llvmpipe loads a storage buffer lane by lane.
 struct Photon {
     position: vec3<f32>,
-    // The next photon listed in the same cubemap tile, as index + 1 (0 ends the list).
-    next: u32,
+    // Direction towards where the photon came from (pack_normal).
+    incoming: u32,
     // Flux the photon carries (W), linear RGB.
     flux: vec3<f32>,
-    pad_b: u32,
-    // Direction towards where the photon came from.
-    incoming: vec3<f32>,
-    pad_c: u32,
-    // Shading normal at the hit, on the side the photon arrived from.
-    normal: vec3<f32>,
-    pad_d: u32,
+    // Shading normal at the hit, on the side the photon arrived from (pack_normal).
+    normal: u32,
 }
 
 fn triangle_position(t: Triangle, corner: u32) -> vec3<f32> {
@@ -454,20 +451,9 @@ fn face_span(a: f32, z: f32, r: f32) -> vec2<f32> {
     return vec2<f32>(max(lo, -1.0), min(hi, 1.0));
 }
 
-// The photon lists' heads (photons/trace.wgsl) hold, after one head per tile, one flag per
-// block of LIST_BLOCK² tiles, set when a photon is listed in the block: a gather skips empty
-// regions without reading each tile's head (a sunlit patch leaves most of a room empty).
-const LIST_BLOCK: u32 = 8u;
-
-// The index of the flag of the block holding tile (x, y) of `face`.
-fn list_block(d: CubemapParams, face: u32, x: u32, y: u32) -> u32 {
-    let blocks = (d.grid + LIST_BLOCK - 1u) / LIST_BLOCK;
-    return 6u * d.grid * d.grid + (face * blocks + y / LIST_BLOCK) * blocks + x / LIST_BLOCK;
-}
-
 // The faces a gather of radius r around p visits: x the face that holds p, y how many from
 // it on (mod 6): 1 when the sphere lies within that face's view (its spans there are not
-// clipped, so no other face lists a photon it reaches), else all 6.
+// clipped, so no other face holds a photon it reaches), else all 6.
 fn faces_reached(d: CubemapParams, p: vec3<f32>, r: f32) -> vec2<u32> {
     let v = p - d.centre.xyz;
     let own = face_of(v);
@@ -480,7 +466,7 @@ fn faces_reached(d: CubemapParams, p: vec3<f32>, r: f32) -> vec2<u32> {
 
 // The tiles of cubemap face `face` that a sphere of radius r around p reaches, numbered as
 // cubemap_tile numbers them (x grows with s.x, y falls with s.y): (x0, x1, y0, y1), empty
-// (x0 > x1) when the sphere misses the face. Photon tracing lists each photon in its tile.
+// (x0 > x1) when the sphere misses the face. The photon map holds each photon in its tile.
 fn face_tiles(d: CubemapParams, p: vec3<f32>, r: f32, face: u32) -> vec4<i32> {
     let l = transpose(face_basis(face)) * (p - d.centre.xyz);
     let sx = face_span(l.x, l.z, r);

@@ -2,7 +2,7 @@
 // cubemap; a photon is stored at every diffuse or rough-glossy hit after its first bounce
 // (direct light is the local-illumination stage's), then scattered by the material
 // (bsdf.wgsl's scatter_photon: diffuse, GGX glossy, mirror, Fresnel glass) or absorbed.
-#import bevy_rppm::common::{Light, Photon, IterationParams, PI, cubemap_tile, list_block, LIGHT_POINT, LIGHT_SPOT, LIGHT_DIRECTIONAL, random, pcg_hash, basis_around, cosine_direction}
+#import bevy_rppm::common::{Light, Photon, IterationParams, PI, cubemap_tile, pack_normal, LIGHT_POINT, LIGHT_SPOT, LIGHT_DIRECTIONAL, random, pcg_hash, basis_around, cosine_direction}
 #import bevy_rppm::scene::{triangle_at, material_at, as_seen_from, normal_at, interpolated_normal, triangle_point, uniform_barycentrics, part_barycentrics, lights, emitters, light_cdf, find_source}
 #import bevy_rppm::cubemap::{cubemap, trace_ray, NO_HIT}
 #import bevy_rppm::bsdf::{stores_photons, scatter_photon}
@@ -12,12 +12,14 @@
 
 @group(1) @binding(0) var<uniform> params: IterationParams;
 
+// The photons in the order they are stored; photons/sort.wgsl orders them by tile.
 @group(2) @binding(0) var<storage, read_write> photons: array<Photon>;
 // [-, photons stored (placed or not), -, -].
 @group(2) @binding(1) var<storage, read_write> photon_count: array<atomic<u32>, 4>;
-// Per cubemap tile, the head of the list of the photons stored in it (index + 1), which
-// both splats gather from; then the blocks' flags (`list_block`).
-@group(2) @binding(2) var<storage, read_write> photon_heads: array<atomic<u32>>;
+// Per cubemap tile, the photons stored in it.
+@group(2) @binding(2) var<storage, read_write> tile_counts: array<atomic<u32>>;
+// Per photon, its cubemap tile and its rank among the tile's photons.
+@group(2) @binding(3) var<storage, read_write> photon_tiles: array<vec2<u32>>;
 
 struct Ray {
     origin: vec3<f32>,
@@ -114,14 +116,9 @@ fn emit(rng: ptr<function, u32>) -> Ray {
 fn store(x: vec3<f32>, ray: Ray, n: vec3<f32>) {
     let slot = atomicAdd(&photon_count[1], 1u);
     if slot < params.photon_capacity {
-        let tile = cubemap_tile(cubemap, x);
-        let next = atomicExchange(&photon_heads[tile.index], slot + 1u);
-        let block = list_block(cubemap, tile.face, u32(tile.cell.x), u32(tile.cell.y));
-        // Read first: a flag set once stays shared between the cores' caches.
-        if atomicLoad(&photon_heads[block]) == 0u {
-            atomicStore(&photon_heads[block], 1u);
-        }
-        photons[slot] = Photon(x, next, ray.flux, 0u, -ray.direction, 0u, n, 0u);
+        let tile = cubemap_tile(cubemap, x).index;
+        photon_tiles[slot] = vec2<u32>(tile, atomicAdd(&tile_counts[tile], 1u));
+        photons[slot] = Photon(x, pack_normal(-ray.direction), ray.flux, pack_normal(n));
     }
 }
 

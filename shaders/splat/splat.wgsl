@@ -1,21 +1,21 @@
 // Direct splatting, as a gather: each pixel's G-buffer point (its importon at the camera)
-// visits the deep cubemap tiles its gather sphere reaches, where photon tracing listed the
-// stored photons, and adds those inside its kernel: a disc of the gather radius on its
+// visits the deep cubemap tiles its gather sphere reaches, a run of the photon map per row of
+// tiles (photons/sort.wgsl), and adds the photons inside its kernel: a disc of the gather radius on its
 // surface, flattened along its normal. The estimate is Σ f(wo, wi) Φ / (π r²), summed in
 // registers, one thread a pixel: no quad per photon, no blending, and the work is the
 // photons near visible surfaces.
 // SUBSAMPLED (ISPM): the target has one texel per n×n pixels, gathered at one representative
 // pixel of the block, and holds incident light Σ Φ / (π r²) for the joint-bilateral upsampling
 // in shaders/accumulate/accumulate.wgsl, which applies each full-resolution pixel's own BSDF.
-#import bevy_rppm::common::{Material, Outgoing, Photon, IterationParams, PI, faces_reached, gather_radius, splat_weight, subsample_representative}
+#import bevy_rppm::common::{Material, Outgoing, Photon, IterationParams, PI, faces_reached, face_tiles, gather_radius, splat_weight, subsample_representative, unpack_normal}
 #import bevy_rppm::scene::{gbuffer_material, resolved_material, resolved_kernel_normal, kernel_normal}
 #import bevy_rppm::bsdf::{bsdf_from, bsdf_gathered, translucency}
 #import bevy_rppm::cubemap::cubemap
-#import bevy_rppm::photon_lists::{photons, listed_tiles, list_head, next_in_kernel}
+#import bevy_rppm::photon_map::{photons, row_run, next_in_kernel}
 
 @group(1) @binding(0) var<uniform> params: IterationParams;
 
-// Bindings 0 and 1: the photons and their lists (photons/lists.wgsl).
+// Bindings 0 and 1: the photon map and its tiles' starts (photons/map.wgsl).
 @group(2) @binding(2) var gbuffer_position: texture_2d<f32>;
 @group(2) @binding(3) var gbuffer_normal: texture_2d<f32>;
 // Each pixel's textures, looked up once by local illumination (`resolve_surface`); a
@@ -33,24 +33,25 @@ struct Kernel {
     index: u32,
 }
 
-// The photons of one tile's list inside pixel kernel `k`: Σ f(wo, wi) Φ on material `m`
-// (`out` its bsdf_from; a smooth clearcoat's lobe left to the camera path) with shading normal `shading` (Σ Φ, subsampled).
-fn gather_list(k: Kernel, m: Material, out: Outgoing, shading: vec3<f32>, wo: vec3<f32>, head: u32) -> vec3<f32> {
+// The photons of run `run` of the map inside pixel kernel `k`: Σ f(wo, wi) Φ on material `m`
+// (`out` its bsdf_from; a smooth clearcoat's lobe left to the camera path) with shading
+// normal `shading` (Σ Φ, subsampled).
+fn gather_run(k: Kernel, m: Material, out: Outgoing, shading: vec3<f32>, wo: vec3<f32>, run: vec2<u32>) -> vec3<f32> {
     var sum = vec3<f32>(0.0);
-    var walked = 0u;
     let bent = any(k.plane != shading);
     let both_sides = translucency(m) > 0.0;
-    var node = next_in_kernel(head, &walked, params, k.position, k.plane, k.radius, k.index, both_sides);
-    while node != 0u {
-        let p = photons[node - 1u];
-        node = next_in_kernel(p.next, &walked, params, k.position, k.plane, k.radius, k.index, both_sides);
+    var i = next_in_kernel(run.x, run.y, params, k.position, k.plane, k.radius, k.index, both_sides);
+    while i < run.y {
+        let p = photons[i];
+        i = next_in_kernel(i + 1u, run.y, params, k.position, k.plane, k.radius, k.index, both_sides);
 #ifdef SUBSAMPLED
         sum += p.flux;
 #else
         // The photons' density is irradiance on the kernel's plane; a normal map's bent
         // normal receives it by its own cosine instead (on either side: diffuse transmission).
-        let bend = select(1.0, abs(dot(shading, p.incoming)) / max(abs(dot(k.plane, p.incoming)), 0.05), bent);
-        sum += bsdf_gathered(m, out, shading, wo, p.incoming) * (bend * p.flux);
+        let incoming = unpack_normal(p.incoming);
+        let bend = select(1.0, abs(dot(shading, incoming)) / max(abs(dot(k.plane, incoming)), 0.05), bent);
+        sum += bsdf_gathered(m, out, shading, wo, incoming) * (bend * p.flux);
 #endif
     }
     return sum;
@@ -91,11 +92,9 @@ fn gather(@builtin(global_invocation_id) id: vec3<u32>) {
     let faces = faces_reached(cubemap, k.position, k.radius);
     for (var i = 0u; i < faces.y; i += 1u) {
         let face = (faces.x + i) % 6u;
-        let tiles = listed_tiles(face, k.position, k.radius);
+        let tiles = face_tiles(cubemap, k.position, k.radius, face);
         for (var y = tiles.z; y <= tiles.w; y += 1) {
-            for (var x = tiles.x; x <= tiles.y; x += 1) {
-                sum += gather_list(k, m, out, gn.xyz, wo, list_head(face, x, y));
-            }
+            sum += gather_run(k, m, out, gn.xyz, wo, row_run(face, y, tiles.x, tiles.y));
         }
     }
     let density = splat_weight(params) / (PI * k.radius * k.radius);

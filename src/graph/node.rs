@@ -8,6 +8,7 @@ use bevy::render::view::ViewTarget;
 
 use super::state::{RppmViewState, ViewTimer};
 use crate::cubemap::{CubemapPipelines, TracingGroups};
+use crate::photons::PhotonPasses;
 use crate::scene::SceneBuffers;
 use crate::settings::RppmDebugView;
 use crate::shadows::{ShadowPipeline, render_layers};
@@ -23,7 +24,7 @@ struct NodePipelines<'a> {
     shadow: &'a RenderPipeline,
     gbuffer: &'a RenderPipeline,
     eye_paths: &'a ComputePipeline,
-    photon: Option<&'a ComputePipeline>,
+    photon: Option<PhotonPasses<'a>>,
     splat: Option<&'a ComputePipeline>,
     indirect_splat: Option<&'a ComputePipeline>,
     accumulate: &'a ComputePipeline,
@@ -58,7 +59,7 @@ pub(crate) fn rppm_node(
         shadow,
         gbuffer,
         eye_paths,
-        photon: stages.trace.and_then(|id| cache.get_compute_pipeline(id)),
+        photon: photon_passes(&cache, stages.trace, stages.sort),
         splat: stages.splat.and_then(|id| cache.get_compute_pipeline(id)),
         indirect_splat: stages
             .indirect_splat
@@ -129,6 +130,19 @@ pub(crate) fn rppm_node(
     timer.end_frame(encoder);
 }
 
+/// Tracing and the sort's passes, when all are compiled.
+fn photon_passes<'a>(
+    cache: &'a PipelineCache,
+    trace: Option<CachedComputePipelineId>,
+    sort: Option<[CachedComputePipelineId; 4]>,
+) -> Option<PhotonPasses<'a>> {
+    let [a, b, c, d] = sort?.map(|id| cache.get_compute_pipeline(id));
+    Some(PhotonPasses {
+        trace: cache.get_compute_pipeline(trace?)?,
+        sort: [a?, b?, c?, d?],
+    })
+}
+
 /// One PPM iteration up to its photons: shadow maps when shadows are not traced (light maps
 /// once per scene change, the area-light cube every iteration), the G-buffer, the cubemap,
 /// eye paths, photon tracing.
@@ -192,7 +206,7 @@ fn encode_iteration(
     );
     mark(checkpoints, encoder, Stage::LocalIllumination);
     if let (true, Some(cubemap), Some(trace), Some(store)) =
-        (state.photons > 0, cubemap, node.photon, &state.store)
+        (state.photons > 0, cubemap, &node.photon, &state.store)
     {
         let groups = TracingGroups {
             scene: &state.scene_group,
@@ -201,8 +215,10 @@ fn encode_iteration(
             cubemap: &cubemap.trace_group,
         };
         let counts = [state.photons, state.photon_lanes()];
-        store.encode_trace(encoder, trace, &groups, counts, timer);
+        store.encode_trace(encoder, trace.trace, &groups, counts, timer);
         mark(checkpoints, encoder, Stage::PhotonTrace);
+        store.map.encode_sort(encoder, trace.sort, timer);
+        mark(checkpoints, encoder, Stage::PhotonSort);
     }
 }
 

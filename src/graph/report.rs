@@ -38,6 +38,7 @@ fn passes(state: &RppmViewState) -> Vec<String> {
         ("local_illumination", !debug),
         ("importon_tracing", state.importons),
         ("photon_trace", traced),
+        ("photon_sort", traced),
         ("splat", traced),
         ("indirect_splat", traced && state.importons),
         ("debug_view", debug),

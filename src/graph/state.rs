@@ -32,8 +32,8 @@ pub struct ResourceKey {
     pub photon_capacity: u32,
     /// Camera paths go past the G-buffer: importons are held.
     pub importons: bool,
-    /// Heads of the photon lists (one a cubemap tile, one a block of them).
-    pub photon_lists: u32,
+    /// Tiles of the photon map (the cubemap's).
+    pub photon_tiles: u32,
     /// Photons splat on every n-th pixel (the splat target's size follows).
     pub subsampling: u32,
     /// History is kept through motion (`RppmHistory::Reuse`): its buffers are held.
@@ -52,6 +52,8 @@ pub struct StageIds {
     pub gbuffer: CachedRenderPipelineId,
     pub eye_paths: CachedComputePipelineId,
     pub trace: Option<CachedComputePipelineId>,
+    /// The photon sort's passes, with tracing.
+    pub sort: Option<[CachedComputePipelineId; 4]>,
     pub splat: Option<CachedComputePipelineId>,
     pub indirect_splat: Option<CachedComputePipelineId>,
     pub accumulate: CachedComputePipelineId,
@@ -339,8 +341,9 @@ impl RppmViewState {
         let mut memory: Vec<(&str, u64)> = self.eye_paths.memory().to_vec();
         memory.push(("splats", self.splats.bytes()));
         if let Some(store) = &self.store {
-            memory.push(("photons", store.photons.size()));
-            memory.push(("photon_heads", store.heads.size()));
+            memory.push(("photons", store.stored.size()));
+            memory.push(("photon_tiles", store.tiles.size()));
+            memory.push(("photon_map", store.map.bytes()));
         }
         memory.extend([
             ("gbuffer", GBuffer::bytes(pixels)),
@@ -379,7 +382,7 @@ fn photon_store(
             cache,
             pipelines.photons,
             key.photon_capacity,
-            key.photon_lists,
+            key.photon_tiles,
         )
     });
     let group = store.as_ref().filter(|_| key.importons).map(|store| {
@@ -417,10 +420,12 @@ pub(super) fn stages_ready(state: &RppmViewState, cache: &PipelineCache) -> Resu
         stages.splat,
         stages.indirect_splat,
     ];
+    let sort = stages.sort.into_iter().flatten().map(Some);
     let render = [cache.get_render_pipeline_state(stages.gbuffer)];
     readiness(
         compute
             .into_iter()
+            .chain(sort)
             .flatten()
             .map(|id| cache.get_compute_pipeline_state(id))
             .chain(render),

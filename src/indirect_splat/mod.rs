@@ -1,5 +1,5 @@
 //! Indirect splatting: each importon visits the deep-cubemap tiles its own radius reaches
-//! and adds the photons listed there (photon tracing lists each stored photon in its tile;
+//! and adds the photons the photon map holds there (a run of the map per row of tiles;
 //! `shaders/indirect_splat/indirect_splat.wgsl`). The gather is dispatched indirectly: the
 //! eye-path stage sets its workgroup count only when it makes an importon, so an iteration
 //! whose glass is off screen runs no workgroup.
@@ -36,7 +36,7 @@ impl Plugin for IndirectSplatPlugin {
 /// first time a view makes importons.
 #[derive(Resource)]
 pub struct IndirectSplatPipeline {
-    /// 0 photons, 1 the tiles' photon lists' heads, 2 importons, 3 gathered radiance per
+    /// 0 the photon map, 1 its tiles' starts, 2 importons, 3 gathered radiance per
     /// importon.
     pub layout: BindGroupLayoutDescriptor,
     descriptor: ComputePipelineDescriptor,
@@ -98,8 +98,8 @@ pub fn bind_group(
         "rppm_indirect_splat_group",
         &cache.get_bind_group_layout(&pipeline.layout),
         &BindGroupEntries::sequential((
-            store.photons.as_entire_binding(),
-            store.heads.as_entire_binding(),
+            store.map.photons.as_entire_binding(),
+            store.map.tile_starts.as_entire_binding(),
             eye_paths.importons.as_entire_binding(),
             eye_paths.radiance.as_entire_binding(),
         )),

@@ -197,7 +197,9 @@ pub fn split(ms: &[f64; STAGES]) -> (f64, f64) {
     let mut other = 0.0;
     for (stage, t) in Stage::ALL.iter().zip(ms) {
         match stage {
-            Stage::PhotonTrace | Stage::Splat | Stage::IndirectSplat => photon += t,
+            Stage::PhotonTrace | Stage::PhotonSort | Stage::Splat | Stage::IndirectSplat => {
+                photon += t
+            }
             _ => other += t,
         }
     }

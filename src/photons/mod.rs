@@ -1,9 +1,11 @@
 //! Photon tracing: photons leave the lights by power, are traced through the deep cubemap,
 //! stored at non-specular hits after their first bounce and scattered or absorbed by Russian
-//! roulette (`shaders/photons/trace.wgsl`). The pipeline is specialized by the scene's
-//! scattering paths.
+//! roulette (`shaders/photons/trace.wgsl`), then sorted by cubemap tile into the photon map
+//! that both splats gather from (`map.rs`). Tracing is specialized by the scene's scattering
+//! paths.
 
 mod budget;
+mod map;
 mod store;
 
 use bevy::prelude::*;
@@ -20,9 +22,10 @@ use crate::view::ViewLayouts;
 
 pub use budget::{FrameCost, MIN_PHOTONS, PhotonController, START_PHOTONS};
 #[cfg(test)]
-pub(crate) use store::LIST_BLOCK;
+pub(crate) use map::SCAN_BLOCK;
+pub use map::{PhotonMap, SortPipelines, map_tiles};
 pub(crate) use store::store_capacity;
-pub use store::{PhotonStore, StoreFit, list_heads};
+pub use store::{PHOTON_BYTES, PhotonStore, StoreFit};
 
 /// The most threads one dimension of a 64-wide compute dispatch can have on this device.
 pub(crate) fn dispatch_limit(device: &RenderDevice) -> u32 {
@@ -74,13 +77,20 @@ impl Plugin for PhotonsPlugin {
     }
 }
 
-/// The photon-tracing stage, specialized by [`PhotonKey`].
+/// The photon-tracing stage, specialized by [`PhotonKey`], and the sort into the photon map.
 #[derive(Resource)]
 pub struct PhotonPipeline {
-    /// 0 the photon store, 1 its count, 2 its lists' heads (one a cubemap tile, then one flag a
-    /// block of tiles).
+    /// 0 the photons as stored, 1 their count, 2 per cubemap tile, the photons stored in it,
+    /// 3 per photon, its tile.
     pub store_layout: BindGroupLayoutDescriptor,
     base: ComputePipelineDescriptor,
+    pub sort: SortPipelines,
+}
+
+/// An iteration's photon passes, compiled: tracing and the sort's passes.
+pub struct PhotonPasses<'a> {
+    pub trace: &'a ComputePipeline,
+    pub sort: [&'a ComputePipeline; 4],
 }
 
 /// Which photon-tracing variant a scene runs.
@@ -117,12 +127,14 @@ fn init_photon_pipeline(
     mut commands: Commands,
     shaders: Res<RppmShaders>,
     layouts: Res<ViewLayouts>,
+    cache: Res<PipelineCache>,
 ) {
     let store_layout = BindGroupLayoutDescriptor::new(
         "rppm_photon_store_layout",
         &BindGroupLayoutEntries::sequential(
             ShaderStages::COMPUTE,
             (
+                storage_buffer_sized(false, None),
                 storage_buffer_sized(false, None),
                 storage_buffer_sized(false, None),
                 storage_buffer_sized(false, None),
@@ -135,5 +147,9 @@ fn init_photon_pipeline(
         &store_layout,
         &shaders.photon_trace,
     );
-    commands.insert_resource(PhotonPipeline { store_layout, base });
+    commands.insert_resource(PhotonPipeline {
+        store_layout,
+        base,
+        sort: SortPipelines::new(&cache, &shaders),
+    });
 }

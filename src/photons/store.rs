@@ -8,8 +8,8 @@ use bevy::render::render_resource::*;
 use bevy::render::renderer::{RenderDevice, RenderQueue};
 
 use super::PhotonPipeline;
+use super::map::PhotonMap;
 use crate::cubemap::TracingGroups;
-use crate::importons::storage;
 use crate::ppm::{grown_capacity, photon_store_capacity};
 use crate::scene::SceneBuffers;
 use crate::settings::{PhotonMapping, RppmDebugView};
@@ -17,17 +17,7 @@ use crate::stats::readback::{AsyncReadback, read_back};
 use crate::stats::timing::{Stage, StageTimer};
 
 /// Bytes of one stored photon (`Photon` in common.wgsl).
-pub const PHOTON_BYTES: u64 = 64;
-
-/// Tiles a side of a block of the photon lists (`LIST_BLOCK` in common.wgsl).
-pub(crate) const LIST_BLOCK: u32 = 8;
-
-/// The photon lists' heads for a cubemap of `grid`² tiles a face: one a tile, then one flag a
-/// block of tiles (`list_block` in common.wgsl).
-pub fn list_heads(grid: u32) -> u32 {
-    let blocks = grid.div_ceil(LIST_BLOCK);
-    6 * (grid * grid + blocks * blocks)
-}
+pub const PHOTON_BYTES: u64 = 32;
 
 /// Weight of a lower count in the stores per photon remembered: a store shrinks over a few
 /// readings, not for one quiet iteration.
@@ -102,14 +92,17 @@ pub(crate) fn store_capacity(
     fit.capacity(photons, worst.min(most), current)
 }
 
-/// One camera's photon store, when the scene has lights to emit from.
+/// One camera's photon store, when the scene has lights to emit from: the photons as tracing
+/// stores them, and the map the sort orders them into.
 pub struct PhotonStore {
-    pub photons: Buffer,
+    /// The photons in the order they were stored.
+    pub stored: Buffer,
+    /// Per stored photon, its cubemap tile and its rank among the tile's photons.
+    pub tiles: Buffer,
     /// [-, photons stored (placed or not), -, -].
     pub count: Buffer,
-    /// Per cubemap tile, the head of the list of the photons stored in it (index + 1), which
-    /// both splats gather from; then per block of tiles, whether any is listed.
-    pub heads: Buffer,
+    /// The photons by tile, which both splats gather from.
+    pub map: PhotonMap,
     group: BindGroup,
     /// The count's non-blocking read-back, and the photons emitted by the iteration it copied.
     probe: AsyncReadback,
@@ -119,39 +112,46 @@ pub struct PhotonStore {
 }
 
 impl PhotonStore {
-    /// Room for `capacity` photons, with `heads` list heads ([`list_heads`]).
+    /// Room for `capacity` photons, mapped into `tiles` tiles ([`super::map_tiles`]).
     pub fn new(
         device: &RenderDevice,
         cache: &PipelineCache,
         pipeline: &PhotonPipeline,
         capacity: u32,
-        heads: u32,
+        tiles: u32,
     ) -> Self {
-        let photons = device.create_buffer(&BufferDescriptor {
-            label: Some("rppm_photons"),
-            size: capacity as u64 * PHOTON_BYTES,
-            usage: BufferUsages::STORAGE,
-            mapped_at_creation: false,
-        });
+        let buffer = |label: &'static str, bytes: u64| {
+            device.create_buffer(&BufferDescriptor {
+                label: Some(label),
+                size: bytes,
+                usage: BufferUsages::STORAGE,
+                mapped_at_creation: false,
+            })
+        };
+        let stored = buffer("rppm_photons", capacity as u64 * PHOTON_BYTES);
+        let photon_tiles = buffer("rppm_photon_tiles", capacity as u64 * 8);
         let count = device.create_buffer_with_data(&BufferInitDescriptor {
             label: Some("rppm_photon_count"),
             contents: bytemuck::cast_slice(&[0u32; 4]),
             usage: BufferUsages::STORAGE | BufferUsages::COPY_DST | BufferUsages::COPY_SRC,
         });
-        let heads = storage(device, "rppm_photon_heads", heads as u64 * 4);
+        let mut map = PhotonMap::new(device, capacity, PHOTON_BYTES, tiles);
+        map.bind(device, cache, &pipeline.sort, &stored, &photon_tiles);
         let group = device.create_bind_group(
             "rppm_photon_store_group",
             &cache.get_bind_group_layout(&pipeline.store_layout),
             &BindGroupEntries::sequential((
-                photons.as_entire_binding(),
+                stored.as_entire_binding(),
                 count.as_entire_binding(),
-                heads.as_entire_binding(),
+                map.tile_counts.as_entire_binding(),
+                photon_tiles.as_entire_binding(),
             )),
         );
         Self {
-            photons,
+            stored,
+            tiles: photon_tiles,
             count,
-            heads,
+            map,
             group,
             probe: AsyncReadback::new(device, 16),
             probe_photons: AtomicU32::new(0),
@@ -169,7 +169,7 @@ impl PhotonStore {
         timer: &mut StageTimer,
     ) {
         encoder.clear_buffer(&self.count, 4, Some(4));
-        encoder.clear_buffer(&self.heads, 0, None);
+        encoder.clear_buffer(&self.map.tile_counts, 0, None);
         let mut pass = encoder.begin_compute_pass(&ComputePassDescriptor {
             label: Some("rppm_photon_trace"),
             timestamp_writes: timer.compute_pass(Stage::PhotonTrace),

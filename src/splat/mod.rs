@@ -1,5 +1,5 @@
 //! Direct splatting, as a gather: each pixel's G-buffer point visits the deep-cubemap tiles
-//! its gather radius reaches, where photon tracing listed the stored photons, and adds
+//! its gather radius reaches, a run of the photon map per row of tiles, and adds
 //! f·Φ/(πr²) for each inside its kernel (a disc of the gather radius on the pixel's surface,
 //! flattened along its normal). Subsampled (ISPM), one pixel of every n×n block gathers
 //! incident light, upsampled in accumulation (`shaders/splat/splat.wgsl`).
@@ -43,7 +43,7 @@ const SPLAT_FORMAT: TextureFormat = TextureFormat::Rgba32Float;
 /// The splat stage: plain, or subsampled, untextured or textured (the key).
 #[derive(Resource)]
 pub struct SplatPipeline {
-    /// 0 photons, 1 the tiles' photon lists' heads, 2 G-buffer position, 3 G-buffer normal,
+    /// 0 the photon map, 1 its tiles' starts, 2 G-buffer position, 3 G-buffer normal,
     /// 4 resolved surfaces, 5 the target.
     pub layout: BindGroupLayoutDescriptor,
     base: ComputePipelineDescriptor,
@@ -149,8 +149,8 @@ impl SplatTarget {
             "rppm_splat_group",
             &cache.get_bind_group_layout(&pipeline.layout),
             &BindGroupEntries::sequential((
-                store.photons.as_entire_binding(),
-                store.heads.as_entire_binding(),
+                store.map.photons.as_entire_binding(),
+                store.map.tile_starts.as_entire_binding(),
                 &gbuffer.position,
                 &gbuffer.normal,
                 surfaces.as_entire_binding(),

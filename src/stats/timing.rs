@@ -10,7 +10,7 @@ use wgpu::{
 };
 
 /// The stages of one PPM iteration that report GPU time.
-pub const STAGES: usize = 10;
+pub const STAGES: usize = 11;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Stage {
@@ -21,6 +21,7 @@ pub enum Stage {
     CubemapBuild,
     CubemapTrace,
     PhotonTrace,
+    PhotonSort,
     Splat,
     IndirectSplat,
     Accumulate,
@@ -35,6 +36,7 @@ impl Stage {
         Stage::CubemapBuild,
         Stage::CubemapTrace,
         Stage::PhotonTrace,
+        Stage::PhotonSort,
         Stage::Splat,
         Stage::IndirectSplat,
         Stage::Accumulate,
@@ -54,6 +56,7 @@ impl Stage {
             Stage::CubemapBuild => "cubemap_build",
             Stage::CubemapTrace => "cubemap_trace",
             Stage::PhotonTrace => "photon_trace",
+            Stage::PhotonSort => "photon_sort",
             Stage::Splat => "splat",
             Stage::IndirectSplat => "indirect_splat",
             Stage::Accumulate => "accumulate",

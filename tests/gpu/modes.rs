@@ -162,7 +162,7 @@ fn only_the_passes_and_code_paths_the_scene_needs_run() {
         "{plain:?}"
     );
     // Matte albedo 0.8: the store holds at most Σ 0.8ʲ ≈ 4 photons per emitted one, not 15.
-    let store = memory["photons"] as f64 / (262_144.0 * 64.0);
+    let store = memory["photons"] as f64 / (262_144.0 * bevy_rppm::photons::PHOTON_BYTES as f64);
     assert!(
         store < 5.0,
         "photon store holds {store:.2} photons per emitted photon"

@@ -112,7 +112,7 @@ fn the_photon_store_holds_what_the_iterations_stored() {
         }
         spawn_glass_ball(world);
         let stats = |app: &App| app.world().resource::<RppmStats>().views[&camera].clone();
-        let capacity = |app: &App| stats(app).memory["photons"] / 64;
+        let capacity = |app: &App| stats(app).memory["photons"] / bevy_rppm::photons::PHOTON_BYTES;
         until_iterations(&mut app, camera, 1);
         let first = capacity(&app);
         assert!(first >= 15 * 16_384, "the first store holds {first}");

@@ -164,7 +164,8 @@ pub struct PhotonMapping {
     /// Range 16..=4096, default 256.
     pub cubemap_resolution: u32,
     /// Edge length in pixels of a cubemap tile, the unit that holds a set of depth-binned
-    /// lists: 1, 2 or 4 (others are rounded to the nearest of these). Default 1.
+    /// lists and one run of the photon map: 1, 2 or 4 (others are rounded to the nearest of
+    /// these). Default 1.
     pub cubemap_tile_size: u32,
     /// Depth bins per cubemap tile. Range 1..=64, default 12.
     pub bins: u32,

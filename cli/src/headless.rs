@@ -12,6 +12,7 @@ use bevy::core_pipeline::tonemapping::Tonemapping;
 use bevy::gltf::GltfAssetLabel;
 use bevy::prelude::*;
 use bevy::render::RenderPlugin;
+use bevy::render::error_handler::{RenderError, RenderErrorHandler, RenderErrorPolicy};
 use bevy::render::render_resource::{TextureFormat, TextureUsages};
 use bevy::render::settings::RenderCreation;
 use bevy::window::ExitCondition;
@@ -102,7 +103,27 @@ pub fn headless_app_unfinished(asset_root: &Path) -> App {
         RppmPlugin,
         bevy::app::ScheduleRunnerPlugin::run_loop(Duration::ZERO),
     ));
+    app.insert_resource(RenderErrorHandler(keep_render_error));
     app
+}
+
+/// The first error wgpu reported (validation, out of memory, device lost), on one line: the
+/// render loop reports it at once instead of waiting to call the render stalled.
+#[derive(Resource)]
+pub struct RenderFailure(pub String);
+
+/// Bevy's default handling (stop rendering, exit with an error), keeping the error's text.
+fn keep_render_error(
+    error: &RenderError,
+    main_world: &mut World,
+    _: &mut World,
+) -> RenderErrorPolicy {
+    if !main_world.contains_resource::<RenderFailure>() {
+        let text = error.description.split_whitespace().collect::<Vec<_>>();
+        main_world.insert_resource(RenderFailure(format!("{:?}: {}", error.ty, text.join(" "))));
+    }
+    main_world.write_message(AppExit::error());
+    RenderErrorPolicy::StopRendering
 }
 
 /// An offscreen colour target of the given size.
@@ -402,6 +423,9 @@ fn run_until_done(
         previous_frame = Instant::now();
         app.update();
         let world = app.world();
+        if let Some(failure) = world.get_resource::<RenderFailure>() {
+            return Err(format!("the GPU refused to render ({})", failure.0));
+        }
         let error = world
             .resource::<RppmStats>()
             .views

@@ -236,7 +236,6 @@ fn row_texel(i: u32) -> vec2<u32> {
     return vec2<u32>(i & ((1u << TEXEL_ROW_SHIFT) - 1u), i >> TEXEL_ROW_SHIFT);
 }
 
-// A stored photon (64 bytes, the RPPM budget).
 // A stored photon, 32 bytes: the gathers read every photon of the tiles they visit, and
 // llvmpipe loads a storage buffer lane by lane.
 struct Photon {

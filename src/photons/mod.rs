@@ -81,7 +81,7 @@ impl Plugin for PhotonsPlugin {
 #[derive(Resource)]
 pub struct PhotonPipeline {
     /// 0 the photons as stored, 1 their count, 2 per cubemap tile, the photons stored in it,
-    /// 3 per photon, its tile.
+    /// 3 per photon, its tile and its rank among the tile's photons.
     pub store_layout: BindGroupLayoutDescriptor,
     base: ComputePipelineDescriptor,
     pub sort: SortPipelines,

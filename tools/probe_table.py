@@ -1,9 +1,11 @@
 #!/usr/bin/env python3
 """The scale table of the README: makes probe scenes of 10³–10⁶ triangles (tools/probe.py),
 renders each and prints, per triangle count, start-up time, ms per iteration, GPU ms of the
-cubemap build and the photon trace, list nodes, and memory held.
+cubemap build (under the BVH, its CPU build) and the photon trace, list nodes, and memory
+held.
 
-    RPPM=target/release/rppm python3 tools/probe_table.py out/probes --size 256 --iterations 4
+    RPPM=target/release/rppm python3 tools/probe_table.py out/probes --size 256 --iterations 4 \
+        [--photons N] [--tracer auto|deep-cubemap|bvh]
 
 GPU timestamps overlap on llvmpipe, so there the photon-trace column is left out and the
 cubemap build is rough; the wall-clock ms per iteration is not.
@@ -24,6 +26,7 @@ def main():
     p.add_argument("--size", type=int, default=256)
     p.add_argument("--iterations", type=int, default=4)
     p.add_argument("--photons", type=int)
+    p.add_argument("--tracer", choices=["auto", "deep-cubemap", "bvh"])
     args = p.parse_args()
     rppm = os.environ.get("RPPM", "rppm")
     os.makedirs(args.dir, exist_ok=True)
@@ -41,6 +44,8 @@ def main():
         cmd += ["--iterations", str(args.iterations), "--stats", stats, "--out", stats[:-5] + ".png"]
         if args.photons:
             cmd += ["--photons", str(args.photons)]
+        if args.tracer:
+            cmd += ["--tracer", args.tracer]
         run = subprocess.run(cmd, capture_output=True, text=True)
         if run.returncode != 0:
             print(f"| {count} | failed: {run.stderr.strip().splitlines()[-1:]} |")
@@ -52,8 +57,10 @@ def main():
         mib = lambda prefix: sum(v for k, v in mem.items() if k.startswith(prefix)) / 2**20  # noqa: E731
         photons = d["photons_per_iteration"]
         trace = "n/a" if "llvmpipe" in d["adapter"] else f"{gpu['photon_trace'] * 1e3 / photons:.4f}"
+        # Under the BVH there is no cubemap build: its CPU build instead.
+        build = gpu.get("cubemap_build") or d.get("bvh_build_ms") or 0.0
         print(
-            f"| {d['triangles']} | {startup:.1f} | {per_it * 1e3:.0f} | {gpu['cubemap_build']:.1f} "
+            f"| {d['triangles']} | {startup:.1f} | {per_it * 1e3:.0f} | {build:.1f} "
             f"| {trace} | {d['cubemap_nodes']} | {mib('cubemap'):.0f} "
             f"| {mib('scene'):.1f} | {sum(mem.values()) / 2**20:.0f} |",
             flush=True,

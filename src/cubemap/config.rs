@@ -33,6 +33,11 @@ impl CubemapConfig {
         (self.resolution / self.tile_size.max(1)).max(1)
     }
 
+    /// Tiles of all six faces.
+    pub fn tiles(&self) -> u32 {
+        6 * self.grid() * self.grid()
+    }
+
     /// Levels of the min/max hierarchy, tiles up to one cell per face.
     pub fn levels(&self) -> u32 {
         32 - self.grid().leading_zeros()

@@ -261,7 +261,7 @@ impl DeepCubemap {
 
     /// A first list capacity for a scene: a few entries per tile, more for many triangles.
     pub fn initial_capacity(config: CubemapConfig, triangles: u32) -> u32 {
-        let tiles = 6 * config.grid() as u64 * config.grid() as u64;
+        let tiles = config.tiles() as u64;
         (tiles * 3 + triangles as u64 * 16).min(u32::MAX as u64 / 2) as u32
     }
 
@@ -303,7 +303,7 @@ impl DeepCubemap {
             if lost == 0 {
                 // A first guess far above what the build used is given back once (room for
                 // a quarter more, and at least one entry a tile for what the scene gains).
-                let tiles = 6 * config.grid() * config.grid();
+                let tiles = config.tiles();
                 let snug = grown_capacity(used).max(tiles);
                 if fit.overflows == 0 && !fit.shrunk && capacity > 2 * snug {
                     fit.shrunk = true;

@@ -18,7 +18,7 @@ use crate::gbuffer::GBufferPipeline;
 use crate::importons::{EyePathKey, EyePathPipeline};
 use crate::indirect_splat::{IndirectSplatKey, IndirectSplatPipeline};
 use crate::output::{OutputPipeline, output_key};
-use crate::photons::{PhotonKey, PhotonPipeline, device_photon_count, map_tiles, store_capacity};
+use crate::photons::{PhotonKey, PhotonPipeline, device_photon_count, store_capacity};
 use crate::ppm::{next_radius2, radius2_after};
 use crate::scene::{Lookups, ScatterPaths, SceneBuffers, SceneData};
 use crate::settings::{PhotonMapping, RppmDebugView, RppmMode};
@@ -234,7 +234,7 @@ pub(crate) fn prepare_views(
                 settings, photons, scene, &device, &store_fit, store_now,
             ),
             importons: makes_importons(settings, &scene.data),
-            photon_tiles: map_tiles(cubemap::fitted(cubemap_config(settings), &device).grid()),
+            photon_tiles: cubemap::fitted(cubemap_config(settings), &device).tiles(),
             subsampling: settings.indirect_subsampling,
             history: settings.history.window().is_some(),
             // A hierarchy too large for this device's textures gives way to the cubemap.

@@ -11,6 +11,7 @@ use bevy::render::render_resource::binding_types::{
 use bevy::render::render_resource::*;
 use bevy::render::renderer::RenderDevice;
 
+use crate::importons::storage;
 use crate::shaders::RppmShaders;
 use crate::stats::timing::{Stage, StageTimer};
 
@@ -19,11 +20,6 @@ pub(crate) const SCAN_BLOCK: u32 = 4096;
 
 /// The sort's passes, in order, by entry point.
 const PASSES: [&str; 4] = ["scan_blocks", "scan_sums", "scan_add", "scatter"];
-
-/// Tiles of the photon map for a cubemap of `grid`² tiles a face.
-pub fn map_tiles(grid: u32) -> u32 {
-    6 * grid * grid
-}
 
 /// The sort's layouts and pipelines, shared by every view.
 pub struct SortPipelines {
@@ -94,97 +90,75 @@ pub struct PhotonMap {
     block_sums: Buffer,
     /// The scatter's indirect dispatch, written by the scan.
     scatter_groups: Buffer,
-    tiles: u32,
-    /// The groups of the sort's passes (tiles, scans, scatter), once bound.
-    groups: Option<[BindGroup; 3]>,
-}
-
-fn buffer(device: &RenderDevice, label: &'static str, bytes: u64, usage: BufferUsages) -> Buffer {
-    device.create_buffer(&BufferDescriptor {
-        label: Some(label),
-        size: bytes,
-        usage: BufferUsages::STORAGE | usage,
-        mapped_at_creation: false,
-    })
+    /// Blocks of SCAN_BLOCK tiles, one scan workgroup each.
+    blocks: u32,
+    /// The groups of the sort's passes: tiles, scans, scatter.
+    groups: [BindGroup; 3],
 }
 
 impl PhotonMap {
-    /// Room for `capacity` photons of `photon_bytes` in `tiles` tiles.
-    pub fn new(device: &RenderDevice, capacity: u32, photon_bytes: u64, tiles: u32) -> Self {
-        // The per-tile buffers hold whole quads of tiles.
-        let quads = tiles.div_ceil(4) as u64;
-        let blocks = tiles.div_ceil(SCAN_BLOCK) as u64;
-        Self {
-            photons: buffer(
-                device,
-                "rppm_photon_map",
-                capacity as u64 * photon_bytes,
-                BufferUsages::empty(),
-            ),
-            tile_counts: buffer(
-                device,
-                "rppm_photon_tile_counts",
-                quads * 16,
-                BufferUsages::COPY_DST,
-            ),
-            tile_starts: buffer(
-                device,
-                "rppm_photon_tile_starts",
-                (quads + 1) * 16,
-                BufferUsages::empty(),
-            ),
-            block_sums: buffer(
-                device,
-                "rppm_photon_block_sums",
-                blocks * 4,
-                BufferUsages::empty(),
-            ),
-            scatter_groups: buffer(
-                device,
-                "rppm_photon_scatter_groups",
-                12,
-                BufferUsages::INDIRECT,
-            ),
-            tiles,
-            groups: None,
-        }
-    }
-
-    /// Binds the sort to the photons as stored and their tiles.
-    pub fn bind(
-        &mut self,
+    /// A map of `tiles` tiles for the photons as tracing stores them and their tiles and
+    /// ranks (`[stored, photon_tiles]`, the map as large as the first).
+    pub fn new(
         device: &RenderDevice,
         cache: &PipelineCache,
         sort: &SortPipelines,
-        stored: &Buffer,
-        photon_tiles: &Buffer,
-    ) {
-        let tiles = device.create_bind_group(
-            "rppm_photon_sort_tiles_group",
-            &cache.get_bind_group_layout(&sort.tiles_layout),
-            &BindGroupEntries::sequential((
-                self.tile_counts.as_entire_binding(),
-                self.tile_starts.as_entire_binding(),
-            )),
-        );
-        let scan = device.create_bind_group(
-            "rppm_photon_scan_group",
-            &cache.get_bind_group_layout(&sort.scan_layout),
-            &BindGroupEntries::sequential((
-                self.block_sums.as_entire_binding(),
-                self.scatter_groups.as_entire_binding(),
-            )),
-        );
-        let scatter = device.create_bind_group(
-            "rppm_photon_scatter_group",
-            &cache.get_bind_group_layout(&sort.scatter_layout),
-            &BindGroupEntries::with_indices((
-                (2, stored.as_entire_binding()),
-                (3, photon_tiles.as_entire_binding()),
-                (4, self.photons.as_entire_binding()),
-            )),
-        );
-        self.groups = Some([tiles, scan, scatter]);
+        tiles: u32,
+        [stored, photon_tiles]: [&Buffer; 2],
+    ) -> Self {
+        // The per-tile buffers hold whole quads of tiles (at least 32 bytes: 6 tiles or more).
+        let quads = tiles.div_ceil(4) as u64;
+        let blocks = tiles.div_ceil(SCAN_BLOCK);
+        let photons = storage(device, "rppm_photon_map", stored.size());
+        let tile_counts = storage(device, "rppm_photon_tile_counts", quads * 16);
+        let tile_starts = storage(device, "rppm_photon_tile_starts", (quads + 1) * 16);
+        // The scan counts its blocks from the tiles, so this may be padded.
+        let block_sums = storage(device, "rppm_photon_block_sums", blocks as u64 * 4);
+        let scatter_groups = device.create_buffer(&BufferDescriptor {
+            label: Some("rppm_photon_scatter_groups"),
+            size: 12,
+            usage: BufferUsages::STORAGE | BufferUsages::INDIRECT,
+            mapped_at_creation: false,
+        });
+        let group = |label, layout, entries: &[BindGroupEntry]| {
+            device.create_bind_group(label, &cache.get_bind_group_layout(layout), entries)
+        };
+        let groups = [
+            group(
+                "rppm_photon_sort_tiles_group",
+                &sort.tiles_layout,
+                &BindGroupEntries::sequential((
+                    tile_counts.as_entire_binding(),
+                    tile_starts.as_entire_binding(),
+                )),
+            ),
+            group(
+                "rppm_photon_scan_group",
+                &sort.scan_layout,
+                &BindGroupEntries::sequential((
+                    block_sums.as_entire_binding(),
+                    scatter_groups.as_entire_binding(),
+                )),
+            ),
+            group(
+                "rppm_photon_scatter_group",
+                &sort.scatter_layout,
+                &BindGroupEntries::with_indices((
+                    (2, stored.as_entire_binding()),
+                    (3, photon_tiles.as_entire_binding()),
+                    (4, photons.as_entire_binding()),
+                )),
+            ),
+        ];
+        Self {
+            photons,
+            tile_counts,
+            tile_starts,
+            block_sums,
+            scatter_groups,
+            blocks,
+            groups,
+        }
     }
 
     /// Orders the iteration's stored photons into the map (`passes` as [`PASSES`]).
@@ -194,10 +168,8 @@ impl PhotonMap {
         passes: [&ComputePipeline; 4],
         timer: &mut StageTimer,
     ) {
-        let Some([tiles, scan, scatter_group]) = &self.groups else {
-            return;
-        };
-        let blocks = self.tiles.div_ceil(SCAN_BLOCK);
+        let [tiles, scan, scatter_group] = &self.groups;
+        let blocks = self.blocks;
         let mut pass = encoder.begin_compute_pass(&ComputePassDescriptor {
             label: Some("rppm_photon_sort"),
             timestamp_writes: timer.compute_pass(Stage::PhotonSort),

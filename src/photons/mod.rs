@@ -23,7 +23,7 @@ use crate::view::ViewLayouts;
 pub use budget::{FrameCost, MIN_PHOTONS, PhotonController, START_PHOTONS};
 #[cfg(test)]
 pub(crate) use map::SCAN_BLOCK;
-pub use map::{PhotonMap, SortPipelines, map_tiles};
+pub use map::{PhotonMap, SortPipelines};
 pub(crate) use store::store_capacity;
 pub use store::{PHOTON_BYTES, PhotonStore, StoreFit};
 

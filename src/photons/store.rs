@@ -10,6 +10,7 @@ use bevy::render::renderer::{RenderDevice, RenderQueue};
 use super::PhotonPipeline;
 use super::map::PhotonMap;
 use crate::cubemap::TracingGroups;
+use crate::importons::storage;
 use crate::ppm::{grown_capacity, photon_store_capacity};
 use crate::scene::SceneBuffers;
 use crate::settings::{PhotonMapping, RppmDebugView};
@@ -112,7 +113,7 @@ pub struct PhotonStore {
 }
 
 impl PhotonStore {
-    /// Room for `capacity` photons, mapped into `tiles` tiles ([`super::map_tiles`]).
+    /// Room for `capacity` photons, mapped into `tiles` tiles (the cubemap's).
     pub fn new(
         device: &RenderDevice,
         cache: &PipelineCache,
@@ -120,23 +121,20 @@ impl PhotonStore {
         capacity: u32,
         tiles: u32,
     ) -> Self {
-        let buffer = |label: &'static str, bytes: u64| {
-            device.create_buffer(&BufferDescriptor {
-                label: Some(label),
-                size: bytes,
-                usage: BufferUsages::STORAGE,
-                mapped_at_creation: false,
-            })
-        };
-        let stored = buffer("rppm_photons", capacity as u64 * PHOTON_BYTES);
-        let photon_tiles = buffer("rppm_photon_tiles", capacity as u64 * 8);
+        let stored = storage(device, "rppm_photons", capacity as u64 * PHOTON_BYTES);
+        let photon_tiles = storage(device, "rppm_photon_tiles", capacity as u64 * 8);
         let count = device.create_buffer_with_data(&BufferInitDescriptor {
             label: Some("rppm_photon_count"),
             contents: bytemuck::cast_slice(&[0u32; 4]),
             usage: BufferUsages::STORAGE | BufferUsages::COPY_DST | BufferUsages::COPY_SRC,
         });
-        let mut map = PhotonMap::new(device, capacity, PHOTON_BYTES, tiles);
-        map.bind(device, cache, &pipeline.sort, &stored, &photon_tiles);
+        let map = PhotonMap::new(
+            device,
+            cache,
+            &pipeline.sort,
+            tiles,
+            [&stored, &photon_tiles],
+        );
         let group = device.create_bind_group(
             "rppm_photon_store_group",
             &cache.get_bind_group_layout(&pipeline.store_layout),

@@ -4,11 +4,11 @@
 // its radius, on its surface: throughput · f(wo, wi) · Φ / (π r²). The work is the photons
 // near importons, each importon's sum stays in registers (no atomics), and a large radius
 // elsewhere costs no one else.
-#import bevy_rppm::common::{Material, Outgoing, Photon, Importon, IterationParams, PI, NO_IMPORTON, faces_reached, face_tiles, splat_weight, unpack_normal}
+#import bevy_rppm::common::{Material, Outgoing, Photon, Importon, IterationParams, PI, NO_IMPORTON, faces_reached, splat_weight, unpack_normal}
 #import bevy_rppm::scene::{triangle_at, barycentrics, material_at}
 #import bevy_rppm::bsdf::{bsdf_from, bsdf_toward, translucency}
 #import bevy_rppm::cubemap::cubemap
-#import bevy_rppm::photon_map::{photons, row_run, next_in_kernel}
+#import bevy_rppm::photon_map::{photons, face_gather, gather_row_run, next_in_kernel}
 
 @group(1) @binding(0) var<uniform> params: IterationParams;
 
@@ -44,9 +44,9 @@ fn gather(@builtin(global_invocation_id) id: vec3<u32>) {
     let faces = faces_reached(cubemap, imp.position, imp.radius);
     for (var i = 0u; i < faces.y; i += 1u) {
         let face = (faces.x + i) % 6u;
-        let tiles = face_tiles(cubemap, imp.position, imp.radius, face);
-        for (var y = tiles.z; y <= tiles.w; y += 1) {
-            sum += gather_run(imp, m, out, pixel, row_run(face, y, tiles.x, tiles.y));
+        let seen = face_gather(cubemap, imp.position, imp.radius, face);
+        for (var y = seen.tiles.z; y <= seen.tiles.w; y += 1) {
+            sum += gather_run(imp, m, out, pixel, gather_row_run(seen, face, y));
         }
     }
     let r = imp.radius;

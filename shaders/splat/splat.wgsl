@@ -7,11 +7,11 @@
 // SUBSAMPLED (ISPM): the target has one texel per n×n pixels, gathered at one representative
 // pixel of the block, and holds incident light Σ Φ / (π r²) for the joint-bilateral upsampling
 // in shaders/accumulate/accumulate.wgsl, which applies each full-resolution pixel's own BSDF.
-#import bevy_rppm::common::{Material, Outgoing, Photon, IterationParams, PI, faces_reached, face_tiles, gather_radius, splat_weight, subsample_representative, unpack_normal}
+#import bevy_rppm::common::{Material, Outgoing, Photon, IterationParams, PI, faces_reached, gather_radius, splat_weight, subsample_representative, unpack_normal}
 #import bevy_rppm::scene::{gbuffer_material, resolved_material, resolved_kernel_normal, kernel_normal}
-#import bevy_rppm::bsdf::{bsdf_from, bsdf_gathered, translucency}
+#import bevy_rppm::bsdf::{bsdf_from, bsdf_gathered, translucency, stores_photons}
 #import bevy_rppm::cubemap::cubemap
-#import bevy_rppm::photon_map::{photons, row_run, next_in_kernel}
+#import bevy_rppm::photon_map::{photons, face_gather, gather_row_run, next_in_kernel}
 
 @group(1) @binding(0) var<uniform> params: IterationParams;
 
@@ -86,15 +86,22 @@ fn gather(@builtin(global_invocation_id) id: vec3<u32>) {
 #else
     let m = gbuffer_material(gp, gn.w);
 #endif
+    // No photon is stored on mirrors, clear or rough glass and smooth glossy metal, so none is
+    // gathered there: their light comes by camera paths. (Water filling the view made the
+    // splat walk 50 photons a pixel to find none.)
+    if !stores_photons(m) {
+        textureStore(splats, texel, vec4<f32>(0.0));
+        return;
+    }
     let wo = normalize(params.camera_position.xyz - gp.xyz);
     let out = bsdf_from(m, gn.xyz, wo);
     var sum = vec3<f32>(0.0);
     let faces = faces_reached(cubemap, k.position, k.radius);
     for (var i = 0u; i < faces.y; i += 1u) {
         let face = (faces.x + i) % 6u;
-        let tiles = face_tiles(cubemap, k.position, k.radius, face);
-        for (var y = tiles.z; y <= tiles.w; y += 1) {
-            sum += gather_run(k, m, out, gn.xyz, wo, row_run(face, y, tiles.x, tiles.y));
+        let seen = face_gather(cubemap, k.position, k.radius, face);
+        for (var y = seen.tiles.z; y <= seen.tiles.w; y += 1) {
+            sum += gather_run(k, m, out, gn.xyz, wo, gather_row_run(seen, face, y));
         }
     }
     let density = splat_weight(params) / (PI * k.radius * k.radius);

@@ -5,6 +5,8 @@
 //! paths.
 
 mod budget;
+#[cfg(test)]
+mod ellipse;
 mod map;
 mod store;
 

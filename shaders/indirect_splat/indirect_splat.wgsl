@@ -44,7 +44,7 @@ fn gather(@builtin(global_invocation_id) id: vec3<u32>) {
     let faces = faces_reached(cubemap, imp.position, imp.radius);
     for (var i = 0u; i < faces.y; i += 1u) {
         let face = (faces.x + i) % 6u;
-        let seen = face_gather(cubemap, imp.position, imp.radius, face);
+        let seen = face_gather(cubemap, imp.position, imp.radius, imp.normal, params.kernel_flattening, face);
         for (var y = seen.tiles.z; y <= seen.tiles.w; y += 1) {
             sum += gather_run(imp, m, out, pixel, gather_row_run(seen, face, y));
         }

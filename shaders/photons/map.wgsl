@@ -16,86 +16,154 @@ fn row_run(face: u32, y: i32, x0: i32, x1: i32) -> vec2<u32> {
     return vec2<u32>(tile_starts[first], tile_starts[first + u32(max(x1 - x0 + 1, 0))]);
 }
 
-// A gather sphere seen on one cubemap face: the box of tiles it reaches (face_tiles) and,
-// where its projection is an ellipse, that ellipse, so that a row of tiles walks only the
-// tiles its band of the ellipse covers: the box's corners hold a quarter of its photons and
-// none of them is in the sphere. The ellipse is the conic
-// a x² + 2h xy + b y² + 2g x + 2f y + k <= 0 of the offset (x, y) of face coordinates from
-// the sphere's centre's, written in the cone's sin² s2 so that nothing cancels when the
-// sphere is small and far.
-struct FaceGather {
-    tiles: vec4<i32>,
-    centre: vec2<f32>,
+// Widening of each row's band and ends, in face coordinates: far more than f32's error, far
+// less than a tile.
+const MARGIN: f32 = 1e-4;
+// Share of the ellipsoid that bounds a kernel spent on its thickness: semi-axes r / √(1 − w)
+// across and h / √w along the normal hold the cylinder of radius r and half-height h.
+const DISC_SHARE: f32 = 0.2;
+
+// A projection on a cubemap face: the conic a x² + 2h xy + b y² + 2g x + 2f y + k <= 0 of
+// offsets from the kernel's centre's projection (src/photons/ellipse.rs mirrors this and
+// tests that no point of a kernel falls outside its rows' ranges).
+struct Conic {
     // (a, h, b) and (g, f, k).
     quadratic: vec3<f32>,
     linear: vec3<f32>,
     // The x offsets of the leftmost and rightmost points, then their y offsets.
     extremes: vec4<f32>,
-    ellipse: bool,
+    // The y offsets of the lowest and highest points.
+    heights: vec2<f32>,
+    valid: bool,
 }
 
-fn face_gather(d: CubemapParams, p: vec3<f32>, r: f32, face: u32) -> FaceGather {
+// The conic of the ellipsoid (x - p)ᵀ M (x - p) <= 1 seen from the cubemap's centre, for u
+// the unit direction to p, s2 its semi-axis across over |p|, squared, and m = semi-axis² · M:
+// written about the centre's projection in these units, so that nothing cancels when the
+// kernel is small and far. Not valid where it is no bounded ellipse (the ellipsoid holds the
+// centre or reaches the face's horizon).
+fn conic(u: vec3<f32>, s2: f32, m: mat3x3<f32>) -> Conic {
+    var out: Conic;
+    out.valid = false;
+    let mu = m * u;
+    let e = dot(u, mu) - s2;
+    if u.z <= 0.0 || e <= 0.0 {
+        return out;
+    }
+    let a = e * m[0].x - mu.x * mu.x;
+    let h = e * m[1].x - mu.x * mu.y;
+    let b = e * m[1].y - mu.y * mu.y;
+    let g = -s2 * mu.x / u.z;
+    let f = -s2 * mu.y / u.z;
+    let k = -s2 * (e + s2) / (u.z * u.z);
+    // The points with a vertical tangent lie on h x + b y + f = 0, those with a horizontal
+    // one on a x + h y + g = 0.
+    let qa = a * b - h * h;
+    let qb = g * b - h * f;
+    let qc = k * b - f * f;
+    let disc = qb * qb - qa * qc;
+    if a <= 0.0 || b <= 0.0 || qa <= 0.01 * a * b || disc < 0.0 {
+        return out;
+    }
+    let x_lo = (-qb - sqrt(disc)) / qa;
+    let x_hi = (-qb + sqrt(disc)) / qa;
+    let qb_y = f * a - h * g;
+    let disc_y = max(qb_y * qb_y - qa * (k * a - g * g), 0.0);
+    out.extremes = vec4<f32>(x_lo, x_hi, -(h * x_lo + f) / b, -(h * x_hi + f) / b);
+    out.heights = vec2<f32>(-qb_y - sqrt(disc_y), -qb_y + sqrt(disc_y)) / qa;
+    out.quadratic = vec3<f32>(a, h, b);
+    out.linear = vec3<f32>(g, f, k);
+    out.valid = true;
+    return out;
+}
+
+// The conic's x offset at y offset t: its left end (side -1) or right end (side 1).
+fn conic_end(c: Conic, t: f32, side: f32) -> f32 {
+    let half_b = c.quadratic.y * t + c.linear.x;
+    let k = (c.quadratic.z * t + 2.0 * c.linear.y) * t + c.linear.z;
+    let disc = max(half_b * half_b - c.quadratic.x * k, 0.0);
+    return (side * sqrt(disc) - half_b) / c.quadratic.x;
+}
+
+// The x offsets the conic reaches over the band of y offsets [t0, t1]: a concave right end
+// is widest at its extreme point when the band holds it, else at the band's edge nearest
+// it (the left end likewise).
+fn conic_band(c: Conic, t0: f32, t1: f32) -> vec2<f32> {
+    return vec2<f32>(
+        conic_end(c, clamp(c.extremes.z, t0, t1), -1.0),
+        conic_end(c, clamp(c.extremes.w, t0, t1), 1.0),
+    );
+}
+
+// A gather kernel seen on one cubemap face, so that it walks only the tiles its projection
+// covers, row by row, not the box of tiles its sphere reaches (face_tiles), whose corners
+// hold a quarter of the box's photons and none of the kernel's. The kernel is the ball of
+// radius r cut to a slab of half-thickness h about its plane; its projection lies in that of
+// the sphere and in that of an ellipsoid holding the cut ball, which for a surface seen at
+// a grazing angle is far narrower.
+struct FaceGather {
+    // The box of tiles, its rows cut to those the projection reaches.
+    tiles: vec4<i32>,
+    centre: vec2<f32>,
+    sphere: Conic,
+    disc: Conic,
+}
+
+// The kernel of radius r around p whose plane has normal `plane` (any length: the kernel
+// keeps |plane · offset| <= flattening · r).
+fn face_gather(d: CubemapParams, p: vec3<f32>, r: f32, plane: vec3<f32>, flattening: f32, face: u32) -> FaceGather {
     var out: FaceGather;
     out.tiles = face_tiles(d, p, r, face);
-    out.ellipse = false;
-    let l = transpose(face_basis(face)) * (p - d.centre.xyz);
+    out.sphere.valid = false;
+    out.disc.valid = false;
+    let basis = transpose(face_basis(face));
+    let l = basis * (p - d.centre.xyz);
     let distance2 = dot(l, l);
     let s2 = r * r / distance2;
     if !(s2 < 1.0) || out.tiles.x > out.tiles.y {
         return out;
     }
     let u = l * inverseSqrt(distance2);
-    // A cone that reaches the face's horizon projects to a hyperbola: the box then.
-    if u.z <= 0.0 || u.z * u.z <= s2 * 1.01 {
+    let identity = mat3x3<f32>(vec3<f32>(1.0, 0.0, 0.0), vec3<f32>(0.0, 1.0, 0.0), vec3<f32>(0.0, 0.0, 1.0));
+    out.sphere = conic(u, s2, identity);
+    if !out.sphere.valid {
         return out;
     }
-    let c2 = 1.0 - s2;
-    let a = c2 - u.x * u.x;
-    let h = -u.x * u.y;
-    let b = c2 - u.y * u.y;
-    let g = -s2 * u.x / u.z;
-    let f = -s2 * u.y / u.z;
-    let k = -s2 / (u.z * u.z);
-    // The points with a vertical tangent lie on h x + b y + f = 0.
-    let qa = a * b - h * h;
-    let qb = g * b - h * f;
-    let qc = k * b - f * f;
-    let disc = qb * qb - qa * qc;
-    if qa <= 0.0 || b <= 0.0 || a <= 0.0 || disc < 0.0 {
-        return out;
-    }
-    let x_lo = (-qb - sqrt(disc)) / qa;
-    let x_hi = (-qb + sqrt(disc)) / qa;
-    out.extremes = vec4<f32>(x_lo, x_hi, -(h * x_lo + f) / b, -(h * x_hi + f) / b);
     out.centre = u.xy / u.z;
-    out.quadratic = vec3<f32>(a, h, b);
-    out.linear = vec3<f32>(g, f, k);
-    out.ellipse = true;
+    var heights = out.sphere.heights;
+    let length_n = length(plane);
+    if length_n > 0.0 {
+        let n = basis * plane / length_n;
+        let h = flattening / length_n;
+        // Semi-axes² r² / (1 - w) across and (h r)² / w along n, over the first.
+        let along = DISC_SHARE / ((1.0 - DISC_SHARE) * h * h);
+        out.disc = conic(u, s2 / (1.0 - DISC_SHARE), identity + mat3x3<f32>(n * n.x, n * n.y, n * n.z) * (along - 1.0));
+        if out.disc.valid {
+            heights = vec2<f32>(max(heights.x, out.disc.heights.x), min(heights.y, out.disc.heights.y));
+        }
+    }
+    let grid = f32(d.grid);
+    out.tiles.z = max(out.tiles.z, i32(floor((1.0 - (out.centre.y + heights.y + MARGIN)) * 0.5 * grid)));
+    out.tiles.w = min(out.tiles.w, i32(floor((1.0 - (out.centre.y + heights.x - MARGIN)) * 0.5 * grid)));
     return out;
 }
 
-// The ellipse's x offset at y offset t: its left end (side -1) or right end (side 1).
-fn ellipse_end(seen: FaceGather, t: f32, side: f32) -> f32 {
-    let half_b = seen.quadratic.y * t + seen.linear.x;
-    let c = (seen.quadratic.z * t + 2.0 * seen.linear.y) * t + seen.linear.z;
-    let disc = max(half_b * half_b - seen.quadratic.x * c, 0.0);
-    return (side * sqrt(disc) - half_b) / seen.quadratic.x;
-}
-
-// The map's run for row y of a face gather: the tiles of the ellipse's band of face y
-// coordinates [1 - 2 (y + 1) / grid, 1 - 2 y / grid] (widened by far more than f32's error,
-// far less than a tile), within the box. A concave right end is widest at its extreme point
-// when the band holds it, else at the band's edge nearest it (the left end likewise).
+// The map's run for row y of a face gather: the tiles of the band of face y coordinates
+// [1 - 2 (y + 1) / grid, 1 - 2 y / grid] that both projections reach, within the box.
 fn gather_row_run(seen: FaceGather, face: u32, y: i32) -> vec2<u32> {
-    if !seen.ellipse {
+    if !seen.sphere.valid {
         return row_run(face, y, seen.tiles.x, seen.tiles.y);
     }
     let grid = f32(cubemap.grid);
-    let margin = 1e-4;
-    let t0 = 1.0 - 2.0 * f32(y + 1) / grid - seen.centre.y - margin;
-    let t1 = 1.0 - 2.0 * f32(y) / grid - seen.centre.y + margin;
-    let lo = seen.centre.x + ellipse_end(seen, clamp(seen.extremes.z, t0, t1), -1.0) - margin;
-    let hi = seen.centre.x + ellipse_end(seen, clamp(seen.extremes.w, t0, t1), 1.0) + margin;
+    let t0 = 1.0 - 2.0 * f32(y + 1) / grid - seen.centre.y - MARGIN;
+    let t1 = 1.0 - 2.0 * f32(y) / grid - seen.centre.y + MARGIN;
+    var band = conic_band(seen.sphere, t0, t1);
+    if seen.disc.valid {
+        let disc = conic_band(seen.disc, t0, t1);
+        band = vec2<f32>(max(band.x, disc.x), min(band.y, disc.y));
+    }
+    let lo = seen.centre.x + band.x - MARGIN;
+    let hi = seen.centre.x + band.y + MARGIN;
     let x0 = max(i32(floor((lo + 1.0) * 0.5 * grid)), seen.tiles.x);
     let x1 = min(i32(floor((hi + 1.0) * 0.5 * grid)), seen.tiles.y);
     return row_run(face, y, x0, x1);

@@ -230,5 +230,22 @@ mod tests {
             value("photons/sort.wgsl", "SCAN_BLOCK"),
             crate::photons::SCAN_BLOCK as usize
         );
+        // The gathers' rows and their tested mirror (src/photons/ellipse.rs).
+        let float = |file: &str, name: &str| -> f32 {
+            let text = std::fs::read_to_string(shaders.join(file)).unwrap();
+            let line = text
+                .lines()
+                .find(|l| l.starts_with(&format!("const {name}: f32 = ")))
+                .unwrap_or_else(|| panic!("{name} in {file}"));
+            line.rsplit(' ')
+                .next()
+                .unwrap()
+                .trim_end_matches(';')
+                .parse()
+                .unwrap()
+        };
+        use crate::photons::ellipse::{DISC_SHARE, MARGIN};
+        assert_eq!(float("photons/map.wgsl", "MARGIN"), MARGIN);
+        assert_eq!(float("photons/map.wgsl", "DISC_SHARE"), DISC_SHARE);
     }
 }

@@ -5,12 +5,12 @@
 use bevy::math::{Mat3, Vec2, Vec3, Vec4};
 
 /// Widening of each row's band and ends, in face coordinates (as in map.wgsl).
-const MARGIN: f32 = 1e-4;
+pub(crate) const MARGIN: f32 = 1e-4;
 
 /// Share of the ellipsoid's bound spent on the kernel's thickness (`DISC_SHARE` in map.wgsl):
 /// semi-axes r / √(1 − w) across and h / √w along the normal hold the cylinder of radius r
 /// and half-height h.
-const DISC_SHARE: f32 = 0.2;
+pub(crate) const DISC_SHARE: f32 = 0.2;
 
 /// A projection on a cubemap face as the conic a x² + 2h xy + b y² + 2g x + 2f y + k <= 0 of
 /// offsets from its centre's projection.

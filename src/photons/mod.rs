@@ -6,7 +6,7 @@
 
 mod budget;
 #[cfg(test)]
-mod ellipse;
+pub(crate) mod ellipse;
 mod map;
 mod store;
 

@@ -150,10 +150,16 @@ fn trace(@builtin(global_invocation_id) id: vec3<u32>) {
     for (var step = 0u; step < steps; step += 1u) {
         var ended = true;
         let hit = trace_ray(ray.origin, ray.direction, t_min, 1.0e30, ray.ignore);
-        if hit.triangle != NO_HIT {
+        var reached = hit.triangle != NO_HIT;
 #ifdef ABSORPTION
-            ray.flux *= exp(-medium * hit.t);
+        // Absorbed by roulette on the channel that keeps most, the others weighted to match,
+        // so that a photon keeps its power and coloured glass does not trace faint ones long.
+        let transmittance = exp(-medium * hit.t);
+        let survive = max(transmittance.x, max(transmittance.y, transmittance.z));
+        reached = reached && random(&rng) < survive;
+        ray.flux *= transmittance / max(survive, 1e-30);
 #endif
+        if reached {
             let t = triangle_at(hit.triangle);
             let x = ray.origin + ray.direction * hit.t;
             let geometric = normalize(cross(t.position_b - t.position_a, t.position_c - t.position_a));

@@ -115,16 +115,24 @@ pub fn pose(app: &mut App, scene: &Path, index: usize, seconds: f32) -> Result<P
         node,
         duration,
     };
-    let epoch = app.world().resource::<RppmScene>().epoch;
+    let mut epoch = app.world().resource::<RppmScene>().epoch;
     posed.seek(app, seconds);
     // The pose reaches the transforms, and extraction sees it, within a few updates; more
-    // where the clip's asset comes a little after the glTF's (a busy machine).
+    // where the clip's asset comes a little after the glTF's (a busy machine). Another change
+    // (a texture arriving) may move the scene first, so the scene must move and then hold.
+    let mut held = None;
     for _ in 0..60 {
         app.update();
-        if app.world().resource::<RppmScene>().epoch != epoch {
-            break;
+        let now = app.world().resource::<RppmScene>().epoch;
+        if now != epoch {
+            epoch = now;
+            held = Some(0);
+        } else if let Some(updates) = held.as_mut() {
+            *updates += 1;
+            if *updates == 3 {
+                break;
+            }
         }
     }
-    app.update();
     Ok(posed)
 }

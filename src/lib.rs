@@ -206,19 +206,20 @@ mod tests {
     #[test]
     fn shader_constants_mirror_the_cpu_side() {
         let shaders = Path::new(env!("CARGO_MANIFEST_DIR")).join("shaders");
-        let value = |file: &str, name: &str| -> usize {
+        // The value of `const NAME: TYPE = VALUE;` in a shader, as written (no `u` suffix).
+        let constant = |file: &str, name: &str, ty: &str| -> String {
             let text = std::fs::read_to_string(shaders.join(file)).unwrap();
             let line = text
                 .lines()
-                .find(|l| l.starts_with(&format!("const {name}: u32 = ")))
+                .find(|l| l.starts_with(&format!("const {name}: {ty} = ")))
                 .unwrap_or_else(|| panic!("{name} in {file}"));
-            line.rsplit(' ')
-                .next()
-                .unwrap()
-                .trim_end_matches(['u', ';'])
-                .parse()
-                .unwrap()
+            let value = line.rsplit(' ').next().unwrap();
+            value.trim_end_matches(['u', ';']).to_string()
         };
+        let value =
+            |file: &str, name: &str| -> usize { constant(file, name, "u32").parse().unwrap() };
+        let float =
+            |file: &str, name: &str| -> f32 { constant(file, name, "f32").parse().unwrap() };
         use crate::scene::upload::{MATERIAL_TEXELS, MATERIALS_ROW};
         assert_eq!(
             value("scene/scene.wgsl", "MATERIAL_TEXELS"),
@@ -231,19 +232,6 @@ mod tests {
             crate::photons::SCAN_BLOCK as usize
         );
         // The gathers' rows and their tested mirror (src/photons/ellipse.rs).
-        let float = |file: &str, name: &str| -> f32 {
-            let text = std::fs::read_to_string(shaders.join(file)).unwrap();
-            let line = text
-                .lines()
-                .find(|l| l.starts_with(&format!("const {name}: f32 = ")))
-                .unwrap_or_else(|| panic!("{name} in {file}"));
-            line.rsplit(' ')
-                .next()
-                .unwrap()
-                .trim_end_matches(';')
-                .parse()
-                .unwrap()
-        };
         use crate::photons::ellipse::{DISC_SHARE, MARGIN};
         assert_eq!(float("photons/map.wgsl", "MARGIN"), MARGIN);
         assert_eq!(float("photons/map.wgsl", "DISC_SHARE"), DISC_SHARE);

@@ -242,3 +242,24 @@ fn a_moving_light_keeps_the_indirect_history() {
     assert_eq!(result.rows.len(), 4);
     assert!(reuse * 1.5 <= reset, "Reuse {reuse} against Reset {reset}");
 }
+
+/// A measuring interval longer than the animation is a clear error, before anything renders
+/// (it once left no frame measured and the plot's log axis looping without end).
+#[test]
+fn a_motion_bench_that_would_measure_nothing_says_so() {
+    let request = MotionRequest {
+        scene: Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/cornell_box.gltf"),
+        script: Script::Orbit,
+        frames: 8,
+        every: 100,
+        width: 16,
+        height: 16,
+        settings: PhotonMapping::default(),
+        window: 8,
+        reference_iterations: 4,
+    };
+    let Err(error) = bench_motion(&request, |_| {}) else {
+        panic!("a bench with no frame to measure ran");
+    };
+    assert!(error.contains("--every 100"), "{error}");
+}

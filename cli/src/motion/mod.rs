@@ -299,6 +299,12 @@ pub fn bench_motion(
     if request.frames == 0 || request.every == 0 {
         return Err("--frames and --every must be at least 1".into());
     }
+    if request.every > request.frames {
+        return Err(format!(
+            "--every {} is more than --frames {}: no frame would be measured",
+            request.every, request.frames
+        ));
+    }
     log("Reset run");
     let reset = run(request, RppmHistory::Reset, false)?;
     log("Reuse run");

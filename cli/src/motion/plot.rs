@@ -57,7 +57,8 @@ fn line_plot(path: &Path, title: &str, axes: (&str, &str), runs: &[Series]) -> R
         root.fill(&WHITE).map_err(|e| err(&e))?;
         let values = runs.iter().flat_map(|(_, _, p)| p.iter().map(|p| p.1));
         let values: Vec<f64> = values.filter(|v| v.is_finite() && *v > 0.0).collect();
-        let lo = values.iter().copied().fold(f64::MAX, f64::min).max(1e-8) / 2.0;
+        // A log axis needs a finite, positive range (none measured: a default decade).
+        let lo = values.iter().copied().fold(1.0, f64::min).max(1e-8) / 2.0;
         let hi = values.iter().copied().fold(0.0, f64::max).max(lo * 4.0) * 2.0;
         let last = runs
             .iter()

@@ -29,8 +29,8 @@ bilinear repeating bitmaps, COLOR_0 as the `vertex_color` mesh attribute, alpha 
 base) as a `blendbsdf` of Lambert and the rough metal weighted by metallic, a normal texture
 as `normalmap`; KHR_texture_transform and the normal map's scale are left out.
 Lights: KHR_lights_punctual point (W/sr = cd; with `extras.rppm_radius` a sphere of that
-radius, radiance I/(πr²), that neither blocks nor reflects), spot (hard cone at the outer angle: Mitsuba's
-falloff differs from Bevy's a², so only the cone is kept), directional (W/m² = lux); their
+radius, radiance I/(πr²), that neither blocks nor reflects), spot (Mitsuba's ramp in angle from the inner cone, over 2/3 of the
+gap to the outer: the power Bevy's squared ramp sends into that band), directional (W/m² = lux); their
 colour is read as sRGB, as Bevy's glTF loader reads it.
 """
 
@@ -415,14 +415,22 @@ def build_scene(path, width, height, tmp, max_depth=16):
             elif kind == "directional":
                 scene[f"light_{len(scene)}"] = {"type": "directional", "direction": direction, "irradiance": {"type": "rgb", "value": colour}}
             elif kind == "spot":
-                outer = math.degrees(l.get("spot", {}).get("outerConeAngle", math.pi / 4))
+                # Bevy's falloff is the square of a ramp in cos θ from the outer cone to the
+                # inner; Mitsuba's a ramp in θ from `cutoff_angle` to `beam_width`. A ramp
+                # from the inner angle over 2/3 of the gap sends the same power into the same
+                # band (∫ of x² is 1/3, of a ramp over 2/3 also 1/3), so the cone's edge is
+                # soft where Bevy's is and its light the same.
+                spot = l.get("spot", {})
+                outer = spot.get("outerConeAngle", math.pi / 4)
+                inner = min(spot.get("innerConeAngle", 0.0), outer)
+                cutoff = math.degrees(inner + 2.0 / 3.0 * (outer - inner))
                 target = [position[i] + direction[i] for i in range(3)]
                 scene[f"light_{len(scene)}"] = {
                     "type": "spot",
                     "to_world": mi.ScalarTransform4f().look_at(origin=position, target=target, up=[0, 1, 0] if abs(direction[1]) < 0.9 else [1, 0, 0]),
                     "intensity": {"type": "rgb", "value": colour},
-                    "cutoff_angle": outer,
-                    "beam_width": outer,
+                    "cutoff_angle": cutoff,
+                    "beam_width": math.degrees(inner),
                 }
             mapping.append(f"{node.get('name', 'light')}: {kind} {l.get('intensity', 1.0)} x {l.get('color', [1, 1, 1])}")
     sky = (gltf.get("scenes") or [{}])[0].get("extras", {}).get("rppm_sky")

@@ -15,7 +15,11 @@ of failure:
   corner, a glass block and a white box;
 - `lens_caustic`: a glass ball under a point light, both above the camera's view, focusing
   the light into a caustic on the floor of an open box (reference by light tracing:
-  `reference.py --integrator ptracer`).
+  `reference.py --integrator ptracer`);
+- `mirror_caustic`: a glass ball's caustic under a panel, seen again in a mirror wall, and a
+  spot light clear of both;
+- `sun_spot_caustics`: caustics from a directional sun and a spot light, each through a glass
+  ball above the camera's view (reference by light tracing, as `lens_caustic`'s).
 
     python3 tools/suite_scenes.py assets/suite
     python3 tools/reference.py assets/suite/sun_room.gltf --out assets/suite/sun_room.ref.exr \
@@ -396,12 +400,59 @@ def sky_court(path):
     g.write(path, "bevy_rppm tools/suite_scenes.py sky_court", sky=[0.5, 0.65, 0.9])
 
 
+def mirror_caustic(path):
+    g, h, faces = open_box()
+    floor, ceiling, back, _front, left, right = faces
+    g.quads([floor, ceiling, back], g.material([0.7, 0.7, 0.68]))
+    g.quads([left], g.material([0.65, 0.2, 0.15]))
+    # The right wall a perfect mirror (metallic 1, roughness 0; one-sided): the camera sees the
+    # glass ball's caustic twice, on the floor and in the mirror (camera paths through a
+    # specular bounce before the surface that gathers).
+    g.quads([right], g.material([0.92, 0.92, 0.9], roughness=0.0, metallic=1.0))
+    # A glass ball (ior 1.5) 5 mm above the floor under a ceiling panel: its caustic lies in
+    # its shadow, and the mirror shows both again.
+    g.mesh(*sphere([0.55, 0.285, -0.45], 0.28), g.glass(1.5))
+    ceiling_panel(g, h - 0.01, 0.55, -0.45, 0.25, [1.0, 0.95, 0.9], 15.0)
+    # A spot light on the back-left corner, its cone clear of the glass and the mirror (a path
+    # tracer cannot find a spot's caustic or its image in a mirror).
+    g.light({"type": "spot", "color": [0.9, 0.95, 1.0], "intensity": 6.0,
+             "spot": {"innerConeAngle": 0.33, "outerConeAngle": 0.35}},
+            translation=[-0.9, 2.3, 0.4], direction=[-0.35, -1.0, -0.8])
+    g.camera([-0.6, 1.45, 2.85], [0.75, 0.3, -0.6], yfov=0.85)
+    g.write(path, "bevy_rppm tools/suite_scenes.py mirror_caustic")
+
+
+def sun_spot_caustics(path):
+    g = Gltf()
+    # An open-topped box (no ceiling, no front) in the sun: a directional light and a spot light
+    # each focus a caustic through a glass ball (ior 1.5) onto the floor. Both balls hang above
+    # all the camera sees, which is diffuse, so light tracing (Mitsuba's `ptracer`) renders
+    # every path there is; a path tracer cannot find a sun's or a spot's caustic at all.
+    w, h, d = 3.0, 2.4, 3.0
+    floor, _ceiling, back, _front, left, right = box([-w / 2, 0, -d / 2], [w / 2, h, d / 2], inward=True)
+    g.quads([floor, back], g.material([0.7, 0.7, 0.68]))
+    g.quads([left], g.material([0.65, 0.2, 0.15]))
+    g.quads([right], g.material([0.2, 0.3, 0.65]))
+    glass = g.glass(1.5)
+    g.mesh(*sphere([-0.5, 1.9, -0.6], 0.2), glass)
+    g.mesh(*sphere([0.6, 1.75, -0.3], 0.2), glass)
+    # The sun from above, a little from the left and front; the spot straight down, its cone
+    # wider than the ball, from 0.45 m above it.
+    g.light({"type": "directional", "color": [1.0, 0.95, 0.85], "intensity": 2.0}, direction=[0.15, -1.0, -0.1])
+    g.light({"type": "spot", "color": [0.85, 0.9, 1.0], "intensity": 6.0,
+             "spot": {"innerConeAngle": 0.45, "outerConeAngle": 0.55}},
+            translation=[0.6, 2.2, -0.3], direction=[0.0, -1.0, 0.0])
+    g.camera([0.0, 1.3, 2.9], [0.0, 0.0, -0.5], yfov=0.8)
+    g.write(path, "bevy_rppm tools/suite_scenes.py sun_spot_caustics")
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("out", help="folder for the .gltf files")
     args = parser.parse_args()
     os.makedirs(args.out, exist_ok=True)
-    for make in (sun_room, glass_slab, tinted_glass, frosted_glass, water_pool, sky_court, lens_caustic, clearcoat, translucent):
+    for make in (sun_room, glass_slab, tinted_glass, frosted_glass, water_pool, sky_court, lens_caustic, clearcoat, translucent,
+                 mirror_caustic, sun_spot_caustics):
         path = os.path.join(args.out, f"{make.__name__}.gltf")
         make(path)
         print(f"wrote {path}")

@@ -11,6 +11,7 @@ import argparse
 import base64
 import json
 import math
+import os
 import struct
 
 from suite_scenes import look
@@ -141,6 +142,8 @@ def main():
                      "uri": "data:application/octet-stream;base64," + base64.b64encode(bytes(buf)).decode()}],
         "bufferViews": views, "accessors": accessors,
     }
+    # The README writes to out/…, which a fresh clone lacks.
+    os.makedirs(os.path.dirname(os.path.abspath(args.out)), exist_ok=True)
     with open(args.out, "w") as f:
         json.dump(gltf, f)
     print(f"wrote {args.out}: {len(idx) // 3} water triangles, {len(WAVES) * 2} morph targets")

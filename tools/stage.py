@@ -75,6 +75,8 @@ def main():
     parser.add_argument("--pitch", type=float, default=15.0, help="camera elevation, degrees")
     parser.add_argument("--sun", type=float, default=3.0, help="sun irradiance, W/m² (lux)")
     args = parser.parse_args()
+    # The README writes to out/…, which a fresh clone lacks.
+    os.makedirs(os.path.dirname(os.path.abspath(args.out)), exist_ok=True)
     gltf = read_scene(args.scene, args.out)
     lo, hi = bounds(gltf)
     centre = [(lo[k] + hi[k]) / 2 for k in range(3)]

@@ -2,7 +2,7 @@
 // (directly on the G-buffer, and through importons), averaged into the radiance of all
 // iterations since the last reset (w: the pixel's count), or with HISTORY of the pixel's
 // history kept through motion.
-#import bevy_rppm::common::{IterationParams, subsample_representative}
+#import bevy_rppm::common::{IterationParams, MOVED_TRIANGLE, subsample_representative}
 #ifdef SUBSAMPLED
 #import bevy_rppm::bsdf::{bsdf_from, bsdf_gathered}
 #import bevy_rppm::scene::{gbuffer_material, scene_material, triangles}
@@ -32,12 +32,26 @@ const REPROJECT: u32 = 1u;
 const CHECK_SURFACE: u32 = 2u;
 const CHECK_LIGHT: u32 = 4u;
 const NEW_DIRECT: u32 = 8u;
+const RELIT: u32 = 16u;
+
+// Whether the G-buffer texel's triangle moved in this frame's placement.
+fn on_moved_triangle(position: vec4<f32>) -> bool {
+    let t = triangles[u32(max(abs(position.w), 1.0)) - 1u];
+    return position.w != 0.0 && (t.material & MOVED_TRIANGLE) != 0u;
+}
 
 // A G-buffer texel as kept in `surface`: position, and the normal packed with a marker byte
-// (0: no surface).
+// (0: no surface, 127 a still one, 64 one that was moving).
 fn packed_surface(position: vec4<f32>, normal: vec3<f32>) -> vec4<f32> {
-    let packed = select(0u, pack4x8snorm(vec4<f32>(normal, 1.0)), position.w != 0.0);
+    let marker = select(1.0, 0.5, on_moved_triangle(position));
+    let packed = select(0u, pack4x8snorm(vec4<f32>(normal, marker)), position.w != 0.0);
     return vec4<f32>(position.xyz, bitcast<f32>(packed));
+}
+
+// Whether a kept surface was on a moving object.
+fn moved_surface(kept: vec4<f32>) -> bool {
+    let marker = bitcast<u32>(kept.w) >> 24u;
+    return marker != 0u && marker < 100u;
 }
 
 // Whether a kept surface is the one this pixel sees now: both empty, or a point on the same
@@ -151,7 +165,16 @@ fn clamped(history: vec3<f32>, local: vec2<u32>, part: u32) -> vec3<f32> {
     let n = f32((2u * RADIUS + 1u) * (2u * RADIUS + 1u));
     let mean = sum / n;
     let spread = GAMMA * sqrt(max(squares / n - mean * mean, vec3<f32>(0.0)));
-    return clamp(history, mean - spread, mean + spread);
+    var lo = mean - spread;
+    var hi = mean + spread;
+    if part == 0u {
+        // Direct light, nearly noiseless, is right where the pixel's own sample is: a pixel
+        // beside brighter ones (a dark object's rim) is not pulled towards them.
+        let own = tile[tile_index(local)][0];
+        lo = min(lo, own);
+        hi = max(hi, own);
+    }
+    return clamp(history, lo, hi);
 }
 
 // Where this pixel's surface was in last frame's image, or -1 outside it. A pixel that sees
@@ -273,8 +296,9 @@ fn main(
     let position = textureLoad(gbuffer_position, vec2<i32>(id.xy), 0);
     let normal = textureLoad(gbuffer_normal, vec2<i32>(id.xy), 0);
     var kept_direct = select(history[pixels + index], vec4<f32>(0.0), params.iteration == 0u);
+    // The surface this pixel's last sample saw (where it was, under a camera move).
+    var kept_surface = history[index];
     if (params.history_flags & CHECK_SURFACE) != 0u && params.iteration != 0u {
-        var kept_surface = history[index];
         if (params.history_flags & REPROJECT) != 0u {
             let reprojection = reprojected(position, id.xy);
             let source = u32(max(reprojection, 0));
@@ -313,7 +337,13 @@ fn main(
     if settling {
         indirect = clamped(indirect, local.xy, 1u);
     }
-    if bright_edges {
+    // When only objects moved (no light, emitter or material changed), a still surface's
+    // direct light changes only where their shadows move: it keeps its history within what
+    // its neighbourhood sees now, so its edges and textures keep averaging what their jitter
+    // sees. A moving object's pixels, and those it left, start again.
+    let still = (params.history_flags & (NEW_DIRECT | RELIT)) == NEW_DIRECT
+        && !on_moved_triangle(position) && !moved_surface(kept_surface);
+    if bright_edges || still {
         direct = clamped(direct, local.xy, 0u);
     } else if (params.history_flags & NEW_DIRECT) != 0u {
         kept_direct.w = 0.0;

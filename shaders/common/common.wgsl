@@ -8,6 +8,12 @@ const PI: f32 = 3.141592653589793;
 const DELTA_ROUGHNESS: f32 = 0.02;
 
 // A triangle as stored (52 bytes, src/scene/packed.rs); `triangle_at` unpacks it.
+// A placed triangle's `material` is its material's index, with MOVED_TRIANGLE set where its
+// latest placement moved it (shaders/scene/place.wgsl): motion history tells a moving
+// object's pixels from a still one's.
+const MOVED_TRIANGLE: u32 = 0x80000000u;
+const MATERIAL_INDEX: u32 = 0x7fffffffu;
+
 struct PackedTriangle {
     ax: f32, ay: f32, az: f32,
     bx: f32, by: f32, bz: f32,

@@ -1,7 +1,8 @@
 // The scene's world-space triangles: each instance's mesh through its transform
-// (src/scene/place.rs). Runs when an instance or a mesh changed, not every iteration.
+// (src/scene/place.rs). Runs when an instance or a mesh changed, not every iteration, and
+// marks the triangles it moved.
 
-#import bevy_rppm::common::{PackedTriangle, pack_normal, unpack_normal}
+#import bevy_rppm::common::{MOVED_TRIANGLE, PackedTriangle, pack_normal, unpack_normal}
 
 struct Instance {
     // World from local by rows (w: translation), and the normals' inverse transpose.
@@ -69,5 +70,11 @@ fn place(@builtin(workgroup_id) group: vec3<u32>, @builtin(num_workgroups) group
         nb = nc;
         nc = n;
     }
-    triangles[index] = PackedTriangle(a.x, a.y, a.z, b.x, b.y, b.z, c.x, c.y, c.z, inst.material, na, nb, nc);
+    // Whether this placement moved the triangle from where the last one put it (a triangle
+    // new to the buffer reads as moved: the estimate starts again then anyway).
+    let old = triangles[index];
+    let moved = any(vec3<f32>(old.ax, old.ay, old.az) != a) || any(vec3<f32>(old.bx, old.by, old.bz) != b)
+        || any(vec3<f32>(old.cx, old.cy, old.cz) != c);
+    let material = inst.material | select(0u, MOVED_TRIANGLE, moved);
+    triangles[index] = PackedTriangle(a.x, a.y, a.z, b.x, b.y, b.z, c.x, c.y, c.z, material, na, nb, nc);
 }

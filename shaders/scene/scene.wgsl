@@ -2,7 +2,7 @@
 // and the material lookups that apply textures and vertex colours (src/scene/textures.rs).
 #define_import_path bevy_rppm::scene
 
-#import bevy_rppm::common::{Triangle, PackedTriangle, unpack_normal, pack_normal, Material, Light, Emitter, ShadowView, TriangleAttributes, Texture, DELTA_ROUGHNESS, MATERIAL_TEXTURED, MATERIAL_ALPHA_MASK, MATERIAL_ALPHA_HASHED, MATERIAL_DOUBLE_SIDED, MATERIAL_UNLIT, MATERIAL_FLIP_NORMAL_Y, NO_TEXTURE, pcg_hash}
+#import bevy_rppm::common::{Triangle, PackedTriangle, MATERIAL_INDEX, unpack_normal, pack_normal, Material, Light, Emitter, ShadowView, TriangleAttributes, Texture, DELTA_ROUGHNESS, MATERIAL_TEXTURED, MATERIAL_ALPHA_MASK, MATERIAL_ALPHA_HASHED, MATERIAL_DOUBLE_SIDED, MATERIAL_UNLIT, MATERIAL_FLIP_NORMAL_Y, NO_TEXTURE, pcg_hash}
 
 @group(0) @binding(0) var<storage, read> triangles: array<PackedTriangle>;
 @group(0) @binding(1) var<storage, read> shadow_views: array<ShadowView>;
@@ -27,7 +27,8 @@ const MATERIAL_TEXELS: u32 = 10u;
 const MATERIALS_ROW: u32 = 64u;
 
 // Material i of the scene.
-fn scene_material(i: u32) -> Material {
+fn scene_material(material: u32) -> Material {
+    let i = material & MATERIAL_INDEX;
     let at = vec2<u32>((i % MATERIALS_ROW) * MATERIAL_TEXELS, i / MATERIALS_ROW);
     let base_color = material_texel(at, 0u);
     let emissive = material_texel(at, 1u);
@@ -76,7 +77,7 @@ fn triangle_point(t: Triangle, b: vec2<f32>) -> vec3<f32> {
 fn triangle_at(i: u32) -> Triangle {
     let p = triangles[i];
     return Triangle(
-        vec3<f32>(p.ax, p.ay, p.az), p.material,
+        vec3<f32>(p.ax, p.ay, p.az), p.material & MATERIAL_INDEX,
         vec3<f32>(p.bx, p.by, p.bz), 0u,
         vec3<f32>(p.cx, p.cy, p.cz), 0u,
         unpack_normal(p.normal_a), 0u,

@@ -16,6 +16,10 @@ bitflags::bitflags! {
         /// The scene changed: direct light, traced anew each iteration with little noise,
         /// starts again (shadows and highlights follow at once). A camera move keeps it.
         const NEW_DIRECT = 8;
+        /// ... and its light may have changed. Without it only objects moved: still
+        /// surfaces' direct light changes only where shadows move, and is clamped to its
+        /// neighbourhood instead of starting again.
+        const RELIT = 16;
     }
 }
 
@@ -28,6 +32,8 @@ pub struct Changes {
     pub moved: bool,
     /// Anything in the scene.
     pub scene: bool,
+    /// Its lights, emitters, materials or sky (with `scene`).
+    pub relit: bool,
 }
 
 /// A view's iteration counters through resets and motion.
@@ -50,6 +56,7 @@ pub struct HistoryClock {
     check_surface: bool,
     reproject: bool,
     new_direct: bool,
+    relit: bool,
 }
 
 impl HistoryClock {
@@ -71,6 +78,7 @@ impl HistoryClock {
                 self.check_surface = true;
                 self.reproject |= changes.moved;
                 self.new_direct |= changes.scene;
+                self.relit |= changes.scene && changes.relit;
                 false
             }
             _ => self.iteration == 0,
@@ -98,6 +106,7 @@ impl HistoryClock {
         );
         flags.set(HistoryFlags::CHECK_LIGHT, self.light_settling > 0);
         flags.set(HistoryFlags::NEW_DIRECT, self.new_direct);
+        flags.set(HistoryFlags::RELIT, self.relit);
         let cap = match window {
             Some(window) if self.settling > 0 => window,
             _ => u32::MAX,
@@ -114,6 +123,7 @@ impl HistoryClock {
         self.check_surface = false;
         self.reproject = false;
         self.new_direct = false;
+        self.relit = false;
     }
 }
 
@@ -125,6 +135,7 @@ mod tests {
         cut: false,
         moved: true,
         scene: false,
+        relit: false,
     };
 
     fn run(clock: &mut HistoryClock, n: u32) {
@@ -167,6 +178,33 @@ mod tests {
         // Settled: the estimate grows again as a still scene's does.
         assert_eq!(clock.next(Some(8)), (u32::MAX, HistoryFlags::empty()));
         assert_eq!((clock.iteration, clock.held), (28, 8));
+    }
+
+    #[test]
+    fn a_light_change_restarts_direct_light_everywhere_a_moved_object_only_its_own() {
+        let mut clock = HistoryClock::default();
+        run(&mut clock, 4);
+        let moved = Changes {
+            scene: true,
+            ..Changes::default()
+        };
+        assert!(!clock.begin_frame(moved, Some(8)));
+        assert!(!clock.next(Some(8)).1.contains(HistoryFlags::RELIT));
+        clock.advance();
+        let relit = Changes {
+            relit: true,
+            ..moved
+        };
+        assert!(!clock.begin_frame(relit, Some(8)));
+        let flags = clock.next(Some(8)).1;
+        assert!(flags.contains(HistoryFlags::NEW_DIRECT | HistoryFlags::RELIT));
+        clock.advance();
+        assert!(
+            !clock
+                .next(Some(8))
+                .1
+                .intersects(HistoryFlags::NEW_DIRECT | HistoryFlags::RELIT)
+        );
     }
 
     #[test]

@@ -341,6 +341,7 @@ fn prepare_view(
         cut: state.view_epoch != frame.rppm.view_epoch || std::mem::take(&mut state.scene_reshaped),
         moved: state.view_moves != frame.rppm.view_moves,
         scene: std::mem::take(&mut state.scene_changed),
+        relit: std::mem::take(&mut state.scene_relit),
     };
     state.view_epoch = frame.rppm.view_epoch;
     state.view_moves = frame.rppm.view_moves;

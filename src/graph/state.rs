@@ -70,6 +70,8 @@ pub struct RppmViewState {
     pub clock: HistoryClock,
     /// The scene changed since the last frame (its resources are bound anew).
     pub scene_changed: bool,
+    /// ... and its light may have changed, not only its objects' places.
+    pub scene_relit: bool,
     /// ... and changed its shape (counts of triangles, materials, lights or emitters): an
     /// object or light came or went, so history is not kept.
     pub scene_reshaped: bool,
@@ -189,6 +191,7 @@ impl RppmViewState {
             view_moves: u64::MAX,
             clock: HistoryClock::default(),
             scene_changed: false,
+            scene_relit: false,
             scene_reshaped: false,
             scene_shape: scene.data.shape(),
             previous_clip_from_world: Mat4::IDENTITY,
@@ -315,6 +318,7 @@ impl RppmViewState {
         }
         self.scene_epoch = scene.epoch;
         self.scene_changed = true;
+        self.scene_relit |= scene.relit;
         let shape = scene.data.shape();
         self.scene_reshaped |= shape != self.scene_shape;
         self.scene_shape = shape;

@@ -286,6 +286,28 @@ impl SceneData {
             && (Arc::ptr_eq(&self.texels, &other.texels) || self.texels == other.texels)
     }
 
+    /// Whether `other` lights the scene as this does: the same lights, emitters, materials
+    /// and sky (objects may have moved). A light's photon power is left out: a sun's follows
+    /// the scene's bounds, which a moving object changes.
+    pub fn same_light(&self, other: &SceneData) -> bool {
+        fn same<T: bytemuck::Pod>(a: &[T], b: &[T]) -> bool {
+            bytemuck::cast_slice::<T, u8>(a) == bytemuck::cast_slice::<T, u8>(b)
+        }
+        let unpowered = |l: &GpuLight| GpuLight {
+            radiance: [l.radiance[0], l.radiance[1], l.radiance[2], 0.0],
+            ..*l
+        };
+        let same_lights = self.lights.len() == other.lights.len()
+            && (self.lights.iter().zip(&other.lights))
+                .all(|(a, b)| same(&[unpowered(a)], &[unpowered(b)]));
+        same(&self.materials, &other.materials)
+            && same(&self.textures, &other.textures)
+            && same_lights
+            && same(&self.emitters, &other.emitters)
+            && self.sky == other.sky
+            && (Arc::ptr_eq(&self.texels, &other.texels) || self.texels == other.texels)
+    }
+
     /// Counts of triangles, materials, lights and emitters: what a moving scene keeps.
     pub fn shape(&self) -> [usize; 4] {
         [

@@ -30,6 +30,12 @@ pub struct SceneBuffers {
     pub data: Arc<SceneData>,
     /// World-space triangles, made by the GPU from `meshes` and `instances` ([`super::place`]).
     pub triangles: Buffer,
+    /// Whether the latest placement marked the triangles it moved (`MOVED_TRIANGLE`, which
+    /// motion history reads): a later change that moves none places them again to clear it.
+    pub moved_marks: bool,
+    /// Whether the latest change may have changed the light itself (a light, an emitter, a
+    /// material, the sky), not only moved objects and their shadows.
+    pub relit: bool,
     /// Every mesh's triangles in its own space, in [`SceneData::meshes`] order.
     pub meshes: Buffer,
     pub instances: Buffer,
@@ -274,7 +280,9 @@ pub(crate) fn prepare_scene(
         }),
     };
     let placed = last.is_some_and(|l| l.triangles.id() == triangles.id());
-    if count > 0 && (meshes_changed || instances_changed || !placed) {
+    let moves = meshes_changed || instances_changed || !placed;
+    let clears = placed && last.is_some_and(|l| l.moved_marks);
+    if count > 0 && (moves || clears) {
         let max_groups = device.limits().max_compute_workgroups_per_dimension;
         let buffers = [&meshes, &instances, &triangles];
         place.place(&device, &queue, &cache, buffers, count as u32, max_groups);
@@ -316,6 +324,10 @@ pub(crate) fn prepare_scene(
         lookups: data.lookups(),
         max_scatter: data.max_scatter_probability(),
         triangles,
+        moved_marks: count > 0 && moves,
+        // A moved emissive object moves its light too.
+        relit: last.is_none_or(|l| !l.data.same_light(data))
+            || (moves && !data.emitters.is_empty()),
         meshes,
         instances,
         materials,

@@ -41,9 +41,9 @@ fn on_moved_triangle(position: vec4<f32>) -> bool {
 }
 
 // A G-buffer texel as kept in `surface`: position, and the normal packed with a marker byte
-// (0: no surface, 127 a still one, 64 one that was moving).
-fn packed_surface(position: vec4<f32>, normal: vec3<f32>) -> vec4<f32> {
-    let marker = select(1.0, 0.5, on_moved_triangle(position));
+// (0: no surface, 127 a still one, 64 one on a triangle that `moving` says moved).
+fn packed_surface(position: vec4<f32>, normal: vec3<f32>, moving: bool) -> vec4<f32> {
+    let marker = select(1.0, 0.5, moving);
     let packed = select(0u, pack4x8snorm(vec4<f32>(normal, marker)), position.w != 0.0);
     return vec4<f32>(position.xyz, bitcast<f32>(packed));
 }
@@ -341,8 +341,9 @@ fn main(
     // direct light changes only where their shadows move: it keeps its history within what
     // its neighbourhood sees now, so its edges and textures keep averaging what their jitter
     // sees. A moving object's pixels, and those it left, start again.
-    let still = (params.history_flags & (NEW_DIRECT | RELIT)) == NEW_DIRECT
-        && !on_moved_triangle(position) && !moved_surface(kept_surface);
+    let moving = on_moved_triangle(position);
+    let still = settling && (params.history_flags & (NEW_DIRECT | RELIT)) == NEW_DIRECT
+        && !moving && !moved_surface(kept_surface);
     if bright_edges || still {
         direct = clamped(direct, local.xy, 0u);
     } else if (params.history_flags & NEW_DIRECT) != 0u {
@@ -355,7 +356,7 @@ fn main(
     kept_direct.w = select(min(kept_direct.w, f32(params.history_cap)), kept_direct.w, near_emitter);
     indirect += (indirect_sample - indirect) / (kept.w + 1.0);
     direct += (direct_sample - direct) / (kept_direct.w + 1.0);
-    history[index] = packed_surface(position, normal.xyz);
+    history[index] = packed_surface(position, normal.xyz, moving);
     history[pixels + index] = vec4<f32>(direct, kept_direct.w + 1.0);
     radiance[index] = vec4<f32>(direct + indirect, kept.w + 1.0);
 #else

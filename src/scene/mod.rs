@@ -267,32 +267,27 @@ pub struct SceneData {
     pub bounds: (Vec3, Vec3),
 }
 
+/// Whether two tables hold the same bytes (floats compared bit for bit, as uploaded).
+fn same<T: bytemuck::Pod>(a: &[T], b: &[T]) -> bool {
+    bytemuck::cast_slice::<T, u8>(a) == bytemuck::cast_slice::<T, u8>(b)
+}
+
 impl SceneData {
     /// Whether `other` holds the same tables (a transform set to its own value, a paused
     /// animation writing its pose again): then nothing changed.
     pub fn same_as(&self, other: &SceneData) -> bool {
-        fn same<T: bytemuck::Pod>(a: &[T], b: &[T]) -> bool {
-            bytemuck::cast_slice::<T, u8>(a) == bytemuck::cast_slice::<T, u8>(b)
-        }
         same(&self.instances, &other.instances)
             && self.meshes.len() == other.meshes.len()
             && (self.meshes.iter().zip(&other.meshes)).all(|(a, b)| Arc::ptr_eq(a, b) || a == b)
-            && same(&self.materials, &other.materials)
-            && same(&self.textures, &other.textures)
             && same(&self.lights, &other.lights)
-            && same(&self.emitters, &other.emitters)
             && same(&self.light_cdf, &other.light_cdf)
-            && self.sky == other.sky
-            && (Arc::ptr_eq(&self.texels, &other.texels) || self.texels == other.texels)
+            && self.same_light(other)
     }
 
     /// Whether `other` lights the scene as this does: the same lights, emitters, materials
     /// and sky (objects may have moved). A light's photon power is left out: a sun's follows
     /// the scene's bounds, which a moving object changes.
     pub fn same_light(&self, other: &SceneData) -> bool {
-        fn same<T: bytemuck::Pod>(a: &[T], b: &[T]) -> bool {
-            bytemuck::cast_slice::<T, u8>(a) == bytemuck::cast_slice::<T, u8>(b)
-        }
         let unpowered = |l: &GpuLight| GpuLight {
             radiance: [l.radiance[0], l.radiance[1], l.radiance[2], 0.0],
             ..*l

@@ -8,7 +8,7 @@ use bevy::render::renderer::{RenderDevice, RenderQueue};
 use bytemuck::Pod;
 
 use super::prepare::{SceneBuffers, constant_texture, storage_buffer};
-use super::{GpuMaterial, GpuTriangleAttributes, PackedTriangle, SceneData};
+use super::{GpuMaterial, GpuTriangleAttributes, PackedTriangle, SceneData, same};
 
 /// Materials a row of the materials' texture holds, and the 16-byte texels each takes
 /// (`MATERIALS_ROW`, `MATERIAL_TEXELS` in shaders/scene/scene.wgsl).
@@ -53,10 +53,6 @@ pub(super) struct Upload<'a> {
     pub device: &'a RenderDevice,
     pub queue: &'a RenderQueue,
     pub bytes: u64,
-}
-
-fn same<T: Pod>(a: &[T], b: &[T]) -> bool {
-    bytemuck::cast_slice::<T, u8>(a) == bytemuck::cast_slice::<T, u8>(b)
 }
 
 impl Upload<'_> {

@@ -16,7 +16,7 @@ macro_rules! wgsl {
 /// Handles of every stage's shader.
 #[derive(Resource, Clone)]
 pub struct RppmShaders {
-    /// Import-only libraries (`bevy_rppm::common`, `scene`, `bsdf`, `cubemap`, `lighting`,
+    /// Import-only libraries (`bevy_rppm::common`, `scene`, `bsdf`, `mis`, `cubemap`, `lighting`,
     /// `photon_map`),
     /// held so they stay loaded.
     _libraries: Vec<Handle<Shader>>,
@@ -46,6 +46,7 @@ impl RppmShaders {
             _libraries: vec![
                 wgsl!(shaders, "common/common.wgsl"),
                 wgsl!(shaders, "common/bsdf.wgsl"),
+                wgsl!(shaders, "common/mis.wgsl"),
                 wgsl!(shaders, "scene/scene.wgsl"),
                 wgsl!(shaders, "cubemap/trace.wgsl"),
                 wgsl!(shaders, "shadows/lighting.wgsl"),

@@ -10,6 +10,8 @@ of failure:
   path inside) on the floor of an open box under a panel: coloured caustics and shadows;
 - `frosted_glass`: a standing pane of rough glass (roughness 0.4) with a red block seen
   blurred behind it, and a lightly rough glass block (0.15) under a panel;
+- `frosted_lamp`: a point light behind a frosted pane (seen through it as a glow) and a small
+  lamp panel reflected in a brushed metal plate: light found through rough lobes;
 - `water_pool`: a static water height field (ior 1.33) in a tiled pool under a large sky quad;
 - `sky_court`: a yard open to a uniform blue sky (`scenes[0].extras.rppm_sky`), red walls in a
   corner, a glass block and a white box;
@@ -266,6 +268,22 @@ def frosted_glass(path):
     g.write(path, "bevy_rppm tools/suite_scenes.py frosted_glass")
 
 
+def frosted_lamp(path):
+    g, h, faces = open_box()
+    coloured_walls(g, faces, [0.6, 0.6, 0.58], [0.6, 0.3, 0.15], [0.2, 0.4, 0.5])
+    # A point light behind a standing frosted pane (roughness 0.3, 3 cm thick), seen through it
+    # as a glow; a brushed metal plate (roughness 0.2) on the floor reflecting a small lamp
+    # panel on the back wall.
+    lift = 0.005
+    g.quads([rotate_y(f, -0.2, [-0.45, 0, -0.6]) for f in box([-1.1, lift, -0.615], [0.2, 1.1, -0.585], inward=False)],
+            g.rough_glass(1.5, 0.3))
+    g.light({"type": "point", "color": [1.0, 0.9, 0.75], "intensity": 2.0}, translation=[-0.45, 0.7, -1.0])
+    g.quads(box([0.05, lift, 0.6], [0.95, 0.02, 1.4], inward=False), g.material([0.9, 0.85, 0.8], roughness=0.2, metallic=1.0))
+    g.quads([[[0.8, 1.6, -1.49], [1.2, 1.6, -1.49], [1.2, 2.0, -1.49], [0.8, 2.0, -1.49]]], g.emitter([1.0, 0.95, 0.9], 12.0))
+    g.camera([0.0, 1.3, 2.8], [0.0, 0.5, -0.3], yfov=0.9)
+    g.write(path, "bevy_rppm tools/suite_scenes.py frosted_lamp")
+
+
 def water_pool(path):
     g = Gltf()
     half, depth, cells = 1.5, 0.8, 24
@@ -451,7 +469,7 @@ def main():
     parser.add_argument("out", help="folder for the .gltf files")
     args = parser.parse_args()
     os.makedirs(args.out, exist_ok=True)
-    for make in (sun_room, glass_slab, tinted_glass, frosted_glass, water_pool, sky_court, lens_caustic, clearcoat, translucent,
+    for make in (sun_room, glass_slab, tinted_glass, frosted_glass, frosted_lamp, water_pool, sky_court, lens_caustic, clearcoat, translucent,
                  mirror_caustic, sun_spot_caustics):
         path = os.path.join(args.out, f"{make.__name__}.gltf")
         make(path)

@@ -3,7 +3,7 @@
 // With IMPORTONS, a pixel that sees a specular surface (mirror, glass) follows the camera path
 // through the deep cubemap to the first non-specular surface, lights it the same way, and
 // leaves an importon there for indirect splatting.
-#import bevy_rppm::common::{Material, IterationParams, Importon, NO_IMPORTON, gather_radius, random, pcg_hash}
+#import bevy_rppm::common::{Material, IterationParams, Importon, NO_IMPORTON, gather_radius, random, pcg_hash, stratified_draws}
 #import bevy_rppm::scene::{triangle_at, gbuffer_material, resolve_surface, kernel_normal, material_at, as_seen_from, normal_at, interpolated_normal}
 #import bevy_rppm::lighting::{params, surface_light}
 #ifdef IMPORTONS
@@ -15,6 +15,10 @@
 #import bevy_rppm::cubemap::{cubemap, trace_ray, NO_HIT}
 #ifdef ABSORPTION
 #import bevy_rppm::scene::medium_after
+#endif
+#ifdef TRACED_SHADOWS
+#import bevy_rppm::mis::{mis_vertex, path_pdf, power_heuristic}
+#import bevy_rppm::lighting::emitter_density
 #endif
 #endif
 
@@ -113,6 +117,8 @@ fn camera_path(pixel: u32, first: Vertex, rng: ptr<function, u32>) -> vec3<f32> 
     let t_min = params.scene_sphere.w * 1e-6;
     // Whether the light this path meets next was sampled already (through a rough coat).
     var sampled = false;
+    // The density of the path's last direction where the emitters were sampled too (mis.wgsl).
+    var drawn_density = 0.0;
 #ifdef ABSORPTION
     // σ of the coloured glass the path is in (the camera is outside every medium).
     var medium = vec3<f32>(0.0);
@@ -157,6 +163,14 @@ fn camera_path(pixel: u32, first: Vertex, rng: ptr<function, u32>) -> vec3<f32> 
                 v.m.emissive = vec4<f32>(0.0);
                 sampled = false;
             }
+#ifdef TRACED_SHADOWS
+            if drawn_density > 0.0 && front {
+                let cos_y = abs(dot(normalize(geometric), d));
+                let density = emitter_density(v.m.emissive.rgb, hit.t * hit.t, cos_y);
+                v.m.emissive = vec4<f32>(v.m.emissive.rgb * power_heuristic(drawn_density, density), v.m.emissive.w);
+            }
+            drawn_density = 0.0;
+#endif
             if stores_photons(v.m) {
                 let footprint = params.pixel_spread * select(length, 1.0, params.orthographic != 0u);
                 let radius = gather_radius(params, params.splat_radius, footprint);
@@ -170,10 +184,17 @@ fn camera_path(pixel: u32, first: Vertex, rng: ptr<function, u32>) -> vec3<f32> 
         let ends = true;
 #endif
         // Mode Indirect: Bevy renders the first hit's emission and direct light itself.
-        // Emitters are found by the path itself past a glossy vertex, so only punctual lights
-        // are sampled where it goes on.
-        if depth > 1u || params.indirect_only == 0u {
-            found += throughput * surface_light(v.m, v.x, v.n, v.wo, v.front, v.triangle, ends, rng);
+        // Where the path goes on, the sky and emitters are found by the path itself, and at a
+        // rough vertex (not the last, whose path cannot go on) the emitters by MIS too.
+        let lit = depth > 1u || params.indirect_only == 0u;
+        var mis = false;
+#ifdef IMPORTONS
+#ifdef TRACED_SHADOWS
+        mis = lit && !ends && mis_vertex(v.m) && depth < params.max_eye_depth && params.direct_photons == 0u;
+#endif
+#endif
+        if lit {
+            found += throughput * surface_light(v.m, v.x, v.n, v.wo, v.front, v.triangle, ends, mis, rng);
         }
         if ends {
 #ifdef IMPORTONS
@@ -195,6 +216,11 @@ fn camera_path(pixel: u32, first: Vertex, rng: ptr<function, u32>) -> vec3<f32> 
 #ifdef IMPORTONS
         bounce = next_bounce(v.m, -v.wo, v.n, v.front, rng);
         throughput *= bounce.weight;
+#ifdef TRACED_SHADOWS
+        if mis {
+            drawn_density = path_pdf(v.m, v.n, v.wo, bounce.direction, v.front);
+        }
+#endif
 #ifdef ABSORPTION
         medium = medium_after(medium, v.m, v.front, dot(bounce.direction, v.n) < 0.0);
 #endif
@@ -221,6 +247,7 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     let gp = textureLoad(gbuffer_position, vec2<i32>(id.xy), 0);
     var sample = vec3<f32>(0.0);
     var rng = pcg_hash(pixel ^ pcg_hash(params.sequence * 0x85ebca6bu + 0x27d4eb2fu));
+    stratified_draws(pixel, params.sequence);
 #ifdef IMPORTONS
     importons[pixel].triangle = NO_IMPORTON;
 #endif

@@ -6,11 +6,14 @@
 // reached through specular surfaces.
 #define_import_path bevy_rppm::lighting
 
-#import bevy_rppm::common::{Material, Light, IterationParams, PI, LIGHT_SPOT, LIGHT_DIRECTIONAL, face_of, random, basis_around, cosine_direction}
-#import bevy_rppm::bsdf::{bsdf_eval, translucency}
+#import bevy_rppm::common::{Material, Light, IterationParams, PI, LIGHT_SPOT, LIGHT_DIRECTIONAL, face_of, random, basis_around, cosine_direction, luminance}
+#import bevy_rppm::bsdf::{bsdf_eval, translucency, layered}
 #import bevy_rppm::scene::{shadow_views, lights, triangles, triangle_at, material_at, emitters, light_cdf, find_source, triangle_point, uniform_barycentrics, part_barycentrics}
 #ifdef TRACED_SHADOWS
 #import bevy_rppm::cubemap::occluded
+#ifdef IMPORTONS
+#import bevy_rppm::mis::{path_f, path_pdf, power_heuristic}
+#endif
 #endif
 
 @group(1) @binding(0) var<uniform> params: IterationParams;
@@ -78,21 +81,23 @@ struct LightSample {
     distance: f32,
     li: vec3<f32>,
     cosine_drawn: bool,
+    // An emitter's density as `emitter_density` gives it, for MIS (0: not an emitter).
+    density: f32,
 }
 
 fn no_light() -> LightSample {
-    return LightSample(vec3<f32>(0.0, 0.0, 1.0), 1.0e30, vec3<f32>(0.0), false);
+    return LightSample(vec3<f32>(0.0, 0.0, 1.0), 1.0e30, vec3<f32>(0.0), false, 0.0);
 }
 
 // Punctual light `l` seen from x; `rng` draws a point on the sphere of a light with a radius
 // (traced shadows only: shadow maps see its centre).
 fn punctual_sample(l: Light, x: vec3<f32>, rng: ptr<function, u32>) -> LightSample {
     if l.kind == LIGHT_DIRECTIONAL {
-        return LightSample(-l.direction.xyz, 1.0e30, l.radiance.rgb, false);
+        return LightSample(-l.direction.xyz, 1.0e30, l.radiance.rgb, false, 0.0);
     }
     let to_light = l.position.xyz - x;
     let d2 = max(dot(to_light, to_light), 1e-12);
-    var s = LightSample(to_light / sqrt(d2), sqrt(d2), l.radiance.rgb / d2, false);
+    var s = LightSample(to_light / sqrt(d2), sqrt(d2), l.radiance.rgb / d2, false, 0.0);
     if l.kind == LIGHT_SPOT {
         let c = dot(-s.wi, l.direction.xyz);
         let a = clamp((c - l.cos_outer) / max(l.cos_inner - l.cos_outer, 1e-6), 0.0, 1.0);
@@ -149,14 +154,23 @@ fn emitter_sample(x: vec3<f32>, origin_triangle: u32, rng: ptr<function, u32>) -
         return no_light();
     }
     let radiance = material_at(e.triangle, b, 0.0).emissive.rgb;
-    return LightSample(wi, sqrt(d2), radiance * (cos_y * e.area / (d2 * p)), false);
+    return LightSample(wi, sqrt(d2), radiance * (cos_y * e.area / (d2 * p)), false, emitter_density(radiance, d2, cos_y));
+}
+
+// The density (solid angle) of drawing an emitter's point of radiance L at distance² d2 and
+// cosine cos_y, were every emitter drawn by its power: exact for untextured emitters, and the
+// same function for both strategies of MIS (what keeps their weights summing to 1).
+fn emitter_density(radiance: vec3<f32>, d2: f32, cos_y: f32) -> f32 {
+    return PI * luminance(radiance) * d2 / max(params.emitter_power * cos_y, 1e-30);
 }
 #endif
 
 // Radiance leaving x (on triangle `origin_triangle`) towards wo by emission (front faces only)
 // and direct light, from the emitters and the sky too when `emitters` (camera paths that go on
-// past x find them themselves); `rng` draws the samples.
-fn surface_light(m: Material, x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, front: bool, origin_triangle: u32, emitters: bool, rng: ptr<function, u32>) -> vec3<f32> {
+// past x find them themselves). Where `mis`, x is a rough vertex the path goes on from
+// (mis.wgsl): its f includes rough refraction, and the emitters are sampled too, weighted
+// against the path's own chance of finding them. `rng` draws the samples.
+fn surface_light(m: Material, x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, front: bool, origin_triangle: u32, emitters: bool, mis: bool, rng: ptr<function, u32>) -> vec3<f32> {
     let emitted = select(vec3<f32>(0.0), m.emissive.rgb, front);
     if params.direct_photons != 0u {
         return emitted;
@@ -168,7 +182,7 @@ fn surface_light(m: Material, x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, front: 
     // punctual lights (or MANY_LIGHTS of them drawn by power), then the sky, then an emitter.
     let many = params.light_count > MANY_LIGHTS;
     let punctual = select(params.light_count, MANY_LIGHTS, many);
-    let samples = punctual + select(0u, 2u, emitters);
+    let samples = punctual + select(0u, 2u, emitters || mis);
     for (var k = 0u; k < samples; k += 1u) {
         var s = no_light();
         if k < punctual {
@@ -184,6 +198,9 @@ fn surface_light(m: Material, x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, front: 
             s.li *= weight;
         } else if k == punctual {
 #ifdef SKY
+            if !emitters {
+                continue;
+            }
             // One direction drawn by cosine around n (pdf cos/π), a ray to infinity; through
             // to the other side by the share of diffuse light that goes through.
             var wi = cosine_direction(n, vec2<f32>(random(rng), random(rng)));
@@ -194,7 +211,7 @@ fn surface_light(m: Material, x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, front: 
                 wi = select(wi, -wi, back);
                 li /= select(1.0 - through, through, back);
             }
-            s = LightSample(wi, 1.0e30, li, true);
+            s = LightSample(wi, 1.0e30, li, true, 0.0);
 #endif
         } else {
             s = emitter_sample(x, origin_triangle, rng);
@@ -204,7 +221,22 @@ fn surface_light(m: Material, x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, front: 
         }
         // |cos|: light from behind reaches only what lets diffuse light through (bsdf_eval).
         let c = abs(dot(n, s.wi));
-        let lit = bsdf_eval(m, n, wo, s.wi) * s.li * select(c, sign(c), s.cosine_drawn);
+        var evaluated = m;
+#ifdef IMPORTONS
+        if mis {
+            evaluated = layered(m);
+        }
+#endif
+        var f = bsdf_eval(evaluated, n, wo, s.wi);
+#ifdef IMPORTONS
+        if mis {
+            f = path_f(f, m, n, wo, s.wi, front);
+            if s.density > 0.0 {
+                f *= power_heuristic(s.density, path_pdf(m, n, wo, s.wi, front));
+            }
+        }
+#endif
+        let lit = f * s.li * select(c, sign(c), s.cosine_drawn);
         // No shadow ray where nothing would arrive (behind an opaque surface, outside a
         // cone, a delta lobe).
         if any(lit > vec3<f32>(0.0)) {

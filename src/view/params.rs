@@ -57,7 +57,10 @@ pub struct IterationParams {
     pub sequence: u32,
     /// Invocations that trace the photons, each taking the next when its photon ends.
     pub photon_lanes: u32,
-    pub pad: [u32; 2],
+    /// Power of all emissive triangles together (luminance-weighted W): the emitters'
+    /// densities for multiple importance sampling at camera paths' rough vertices.
+    pub emitter_power: f32,
+    pub pad: u32,
 }
 
 /// The first slot of a params buffer, as group 1 binds it.
@@ -142,6 +145,7 @@ pub fn camera_params(
         exposure: camera.exposure,
         tonemap: (!camera.hdr) as u32,
         max_eye_depth: 1,
+        emitter_power: data.emitters.iter().map(|e| e.power).sum(),
         scene_sphere: {
             let (centre, radius) = data.bounding_sphere();
             centre.extend(radius.max(1e-6)).into()

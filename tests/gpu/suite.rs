@@ -188,3 +188,46 @@ fn diffuse_transmission_passes_what_mitsuba_passes() {
         "without it {bare_error:.4}, with {error:.4}"
     );
 }
+
+/// Asserts that suite scene `scene` after `iterations` of 65 536 photons at 64² (1-pixel
+/// radius) has no bad pixel, a relMSE against the reference of at most `bound` and an energy
+/// within `energy_bound` of 1.
+fn assert_close_after(scene: &str, iterations: u32, bound: f64, energy_bound: f64) {
+    let settings = PhotonMapping {
+        photons_per_iteration: PhotonCount::Fixed(65_536),
+        initial_radius_pixels: 1.0,
+        ..default()
+    };
+    let image = render(&format!("suite/{scene}.gltf"), settings, iterations);
+    let reference = reference(&format!("suite/{scene}.ref.exr"));
+    assert_eq!(bad_pixels(&image), 0, "{scene}");
+    let error = relmse(&image, &reference).unwrap();
+    let energy = energy_ratio(&image, &reference).unwrap();
+    println!("{scene}: relMSE {error:.4}, energy {energy:.4} after {iterations} iterations");
+    assert!(
+        error <= bound && (energy - 1.0).abs() <= energy_bound,
+        "{scene}: relMSE {error:.4}, energy {energy:.4}"
+    );
+}
+
+/// A small bright panel seen in rough metal (`suite/glossy_metal`: spheres of roughness 0.1
+/// and 0.25, which camera paths go on through) is found both by sampling the emitters at the
+/// sphere and by the path itself, each weighted by MIS (`shaders/common/mis.wgsl`): after 16
+/// iterations at 64², relMSE under 0.012 (0.0048 measured; found by the path alone, 0.018 to
+/// 0.044 over three seeds, the highlight a cloud of fireflies) and energy within 3 % (0.984).
+#[test]
+fn emitters_seen_in_rough_metal_converge_without_fireflies() {
+    assert_close_after("glossy_metal", 16, 0.012, 0.03);
+}
+
+/// A point light behind a frosted pane (`suite/frosted_lamp`: roughness 0.3, 3 cm thick) glows
+/// through it, as rough vertices light their whole lobe, refraction included: after 32
+/// iterations at 64², energy within 8 % and relMSE under 0.03 (0.994 and 0.0062 measured;
+/// before, with the refracted light missing, 0.785 and 0.042). The bounds are loose because a
+/// point light seen through two rough interfaces is found by a shadow ray at the second only:
+/// four seeds read 0.94 to 1.04 (Mitsuba's path tracer is as noisy there; issue 11's
+/// four-iteration test leaves this scene out).
+#[test]
+fn a_lamp_behind_frosted_glass_glows_through_it() {
+    assert_close_after("frosted_lamp", 32, 0.03, 0.08);
+}

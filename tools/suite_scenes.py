@@ -18,6 +18,11 @@ of failure:
 - `lens_caustic`: a glass ball under a point light, both above the camera's view, focusing
   the light into a caustic on the floor of an open box (reference by light tracing:
   `reference.py --integrator ptracer`);
+- `clearcoat`: clearcoats over Lambertian paint: a lacquered floor (a mirror coat), a red
+  ball under a smooth coat and a teal block under a satin one (reference with
+  `tools/bevy_layers.py`'s `bevy_coat`);
+- `translucent`: diffuse transmission: a paper screen and a lamp shade, each with a point
+  light behind or inside it (reference with `bevy_translucent`);
 - `mirror_caustic`: a glass ball's caustic under a panel, seen again in a mirror wall, and a
   spot light clear of both;
 - `sun_spot_caustics`: caustics from a directional sun and a spot light, each through a glass

@@ -2,7 +2,7 @@
 // (directly on the G-buffer, and through importons), averaged into the radiance of all
 // iterations since the last reset (w: the pixel's count), or with HISTORY of the pixel's
 // history kept through motion.
-#import bevy_rppm::common::{IterationParams, MOVED_TRIANGLE, subsample_representative}
+#import bevy_rppm::common::{IterationParams, MOVED_TRIANGLE, DELTA_ROUGHNESS, subsample_representative}
 #ifdef SUBSAMPLED
 #import bevy_rppm::bsdf::{bsdf_from, bsdf_gathered}
 #import bevy_rppm::scene::{gbuffer_material, scene_material, triangles}
@@ -40,23 +40,36 @@ fn on_moved_triangle(position: vec4<f32>) -> bool {
     return position.w != 0.0 && (t.material & MOVED_TRIANGLE) != 0u;
 }
 
+// Bits of a kept surface's marker byte (0: no surface): a surface, on a triangle that moved,
+// emitting.
+const KEPT: u32 = 0x80u;
+const KEPT_MOVING: u32 = 1u;
+const KEPT_EMITTING: u32 = 2u;
+
+// Whether the surface at a G-buffer texel emits (its emissive factor, a texture only scales
+// it, seen from the front).
+fn emits(position: vec4<f32>) -> bool {
+    let m = scene_material(triangles[u32(max(position.w, 1.0)) - 1u].material);
+    return position.w > 0.0 && any(m.emissive.rgb > vec3<f32>(0.0));
+}
+
 // A G-buffer texel as kept in `surface`: position, and the normal packed with a marker byte
-// (0: no surface, 127 a still one, 64 one on a triangle that `moving` says moved).
+// (KEPT, and KEPT_MOVING where `moving` says its triangle moved).
 fn packed_surface(position: vec4<f32>, normal: vec3<f32>, moving: bool) -> vec4<f32> {
-    let marker = select(1.0, 0.5, moving);
-    let packed = select(0u, pack4x8snorm(vec4<f32>(normal, marker)), position.w != 0.0);
-    return vec4<f32>(position.xyz, bitcast<f32>(packed));
+    let marker = KEPT | select(0u, KEPT_MOVING, moving) | select(0u, KEPT_EMITTING, emits(position));
+    let packed = (pack4x8snorm(vec4<f32>(normal, 0.0)) & 0x00ffffffu) | (marker << 24u);
+    return vec4<f32>(position.xyz, bitcast<f32>(select(0u, packed, position.w != 0.0)));
 }
 
 // Whether a kept surface was on a moving object.
 fn moved_surface(kept: vec4<f32>) -> bool {
-    let marker = bitcast<u32>(kept.w) >> 24u;
-    return marker != 0u && marker < 100u;
+    return ((bitcast<u32>(kept.w) >> 24u) & KEPT_MOVING) != 0u;
 }
 
 // Whether a kept surface is the one this pixel sees now: both empty, or a point on the same
 // plane, within three footprints across the view (the jitter moves it by up to one and a
-// half; more along a surface seen at a grazing angle), with a normal within ~25°: a moving
+// half; more along a surface seen at a grazing angle), with a normal within ~25°, emitting
+// if and only if it does (an emitter's rim on its wall is no history of the wall): a moving
 // object's pixels start again.
 fn same_surface(kept: vec4<f32>, position: vec4<f32>, normal: vec4<f32>) -> bool {
     let packed = bitcast<u32>(kept.w);
@@ -70,7 +83,8 @@ fn same_surface(kept: vec4<f32>, position: vec4<f32>, normal: vec4<f32>) -> bool
     let facing = abs(dot(normal.xyz, normalize(params.camera_position.xyz - position.xyz)));
     let across = 3.0 * normal.w / max(facing, 0.2);
     let near = length(d) <= across + slack && abs(dot(d, normal.xyz)) <= normal.w + slack;
-    return near && dot(kept_normal, normal.xyz) > 0.9;
+    let emitted = ((packed >> 24u) & KEPT_EMITTING) != 0u;
+    return near && dot(kept_normal, normal.xyz) > 0.9 && emitted == emits(position);
 }
 
 // Perceptual roughness under which a metal's or glass's direct light is what it shows of the
@@ -85,6 +99,17 @@ fn specular_at(position: vec4<f32>, footprint: f32) -> bool {
     let m = gbuffer_material(position, footprint);
     let specular = m.metallic >= 0.5 || m.specular_transmission > 0.0;
     return specular && m.perceptual_roughness < SPECULAR_ROUGHNESS;
+}
+
+// Whether the surface at a G-buffer texel is glossy metal (rough, not a mirror): it shows the
+// lights and the scene blurred, as the camera sees them, and one sample of it is little noisier
+// than its history.
+fn glossy_at(position: vec4<f32>, footprint: f32) -> bool {
+    if position.w == 0.0 {
+        return false;
+    }
+    let m = gbuffer_material(position, footprint);
+    return m.metallic >= 0.5 && m.perceptual_roughness >= DELTA_ROUGHNESS && m.perceptual_roughness < SPECULAR_ROUGHNESS;
 }
 
 // Neighbour k (0..9, the pixel itself at 4) of `pixel` in its 3×3 block, inside the image.
@@ -102,10 +127,7 @@ fn emitter_nearby(pixel: vec2<u32>) -> bool {
     }
     var found = false;
     for (var k = 0; k < 9; k += 1) {
-        let position = textureLoad(gbuffer_position, neighbour(pixel, k), 0);
-        // The emissive factor (a texture only scales it), seen from the front.
-        let m = scene_material(triangles[u32(max(position.w, 1.0)) - 1u].material);
-        found = found || (position.w > 0.0 && any(m.emissive.rgb > vec3<f32>(0.0)));
+        found = found || emits(textureLoad(gbuffer_position, neighbour(pixel, k), 0));
     }
     return found;
 }
@@ -270,7 +292,10 @@ fn main(
 ) {
 #ifdef HISTORY
     let settling = (params.history_flags & CHECK_LIGHT) != 0u;
-    if settling {
+    // A camera move's first iteration clamps what it reprojected onto glass and mirrors.
+    let reprojecting = (params.history_flags & REPROJECT) != 0u;
+    let clamping = settling || reprojecting;
+    if clamping {
         fill_tile(group.xy, thread);
     }
     workgroupBarrier();
@@ -280,9 +305,9 @@ fn main(
     }
     let index = id.y * params.size.x + id.x;
 #ifdef HISTORY
-    // While settling the tile holds this pixel's indirect sample already.
+    // While clamping the tile holds this pixel's indirect sample already.
     var sample: vec3<f32>;
-    if settling {
+    if clamping {
         sample = samples[index].rgb + tile[tile_index(local.xy)][1];
     } else {
         sample = iteration_sample(id.xy);
@@ -310,9 +335,11 @@ fn main(
         // A still camera's jitter moves a pixel's samples across an edge, where a neighbour
         // that sees the kept surface keeps the pixel's history (its coverage). Under a
         // camera move the samples keep one sub-pixel position: the pixel's own test.
+        // Under a camera move glossy metal's history (a highlight where it was) is no history
+        // of this view.
         var kept_here: bool;
-        if (params.history_flags & REPROJECT) != 0u {
-            kept_here = same_surface(kept_surface, position, normal);
+        if reprojecting {
+            kept_here = same_surface(kept_surface, position, normal) && !glossy_at(position, normal.w);
         } else {
             kept_here = surface_nearby(kept_surface, id.xy);
         }
@@ -333,8 +360,11 @@ fn main(
     var indirect = select(kept.rgb - kept_direct.rgb, vec3<f32>(0.0), kept.w == 0.0);
     var direct = select(kept_direct.rgb, vec3<f32>(0.0), kept_direct.w == 0.0);
     let near_emitter = settling && emitter_nearby(id.xy);
-    let bright_edges = near_emitter || (settling && specular_at(position, normal.w));
-    if settling {
+    // Glass and mirrors show the scene as the camera sees it, sharp: what a camera move
+    // reprojects there is clamped, both parts (one sample of them is too noisy to start from).
+    let view_dependent = clamping && specular_at(position, normal.w);
+    let bright_edges = near_emitter || view_dependent;
+    if settling || view_dependent {
         indirect = clamped(indirect, local.xy, 1u);
     }
     // When only objects moved (no light, emitter or material changed), a still surface's

@@ -28,9 +28,12 @@ fn mis_vertex(m: Material) -> bool {
 // The power heuristic's weight of the strategy that drew a direction with density `chosen`
 // against the other's `other`.
 fn power_heuristic(chosen: f32, other: f32) -> f32 {
-    let a = chosen * chosen;
-    let b = other * other;
-    return select(0.0, a / (a + b), a > 0.0);
+    if !(chosen > 0.0) {
+        return 0.0;
+    }
+    // As a ratio of capped densities: a huge one (a grazing emitter) gives 0 or 1, not inf/inf.
+    let r = min(other, 1e18) / min(chosen, 1e18);
+    return 1.0 / (1.0 + r * r);
 }
 
 // Rough glass's share of the surface (0 where the scene has none).
@@ -106,7 +109,8 @@ fn rough_glass_f(m: Material, n: vec3<f32>, wo: vec3<f32>, wi: vec3<f32>, front:
     let h = glass_half_vector(n, wo, wi, eta);
     let oh = dot(wo, h);
     let ih = dot(wi, h);
-    if cos_o <= 0.0 || oh <= 0.0 || (cos_i > 0.0) != (ih > 0.0) {
+    let denominator = eta * oh + ih;
+    if cos_o <= 0.0 || oh <= 0.0 || (cos_i > 0.0) != (ih > 0.0) || abs(cos_i) < 1e-6 || abs(denominator) < 1e-4 {
         return 0.0;
     }
     let a = m.perceptual_roughness * m.perceptual_roughness;
@@ -116,7 +120,6 @@ fn rough_glass_f(m: Material, n: vec3<f32>, wo: vec3<f32>, wi: vec3<f32>, front:
     if cos_i > 0.0 {
         return fresnel * d * g / (4.0 * cos_o * cos_i);
     }
-    let denominator = eta * oh + ih;
     return eta * eta * oh * abs(ih) * (1.0 - fresnel) * g * d / (cos_o * abs(cos_i) * denominator * denominator);
 }
 
@@ -127,7 +130,8 @@ fn rough_glass_pdf(m: Material, n: vec3<f32>, wo: vec3<f32>, wi: vec3<f32>, fron
     let oh = dot(wo, h);
     let ih = dot(wi, h);
     let cos_i = dot(n, wi);
-    if dot(n, wo) <= 0.0 || oh <= 0.0 || (cos_i > 0.0) != (ih > 0.0) {
+    let denominator = eta * oh + ih;
+    if dot(n, wo) <= 0.0 || oh <= 0.0 || (cos_i > 0.0) != (ih > 0.0) || abs(denominator) < 1e-4 {
         return 0.0;
     }
     let a = m.perceptual_roughness * m.perceptual_roughness;
@@ -137,7 +141,6 @@ fn rough_glass_pdf(m: Material, n: vec3<f32>, wo: vec3<f32>, wi: vec3<f32>, fron
     if cos_i > 0.0 {
         return fresnel * normals / (4.0 * oh);
     }
-    let denominator = eta * oh + ih;
     return (1.0 - fresnel) * normals * abs(ih) / (denominator * denominator);
 }
 #endif

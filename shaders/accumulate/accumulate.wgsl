@@ -34,30 +34,31 @@ const CHECK_LIGHT: u32 = 4u;
 const NEW_DIRECT: u32 = 8u;
 const RELIT: u32 = 16u;
 
-// Whether the G-buffer texel's triangle moved in this frame's placement.
-fn on_moved_triangle(position: vec4<f32>) -> bool {
-    let t = triangles[u32(max(abs(position.w), 1.0)) - 1u];
-    return position.w != 0.0 && (t.material & MOVED_TRIANGLE) != 0u;
-}
-
-// Bits of a kept surface's marker byte (0: no surface): a surface, on a triangle that moved,
-// emitting.
+// Bits of a surface's marker byte (0: no surface): a surface, on a triangle that moved in
+// this frame's placement, emitting (its emissive factor, a texture only scales it, seen from
+// the front).
 const KEPT: u32 = 0x80u;
 const KEPT_MOVING: u32 = 1u;
 const KEPT_EMITTING: u32 = 2u;
 
-// Whether the surface at a G-buffer texel emits (its emissive factor, a texture only scales
-// it, seen from the front).
-fn emits(position: vec4<f32>) -> bool {
-    let m = scene_material(triangles[u32(max(position.w, 1.0)) - 1u].material);
-    return position.w > 0.0 && any(m.emissive.rgb > vec3<f32>(0.0));
+// The marker byte of the surface at a G-buffer texel, from one read of its triangle.
+fn surface_marks(position: vec4<f32>) -> u32 {
+    if position.w == 0.0 {
+        return 0u;
+    }
+    let material = triangles[u32(abs(position.w)) - 1u].material;
+    let emitting = position.w > 0.0 && any(scene_material(material).emissive.rgb > vec3<f32>(0.0));
+    return KEPT | select(0u, KEPT_MOVING, (material & MOVED_TRIANGLE) != 0u) | select(0u, KEPT_EMITTING, emitting);
 }
 
-// A G-buffer texel as kept in `surface`: position, and the normal packed with a marker byte
-// (KEPT, and KEPT_MOVING where `moving` says its triangle moved).
-fn packed_surface(position: vec4<f32>, normal: vec3<f32>, moving: bool) -> vec4<f32> {
-    let marker = KEPT | select(0u, KEPT_MOVING, moving) | select(0u, KEPT_EMITTING, emits(position));
-    let packed = (pack4x8snorm(vec4<f32>(normal, 0.0)) & 0x00ffffffu) | (marker << 24u);
+// Whether the surface at a G-buffer texel emits.
+fn emits(position: vec4<f32>) -> bool {
+    return (surface_marks(position) & KEPT_EMITTING) != 0u;
+}
+
+// A G-buffer texel as kept in `surface`: position, and the normal packed with its marker byte.
+fn packed_surface(position: vec4<f32>, normal: vec3<f32>, marks: u32) -> vec4<f32> {
+    let packed = (pack4x8snorm(vec4<f32>(normal, 0.0)) & 0x00ffffffu) | (marks << 24u);
     return vec4<f32>(position.xyz, bitcast<f32>(select(0u, packed, position.w != 0.0)));
 }
 
@@ -91,25 +92,22 @@ fn same_surface(kept: vec4<f32>, position: vec4<f32>, normal: vec4<f32>) -> bool
 // lights and emitters: their small, bright images, which one jittered sample hits or misses.
 const SPECULAR_ROUGHNESS: f32 = 0.5;
 
-// Whether the surface at a G-buffer texel mirrors or refracts: glass and glossy metal.
-fn specular_at(position: vec4<f32>, footprint: f32) -> bool {
-    if position.w == 0.0 {
-        return false;
-    }
-    let m = gbuffer_material(position, footprint);
-    let specular = m.metallic >= 0.5 || m.specular_transmission > 0.0;
-    return specular && m.perceptual_roughness < SPECULAR_ROUGHNESS;
-}
+// What the surface at a G-buffer texel shows of the view (`view_shown`): the lights and the
+// scene as the camera sees them (glass and glossy metal under SPECULAR_ROUGHNESS), and blurred
+// (a rough metal, not a mirror: one sample of it is little noisier than its history).
+const SHOWS_VIEW: u32 = 1u;
+const SHOWS_BLURRED: u32 = 2u;
 
-// Whether the surface at a G-buffer texel is glossy metal (rough, not a mirror): it shows the
-// lights and the scene blurred, as the camera sees them, and one sample of it is little noisier
-// than its history.
-fn glossy_at(position: vec4<f32>, footprint: f32) -> bool {
+fn view_shown(position: vec4<f32>, footprint: f32) -> u32 {
     if position.w == 0.0 {
-        return false;
+        return 0u;
     }
     let m = gbuffer_material(position, footprint);
-    return m.metallic >= 0.5 && m.perceptual_roughness >= DELTA_ROUGHNESS && m.perceptual_roughness < SPECULAR_ROUGHNESS;
+    let metal = m.metallic >= 0.5;
+    if !(metal || m.specular_transmission > 0.0) || m.perceptual_roughness >= SPECULAR_ROUGHNESS {
+        return 0u;
+    }
+    return SHOWS_VIEW | select(0u, SHOWS_BLURRED, metal && m.perceptual_roughness >= DELTA_ROUGHNESS);
 }
 
 // Neighbour k (0..9, the pixel itself at 4) of `pixel` in its 3×3 block, inside the image.
@@ -323,6 +321,10 @@ fn main(
     var kept_direct = select(history[pixels + index], vec4<f32>(0.0), params.iteration == 0u);
     // The surface this pixel's last sample saw (where it was, under a camera move).
     var kept_surface = history[index];
+    var shown = 0u;
+    if clamping {
+        shown = view_shown(position, normal.w);
+    }
     if (params.history_flags & CHECK_SURFACE) != 0u && params.iteration != 0u {
         if (params.history_flags & REPROJECT) != 0u {
             let reprojection = reprojected(position, id.xy);
@@ -339,7 +341,7 @@ fn main(
         // of this view.
         var kept_here: bool;
         if reprojecting {
-            kept_here = same_surface(kept_surface, position, normal) && !glossy_at(position, normal.w);
+            kept_here = same_surface(kept_surface, position, normal) && (shown & SHOWS_BLURRED) == 0u;
         } else {
             kept_here = surface_nearby(kept_surface, id.xy);
         }
@@ -362,7 +364,7 @@ fn main(
     let near_emitter = settling && emitter_nearby(id.xy);
     // Glass and mirrors show the scene as the camera sees it, sharp: what a camera move
     // reprojects there is clamped, both parts (one sample of them is too noisy to start from).
-    let view_dependent = clamping && specular_at(position, normal.w);
+    let view_dependent = (shown & SHOWS_VIEW) != 0u;
     let bright_edges = near_emitter || view_dependent;
     if settling || view_dependent {
         indirect = clamped(indirect, local.xy, 1u);
@@ -371,7 +373,8 @@ fn main(
     // direct light changes only where their shadows move: it keeps its history within what
     // its neighbourhood sees now, so its edges and textures keep averaging what their jitter
     // sees. A moving object's pixels, and those it left, start again.
-    let moving = on_moved_triangle(position);
+    let marks = surface_marks(position);
+    let moving = (marks & KEPT_MOVING) != 0u;
     let still = settling && (params.history_flags & (NEW_DIRECT | RELIT)) == NEW_DIRECT
         && !moving && !moved_surface(kept_surface);
     if bright_edges || still {
@@ -386,7 +389,7 @@ fn main(
     kept_direct.w = select(min(kept_direct.w, f32(params.history_cap)), kept_direct.w, near_emitter);
     indirect += (indirect_sample - indirect) / (kept.w + 1.0);
     direct += (direct_sample - direct) / (kept_direct.w + 1.0);
-    history[index] = packed_surface(position, normal.xyz, moving);
+    history[index] = packed_surface(position, normal.xyz, marks);
     history[pixels + index] = vec4<f32>(direct, kept_direct.w + 1.0);
     radiance[index] = vec4<f32>(direct + indirect, kept.w + 1.0);
 #else

@@ -90,57 +90,67 @@ fn path_pdf(m: Material, n: vec3<f32>, wo: vec3<f32>, wi: vec3<f32>, front: bool
 }
 
 #ifdef ROUGH_REFRACTION
-// The microfacet normal that turns wo into wi (reflected when both lie on n's side, else
-// refracted, η = n on wo's side / n on wi's), facing n; zero where none does.
-fn glass_half_vector(n: vec3<f32>, wo: vec3<f32>, wi: vec3<f32>, eta: f32) -> vec3<f32> {
-    var h = select(-(eta * wo + wi), wo + wi, dot(n, wi) > 0.0);
-    if dot(h, h) <= 1e-12 {
-        return vec3<f32>(0.0);
-    }
-    h = normalize(h);
-    return select(h, -h, dot(h, n) < 0.0);
+// How rough glass turns wo into wi (`front`: wo outside): η = n on wo's side / n on wi's,
+// the cosines with n, the microfacet normal that does it (reflected when both lie on n's
+// side, else refracted; facing n), its cosines with wo and wi, and the refraction Jacobian's
+// η (wo·h) + wi·h. `valid` where that microfacet exists and faces wo.
+struct GlassTurn {
+    eta: f32,
+    cos_o: f32,
+    cos_i: f32,
+    h: vec3<f32>,
+    oh: f32,
+    ih: f32,
+    denominator: f32,
+    valid: bool,
+}
+
+fn glass_turn(m: Material, n: vec3<f32>, wo: vec3<f32>, wi: vec3<f32>, front: bool) -> GlassTurn {
+    var t: GlassTurn;
+    t.eta = select(m.ior, 1.0 / m.ior, front);
+    t.cos_o = dot(n, wo);
+    t.cos_i = dot(n, wi);
+    var h = select(-(t.eta * wo + wi), wo + wi, t.cos_i > 0.0);
+    let length2 = dot(h, h);
+    h = select(vec3<f32>(0.0), h * inverseSqrt(max(length2, 1e-30)), length2 > 1e-12);
+    t.h = select(h, -h, dot(h, n) < 0.0);
+    t.oh = dot(wo, t.h);
+    t.ih = dot(wi, t.h);
+    t.denominator = t.eta * t.oh + t.ih;
+    t.valid = t.cos_o > 0.0 && t.oh > 0.0 && (t.cos_i > 0.0) == (t.ih > 0.0) && abs(t.denominator) >= 1e-4;
+    return t;
 }
 
 // Rough glass's f(wo, wi) for a camera path at it (`scatter_rough_glass`'s lobe).
 fn rough_glass_f(m: Material, n: vec3<f32>, wo: vec3<f32>, wi: vec3<f32>, front: bool) -> f32 {
-    let cos_o = dot(n, wo);
-    let cos_i = dot(n, wi);
-    let eta = select(m.ior, 1.0 / m.ior, front);
-    let h = glass_half_vector(n, wo, wi, eta);
-    let oh = dot(wo, h);
-    let ih = dot(wi, h);
-    let denominator = eta * oh + ih;
-    if cos_o <= 0.0 || oh <= 0.0 || (cos_i > 0.0) != (ih > 0.0) || abs(cos_i) < 1e-6 || abs(denominator) < 1e-4 {
+    let t = glass_turn(m, n, wo, wi, front);
+    if !t.valid || abs(t.cos_i) < 1e-6 {
         return 0.0;
     }
     let a = m.perceptual_roughness * m.perceptual_roughness;
-    let g = smith_g1(cos_o, a) * smith_g1(abs(cos_i), a);
-    let d = ggx_d(dot(n, h), a);
-    let fresnel = fresnel_dielectric(oh, eta);
-    if cos_i > 0.0 {
-        return fresnel * d * g / (4.0 * cos_o * cos_i);
+    let g = smith_g1(t.cos_o, a) * smith_g1(abs(t.cos_i), a);
+    let d = ggx_d(dot(n, t.h), a);
+    let fresnel = fresnel_dielectric(t.oh, t.eta);
+    if t.cos_i > 0.0 {
+        return fresnel * d * g / (4.0 * t.cos_o * t.cos_i);
     }
-    return eta * eta * oh * abs(ih) * (1.0 - fresnel) * g * d / (cos_o * abs(cos_i) * denominator * denominator);
+    let j = t.denominator * t.denominator;
+    return t.eta * t.eta * t.oh * abs(t.ih) * (1.0 - fresnel) * g * d / (t.cos_o * abs(t.cos_i) * j);
 }
 
 // The density with which `scatter_rough_glass` draws wi from wo.
 fn rough_glass_pdf(m: Material, n: vec3<f32>, wo: vec3<f32>, wi: vec3<f32>, front: bool) -> f32 {
-    let eta = select(m.ior, 1.0 / m.ior, front);
-    let h = glass_half_vector(n, wo, wi, eta);
-    let oh = dot(wo, h);
-    let ih = dot(wi, h);
-    let cos_i = dot(n, wi);
-    let denominator = eta * oh + ih;
-    if dot(n, wo) <= 0.0 || oh <= 0.0 || (cos_i > 0.0) != (ih > 0.0) || abs(denominator) < 1e-4 {
+    let t = glass_turn(m, n, wo, wi, front);
+    if !t.valid {
         return 0.0;
     }
     let a = m.perceptual_roughness * m.perceptual_roughness;
-    let n_dot_h = dot(n, h);
-    let fresnel = fresnel_dielectric(oh, eta);
+    let n_dot_h = dot(n, t.h);
+    let fresnel = fresnel_dielectric(t.oh, t.eta);
     let normals = ggx_d(n_dot_h, a) * n_dot_h;
-    if cos_i > 0.0 {
-        return fresnel * normals / (4.0 * oh);
+    if t.cos_i > 0.0 {
+        return fresnel * normals / (4.0 * t.oh);
     }
-    return (1.0 - fresnel) * normals * abs(ih) / (denominator * denominator);
+    return (1.0 - fresnel) * normals * abs(t.ih) / (t.denominator * t.denominator);
 }
 #endif

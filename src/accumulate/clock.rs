@@ -138,6 +138,14 @@ mod tests {
         relit: false,
     };
 
+    /// Something in the scene moved; its light did not change.
+    const SCENE: Changes = Changes {
+        cut: false,
+        moved: false,
+        scene: true,
+        relit: false,
+    };
+
     fn run(clock: &mut HistoryClock, n: u32) {
         for _ in 0..n {
             clock.advance();
@@ -159,11 +167,7 @@ mod tests {
     fn reuse_caps_the_history_while_a_change_settles() {
         let mut clock = HistoryClock::default();
         run(&mut clock, 20);
-        let scene = Changes {
-            scene: true,
-            ..Changes::default()
-        };
-        assert!(!clock.begin_frame(scene, Some(8)));
+        assert!(!clock.begin_frame(SCENE, Some(8)));
         assert_eq!((clock.iteration, clock.held), (20, 0));
         assert_eq!(
             clock.next(Some(8)),
@@ -184,16 +188,12 @@ mod tests {
     fn a_light_change_restarts_direct_light_everywhere_a_moved_object_only_its_own() {
         let mut clock = HistoryClock::default();
         run(&mut clock, 4);
-        let moved = Changes {
-            scene: true,
-            ..Changes::default()
-        };
-        assert!(!clock.begin_frame(moved, Some(8)));
+        assert!(!clock.begin_frame(SCENE, Some(8)));
         assert!(!clock.next(Some(8)).1.contains(HistoryFlags::RELIT));
         clock.advance();
         let relit = Changes {
             relit: true,
-            ..moved
+            ..SCENE
         };
         assert!(!clock.begin_frame(relit, Some(8)));
         let flags = clock.next(Some(8)).1;

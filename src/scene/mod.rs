@@ -326,9 +326,12 @@ impl SceneData {
 
     /// Total emitted power (luminance-weighted W) of every light and emitter.
     pub fn total_power(&self) -> f32 {
-        self.lights.iter().map(|l| l.radiance[3]).sum::<f32>()
-            + self.emitters.iter().map(|e| e.power).sum::<f32>()
-            + self.sky[3]
+        self.lights.iter().map(|l| l.radiance[3]).sum::<f32>() + self.emitter_power() + self.sky[3]
+    }
+
+    /// Emitted power (luminance-weighted W) of the emissive triangles together.
+    pub fn emitter_power(&self) -> f32 {
+        self.emitters.iter().map(|e| e.power).sum()
     }
 
     /// Centre and radius of a sphere around the bounds.

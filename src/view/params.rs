@@ -145,7 +145,7 @@ pub fn camera_params(
         exposure: camera.exposure,
         tonemap: (!camera.hdr) as u32,
         max_eye_depth: 1,
-        emitter_power: data.emitters.iter().map(|e| e.power).sum(),
+        emitter_power: data.emitter_power(),
         scene_sphere: {
             let (centre, radius) = data.bounding_sphere();
             centre.extend(radius.max(1e-6)).into()

@@ -39,6 +39,11 @@ import math
 import os
 import struct
 
+# The air gap under every glass object standing on a floor (and the metal plate in
+# frosted_lamp): a face coplanar with the floor is a contact renderers read differently
+# (assets/suite/README.md).
+LIFT = 0.005
+
 
 def look(direction):
     """The rotation taking −Z to `direction`, +Y kept up."""
@@ -230,10 +235,8 @@ def sun_room(path):
 def glass_slab(path):
     g, h, faces = open_box()
     coloured_walls(g, faces, [0.7, 0.7, 0.68], [0.65, 0.2, 0.15], [0.2, 0.3, 0.65])
-    # A glass block on the floor, turned 25° about y, over a thin air gap: a face coplanar
-    # with the floor is a contact renderers read differently (assets/suite/README.md).
-    lift = 0.005
-    faces = [rotate_y(f, 0.44, [0.1, 0, -0.2]) for f in box([-0.45, lift, -0.45], [0.65, 0.35 + lift, 0.05], inward=False)]
+    # A glass block on the floor, turned 25° about y, over the air gap LIFT.
+    faces = [rotate_y(f, 0.44, [0.1, 0, -0.2]) for f in box([-0.45, LIFT, -0.45], [0.65, 0.35 + LIFT, 0.05], inward=False)]
     g.quads(faces, g.glass(1.5))
     # A small panel facing down, above and behind the block, 0.4 m square.
     ceiling_panel(g, h - 0.01, -0.4, -0.8, 0.2, [1.0, 0.9, 0.75], 40.0)
@@ -248,10 +251,9 @@ def tinted_glass(path):
     # (their colour comes from the length light travels inside, not from their surfaces).
     # 5 mm above the floor: glass resting on a surface is an ambiguous contact (coplanar faces
     # that renderers order differently); a thin air gap is not.
-    lift = 0.005
-    g.quads([rotate_y(f, -0.3, [-0.5, 0, 0.0]) for f in box([-1.0, lift, -0.4], [0.0, 0.25, 0.4], inward=False)],
+    g.quads([rotate_y(f, -0.3, [-0.5, 0, 0.0]) for f in box([-1.0, LIFT, -0.4], [0.0, 0.25, 0.4], inward=False)],
             g.tinted_glass(1.5, [0.25, 0.75, 0.35], 0.25))
-    g.quads([rotate_y(f, 0.5, [0.7, 0, -0.5]) for f in box([0.45, lift, -0.75], [0.95, 0.9, -0.25], inward=False)],
+    g.quads([rotate_y(f, 0.5, [0.7, 0, -0.5]) for f in box([0.45, LIFT, -0.75], [0.95, 0.9, -0.25], inward=False)],
             g.tinted_glass(1.5, [0.9, 0.55, 0.15], 0.3))
     ceiling_panel(g, h - 0.01, 0.0, -0.6, 0.3, [1.0, 0.95, 0.9], 20.0)
     g.camera([0.0, 1.6, 2.9], [0.0, 0.3, -0.4], yfov=0.8)
@@ -265,10 +267,9 @@ def frosted_glass(path):
     # through it; and a lightly rough glass block (0.15) on the floor under the panel.
     g.quads([rotate_y(f, 0.3, [-0.5, 0, -0.6]) for f in box([-0.8, 0, -0.9], [-0.2, 0.6, -0.3], inward=False)],
             g.material([0.7, 0.15, 0.1]))
-    lift = 0.005  # a thin air gap under the glass, as in tinted_glass
-    g.quads([rotate_y(f, 0.15, [-0.4, 0, 0.0]) for f in box([-1.1, lift, -0.02], [0.3, 1.1, 0.02], inward=False)],
+    g.quads([rotate_y(f, 0.15, [-0.4, 0, 0.0]) for f in box([-1.1, LIFT, -0.02], [0.3, 1.1, 0.02], inward=False)],
             g.rough_glass(1.5, 0.4))
-    g.quads([rotate_y(f, -0.4, [0.75, 0, -0.2]) for f in box([0.4, lift, -0.55], [1.1, 0.35, 0.15], inward=False)],
+    g.quads([rotate_y(f, -0.4, [0.75, 0, -0.2]) for f in box([0.4, LIFT, -0.55], [1.1, 0.35, 0.15], inward=False)],
             g.rough_glass(1.5, 0.15))
     ceiling_panel(g, h - 0.01, 0.2, -0.3, 0.5, [1.0, 0.95, 0.9], 8.0)
     g.camera([0.2, 1.5, 2.9], [-0.1, 0.4, -0.4], yfov=0.8)
@@ -281,11 +282,10 @@ def frosted_lamp(path):
     # A point light behind a standing frosted pane (roughness 0.3, 3 cm thick), seen through it
     # as a glow; a brushed metal plate (roughness 0.2) on the floor reflecting a small lamp
     # panel on the back wall.
-    lift = 0.005
-    g.quads([rotate_y(f, -0.2, [-0.45, 0, -0.6]) for f in box([-1.1, lift, -0.615], [0.2, 1.1, -0.585], inward=False)],
+    g.quads([rotate_y(f, -0.2, [-0.45, 0, -0.6]) for f in box([-1.1, LIFT, -0.615], [0.2, 1.1, -0.585], inward=False)],
             g.rough_glass(1.5, 0.3))
     g.light({"type": "point", "color": [1.0, 0.9, 0.75], "intensity": 2.0}, translation=[-0.45, 0.7, -1.0])
-    g.quads(box([0.05, lift, 0.6], [0.95, 0.02, 1.4], inward=False), g.material([0.9, 0.85, 0.8], roughness=0.2, metallic=1.0))
+    g.quads(box([0.05, LIFT, 0.6], [0.95, 0.02, 1.4], inward=False), g.material([0.9, 0.85, 0.8], roughness=0.2, metallic=1.0))
     g.quads([[[0.8, 1.6, -1.49], [1.2, 1.6, -1.49], [1.2, 2.0, -1.49], [0.8, 2.0, -1.49]]], g.emitter([1.0, 0.95, 0.9], 12.0))
     g.camera([0.0, 1.3, 2.8], [0.0, 0.5, -0.3], yfov=0.9)
     g.write(path, "bevy_rppm tools/suite_scenes.py frosted_lamp")
@@ -417,8 +417,7 @@ def sky_court(path):
     floor, _ceiling, back, _front, left, _right = box([-half, 0, -half], [half, 1.6, half], inward=True)
     g.quads([floor], g.material([0.45, 0.45, 0.42]))
     g.quads([back, left], g.material([0.6, 0.15, 0.1]))
-    lift = 0.005  # the glass over a thin air gap, as glass_slab's
-    g.quads([rotate_y(f, 0.5, [0.3, 0, 0.2]) for f in box([-0.2, lift, -0.3], [0.8, 0.5 + lift, 0.7], inward=False)],
+    g.quads([rotate_y(f, 0.5, [0.3, 0, 0.2]) for f in box([-0.2, LIFT, -0.3], [0.8, 0.5 + LIFT, 0.7], inward=False)],
             g.glass(1.5))
     g.quads([rotate_y(f, -0.3, [-1.5, 0, -1.2]) for f in box([-2.1, 0, -1.8], [-0.9, 0.9, -0.6], inward=False)],
             g.material([0.75, 0.75, 0.75]))

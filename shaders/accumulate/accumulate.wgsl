@@ -53,7 +53,12 @@ fn surface_marks(position: vec4<f32>) -> u32 {
 
 // Whether the surface at a G-buffer texel emits.
 fn emits(position: vec4<f32>) -> bool {
-    return (surface_marks(position) & KEPT_EMITTING) != 0u;
+    return emitting(surface_marks(position));
+}
+
+// Whether a marker byte is an emitting surface's.
+fn emitting(marks: u32) -> bool {
+    return (marks & KEPT_EMITTING) != 0u;
 }
 
 // A G-buffer texel as kept in `surface`: position, and the normal packed with its marker byte.
@@ -72,7 +77,7 @@ fn moved_surface(kept: vec4<f32>) -> bool {
 // half; more along a surface seen at a grazing angle), with a normal within ~25°, emitting
 // if and only if it does (an emitter's rim on its wall is no history of the wall): a moving
 // object's pixels start again.
-fn same_surface(kept: vec4<f32>, position: vec4<f32>, normal: vec4<f32>) -> bool {
+fn same_surface(kept: vec4<f32>, position: vec4<f32>, normal: vec4<f32>, marks: u32) -> bool {
     let packed = bitcast<u32>(kept.w);
     let had = (packed >> 24u) != 0u;
     if !had || position.w == 0.0 {
@@ -84,8 +89,7 @@ fn same_surface(kept: vec4<f32>, position: vec4<f32>, normal: vec4<f32>) -> bool
     let facing = abs(dot(normal.xyz, normalize(params.camera_position.xyz - position.xyz)));
     let across = 3.0 * normal.w / max(facing, 0.2);
     let near = length(d) <= across + slack && abs(dot(d, normal.xyz)) <= normal.w + slack;
-    let emitted = ((packed >> 24u) & KEPT_EMITTING) != 0u;
-    return near && dot(kept_normal, normal.xyz) > 0.9 && emitted == emits(position);
+    return near && dot(kept_normal, normal.xyz) > 0.9 && emitting(packed >> 24u) == emitting(marks);
 }
 
 // Perceptual roughness under which a metal's or glass's direct light is what it shows of the
@@ -137,7 +141,7 @@ fn surface_nearby(kept: vec4<f32>, pixel: vec2<u32>) -> bool {
         let p = neighbour(pixel, k);
         let position = textureLoad(gbuffer_position, p, 0);
         let normal = textureLoad(gbuffer_normal, p, 0);
-        found = found || same_surface(kept, position, normal);
+        found = found || same_surface(kept, position, normal, surface_marks(position));
     }
     return found;
 }
@@ -321,6 +325,7 @@ fn main(
     var kept_direct = select(history[pixels + index], vec4<f32>(0.0), params.iteration == 0u);
     // The surface this pixel's last sample saw (where it was, under a camera move).
     var kept_surface = history[index];
+    let marks = surface_marks(position);
     var shown = 0u;
     if clamping {
         shown = view_shown(position, normal.w);
@@ -341,7 +346,7 @@ fn main(
         // of this view.
         var kept_here: bool;
         if reprojecting {
-            kept_here = same_surface(kept_surface, position, normal) && (shown & SHOWS_BLURRED) == 0u;
+            kept_here = same_surface(kept_surface, position, normal, marks) && (shown & SHOWS_BLURRED) == 0u;
         } else {
             kept_here = surface_nearby(kept_surface, id.xy);
         }
@@ -373,7 +378,6 @@ fn main(
     // direct light changes only where their shadows move: it keeps its history within what
     // its neighbourhood sees now, so its edges and textures keep averaging what their jitter
     // sees. A moving object's pixels, and those it left, start again.
-    let marks = surface_marks(position);
     let moving = (marks & KEPT_MOVING) != 0u;
     let still = settling && (params.history_flags & (NEW_DIRECT | RELIT)) == NEW_DIRECT
         && !moving && !moved_surface(kept_surface);

@@ -12,6 +12,9 @@ of failure:
   blurred behind it, and a lightly rough glass block (0.15) under a panel;
 - `frosted_lamp`: a point light behind a frosted pane (seen through it as a glow) and a small
   lamp panel reflected in a brushed metal plate: light found through rough lobes;
+- `frosted_lantern`: a point light inside a hollow frosted glass lantern (roughness 0.2) and a
+  spot light behind a frosted pane of ior 1.33 (roughness 0.5): punctual lights seen through
+  two rough interfaces, of other roughnesses, indices and light kinds than `frosted_lamp`'s;
 - `water_pool`: a static water height field (ior 1.33) in a tiled pool under a large sky quad;
 - `sky_court`: a yard open to a uniform blue sky (`scenes[0].extras.rppm_sky`), red walls in a
   corner, a glass block and a white box;
@@ -291,6 +294,28 @@ def frosted_lamp(path):
     g.write(path, "bevy_rppm tools/suite_scenes.py frosted_lamp")
 
 
+def frosted_lantern(path):
+    g, h, faces = open_box()
+    coloured_walls(g, faces, [0.55, 0.55, 0.53], [0.2, 0.45, 0.3], [0.6, 0.55, 0.2])
+    # A hollow lantern of frosted glass (roughness 0.2, walls 1 cm) on the floor with a small
+    # sphere light inside it: seen through two rough interfaces, it lights the room through them.
+    lo, hi, wall = [-0.55, LIFT, -0.5], [-0.1, 0.5, -0.05], 0.01
+    lantern = g.rough_glass(1.5, 0.2)
+    g.quads(box(lo, hi, inward=False), lantern)
+    g.quads(box([c + wall for c in lo], [c - wall for c in hi], inward=True), lantern)
+    g.light({"type": "point", "color": [1.0, 0.8, 0.55], "intensity": 1.5, "extras": {"rppm_radius": 0.03}},
+            translation=[(lo[0] + hi[0]) / 2, 0.25, (lo[2] + hi[2]) / 2])
+    # A standing pane of frosted water-glass (ior 1.33, roughness 0.5, 5 mm) with a spot light
+    # behind it aimed through it at the room.
+    g.quads([rotate_y(f, 0.3, [0.85, 0, -0.9]) for f in box([0.45, LIFT, -0.9], [1.25, 1.4, -0.895], inward=False)],
+            g.rough_glass(1.33, 0.5))
+    g.light({"type": "spot", "color": [0.8, 0.9, 1.0], "intensity": 4.0,
+             "spot": {"innerConeAngle": 0.4, "outerConeAngle": 0.5}},
+            translation=[0.95, 0.9, -1.3], direction=[-0.25, -0.35, 1.0])
+    g.camera([0.1, 1.25, 2.8], [0.15, 0.45, -0.6], yfov=0.85)
+    g.write(path, "bevy_rppm tools/suite_scenes.py frosted_lantern")
+
+
 def water_pool(path):
     g = Gltf()
     half, depth, cells = 1.5, 0.8, 24
@@ -476,7 +501,7 @@ def main():
     parser.add_argument("out", help="folder for the .gltf files")
     args = parser.parse_args()
     os.makedirs(args.out, exist_ok=True)
-    for make in (sun_room, glass_slab, tinted_glass, frosted_glass, frosted_lamp, water_pool, sky_court, lens_caustic, clearcoat, translucent,
+    for make in (sun_room, glass_slab, tinted_glass, frosted_glass, frosted_lamp, frosted_lantern, water_pool, sky_court, lens_caustic, clearcoat, translucent,
                  mirror_caustic, sun_spot_caustics):
         path = os.path.join(args.out, f"{make.__name__}.gltf")
         make(path)

@@ -7,6 +7,11 @@
 #define_import_path bevy_rppm::mis
 
 #import bevy_rppm::common::{Material, PI, DELTA_ROUGHNESS, luminance}
+#ifdef LIGHT_GUIDE
+#import bevy_rppm::common::{LIGHT_DIRECTIONAL, LIGHT_SPOT, basis_around, random}
+#import bevy_rppm::scene::lights
+#import bevy_rppm::bsdf::bsdf_eval
+#endif
 #import bevy_rppm::bsdf::{specular_f0, specular_at, specular_average, cosine_lobes_energy, ggx_d, translucency, layered}
 #ifdef ROUGH_REFRACTION
 #import bevy_rppm::bsdf::{rough_glass_share, smith_g1, fresnel_dielectric}
@@ -152,5 +157,150 @@ fn rough_glass_pdf(m: Material, n: vec3<f32>, wo: vec3<f32>, wi: vec3<f32>, fron
         return fresnel * normals / (4.0 * t.oh);
     }
     return (1.0 - fresnel) * normals * abs(t.ih) / (t.denominator * t.denominator);
+}
+#endif
+
+// The density with which a camera path at a `mis_vertex` surface draws wi: the BSDF's, or
+// with LIGHT_GUIDE its mixture with the guide's.
+fn drawn_pdf(blocked: u32, m: Material, x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, wi: vec3<f32>, front: bool) -> f32 {
+    let p = path_pdf(m, n, wo, wi, front);
+#ifdef LIGHT_GUIDE
+    let share = guide_share(blocked, m, x, n, wo, front);
+    if share > 0.0 {
+        return (1.0 - share) * p + share * guide_pdf(blocked, m, x, n, wo, front, wi);
+    }
+#endif
+    return p;
+}
+
+#ifdef LIGHT_GUIDE
+// Camera paths toward punctual lights behind rough glass (a lamp behind a frosted pane, seen
+// in a brushed plate): such a light is found only by the shadow ray at the glass's far side,
+// whose lobe the direction drawn at the near side must hit by chance (fireflies). So at rough
+// vertices where a shadow ray found a light blocked, the direction is also drawn around where
+// the light lies, in a lobe as wide as the far side's (that side taken of the same material);
+// one-sample MIS with the BSDF (balance heuristic) keeps the mean.
+
+// The share of directions the guide draws where it has a light.
+const GUIDE_SHARE: f32 = 0.5;
+
+// The guide's lobe toward one light: its axis, cos^k exponent k (k = 1/σ²), and the light's
+// irradiance at x, by which lights are drawn (0: not guided to).
+struct GuideLobe {
+    axis: vec3<f32>,
+    exponent: f32,
+    weight: f32,
+}
+
+fn guide_lobe(light_index: u32, m: Material, x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, front: bool) -> GuideLobe {
+    let l = lights[light_index];
+    var dir = -l.direction.xyz;
+    var irradiance = luminance(l.radiance.rgb);
+    if l.kind != LIGHT_DIRECTIONAL {
+        let to_light = l.position.xyz - x;
+        let d2 = max(dot(to_light, to_light), 1e-12);
+        dir = to_light * inverseSqrt(d2);
+        irradiance /= d2;
+        if l.kind == LIGHT_SPOT && dot(-dir, l.direction.xyz) < l.cos_outer {
+            irradiance = 0.0;
+        }
+    }
+    let a = max(m.perceptual_roughness * m.perceptual_roughness, 1e-3);
+    // Where the light lies and the far side's lobe width (radians), in the space of the path's
+    // next direction.
+    var aim = dir;
+    var sigma = 2.0 * a;
+    if dot(dir, n) < 0.0 {
+        // A light beyond glass, its far face taken parallel to this one (a slab): the path
+        // leaves toward the light along the light's direction refracted in. A microfacet
+        // normal turned by δ turns a refracted direction by δ·(η − 1)/η.
+        aim = refract(dir, n, 1.0 / m.ior);
+        if rough_share(m) <= 0.0 || all(aim == vec3<f32>(0.0)) {
+            return GuideLobe(dir, 0.0, 0.0);
+        }
+        sigma = a * abs(m.ior - 1.0) / max(m.ior, 1.0);
+    }
+    return GuideLobe(aim, min(1.0 / (sigma * sigma), 1e6), irradiance);
+}
+
+fn guide_total(blocked: u32, m: Material, x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, front: bool) -> f32 {
+    var total = 0.0;
+    for (var bits = blocked; bits != 0u; bits &= bits - 1u) {
+        let i = firstTrailingBit(bits);
+        total += guide_lobe(i, m, x, n, wo, front).weight;
+    }
+    return total;
+}
+
+fn guide_share(blocked: u32, m: Material, x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, front: bool) -> f32 {
+    // Outside glass only: guided inside it (toward a far face taken parallel to the one the
+    // path meets) the pane's edges and a hollow lantern's walls turned to fireflies.
+    return select(0.0, GUIDE_SHARE, front && guide_total(blocked, m, x, n, wo, front) > 0.0);
+}
+
+// cos^k around the axis, normalised over the hemisphere around it.
+fn lobe_pdf(lobe: GuideLobe, wi: vec3<f32>) -> f32 {
+    let c = dot(wi, lobe.axis);
+    return select(0.0, (lobe.exponent + 1.0) / (2.0 * PI) * pow(max(c, 0.0), lobe.exponent), c > 0.0);
+}
+
+// The guide's density of wi: its lobes' mixture by weight.
+fn guide_pdf(blocked: u32, m: Material, x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, front: bool, wi: vec3<f32>) -> f32 {
+    var total = 0.0;
+    var p = 0.0;
+    for (var bits = blocked; bits != 0u; bits &= bits - 1u) {
+        let i = firstTrailingBit(bits);
+        let lobe = guide_lobe(i, m, x, n, wo, front);
+        if lobe.weight > 0.0 {
+            total += lobe.weight;
+            p += lobe.weight * lobe_pdf(lobe, wi);
+        }
+    }
+    return select(0.0, p / total, total > 0.0);
+}
+
+// One direction from the guide: a light drawn by weight, then its lobe.
+fn guide_sample(blocked: u32, m: Material, x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, front: bool, rng: ptr<function, u32>) -> vec3<f32> {
+    var pick = random(rng) * guide_total(blocked, m, x, n, wo, front);
+    var chosen = GuideLobe(n, 0.0, 0.0);
+    for (var bits = blocked; bits != 0u; bits &= bits - 1u) {
+        let i = firstTrailingBit(bits);
+        let lobe = guide_lobe(i, m, x, n, wo, front);
+        if lobe.weight > 0.0 {
+            chosen = lobe;
+            pick -= lobe.weight;
+            if pick < 0.0 {
+                break;
+            }
+        }
+    }
+    let cos_t = exp(log(max(random(rng), 1e-30)) / (chosen.exponent + 1.0));
+    let sin_t = sqrt(max(1.0 - cos_t * cos_t, 0.0));
+    let phi = 2.0 * PI * random(rng);
+    return basis_around(chosen.axis) * vec3<f32>(sin_t * cos(phi), sin_t * sin(phi), cos_t);
+}
+
+// The camera path's next direction at a `mis_vertex` surface where the guide has a light:
+// drawn by the guide or the BSDF (`bsdf_drawn`, what `lobe_bounce` drew), weighted f·|cos|
+// over the mixture's density, returned in w (0: absorbed).
+struct Guided {
+    direction: vec3<f32>,
+    weight: vec3<f32>,
+    density: f32,
+}
+
+fn guided_bounce(blocked: u32, m: Material, x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, front: bool, share: f32, bsdf_drawn: vec3<f32>, bsdf_weight: vec3<f32>, use_guide: bool, rng: ptr<function, u32>) -> Guided {
+    var wi = bsdf_drawn;
+    if use_guide {
+        wi = guide_sample(blocked, m, x, n, wo, front, rng);
+    } else if all(bsdf_weight <= vec3<f32>(0.0)) {
+        return Guided(wi, vec3<f32>(0.0), 0.0);
+    }
+    let p = (1.0 - share) * path_pdf(m, n, wo, wi, front) + share * guide_pdf(blocked, m, x, n, wo, front, wi);
+    if !(p > 0.0) {
+        return Guided(wi, vec3<f32>(0.0), 0.0);
+    }
+    let f = path_f(bsdf_eval(layered(m), n, wo, wi), m, n, wo, wi, front);
+    return Guided(wi, f * abs(dot(n, wi)) / p, p);
 }
 #endif

@@ -20,6 +20,9 @@
 #import bevy_rppm::mis::{mis_vertex, path_pdf, power_heuristic}
 #import bevy_rppm::lighting::emitter_density
 #endif
+#ifdef LIGHT_GUIDE
+#import bevy_rppm::mis::{guide_share, guided_bounce}
+#endif
 #endif
 
 @group(2) @binding(0) var gbuffer_position: texture_2d<f32>;
@@ -193,8 +196,10 @@ fn camera_path(pixel: u32, first: Vertex, rng: ptr<function, u32>) -> vec3<f32> 
         mis = lit && !ends && mis_vertex(v.m) && depth < params.max_eye_depth && params.direct_photons == 0u;
 #endif
 #endif
+        // The punctual lights a shadow ray found blocked here (LIGHT_GUIDE draws toward them).
+        var blocked = 0u;
         if lit {
-            found += throughput * surface_light(v.m, v.x, v.n, v.wo, v.front, v.triangle, ends, mis, rng);
+            found += throughput * surface_light(v.m, v.x, v.n, v.wo, v.front, v.triangle, ends, mis, rng, &blocked);
         }
         if ends {
 #ifdef IMPORTONS
@@ -214,12 +219,32 @@ fn camera_path(pixel: u32, first: Vertex, rng: ptr<function, u32>) -> vec3<f32> 
             return found;
         }
 #ifdef IMPORTONS
+#ifdef LIGHT_GUIDE
+        let share = select(0.0, guide_share(blocked, v.m, v.x, v.n, v.wo, v.front), mis);
+        if share > 0.0 {
+            let by_guide = random(rng) < share;
+            var drawn = Bounce(v.n, vec3<f32>(1.0));
+            if !by_guide {
+                drawn = lobe_bounce(v.m, -v.wo, v.n, v.front, rng);
+            }
+            let g = guided_bounce(blocked, v.m, v.x, v.n, v.wo, v.front, share, drawn.direction, drawn.weight, by_guide, rng);
+            bounce = Bounce(g.direction, g.weight);
+            drawn_density = g.density;
+        } else {
+            bounce = next_bounce(v.m, -v.wo, v.n, v.front, rng);
+            if mis {
+                drawn_density = path_pdf(v.m, v.n, v.wo, bounce.direction, v.front);
+            }
+        }
+        throughput *= bounce.weight;
+#else
         bounce = next_bounce(v.m, -v.wo, v.n, v.front, rng);
         throughput *= bounce.weight;
 #ifdef TRACED_SHADOWS
         if mis {
             drawn_density = path_pdf(v.m, v.n, v.wo, bounce.direction, v.front);
         }
+#endif
 #endif
 #ifdef ABSORPTION
         medium = medium_after(medium, v.m, v.front, dot(bounce.direction, v.n) < 0.0);

@@ -12,7 +12,7 @@
 #ifdef TRACED_SHADOWS
 #import bevy_rppm::cubemap::occluded
 #ifdef IMPORTONS
-#import bevy_rppm::mis::{path_f, path_pdf, power_heuristic}
+#import bevy_rppm::mis::{path_f, drawn_pdf, power_heuristic}
 #endif
 #endif
 
@@ -170,7 +170,7 @@ fn emitter_density(radiance: vec3<f32>, d2: f32, cos_y: f32) -> f32 {
 // past x find them themselves). Where `mis`, x is a rough vertex the path goes on from
 // (mis.wgsl): its f includes rough refraction, and the emitters are sampled too, weighted
 // against the path's own chance of finding them. `rng` draws the samples.
-fn surface_light(m: Material, x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, front: bool, origin_triangle: u32, emitters: bool, mis: bool, rng: ptr<function, u32>) -> vec3<f32> {
+fn surface_light(m: Material, x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, front: bool, origin_triangle: u32, emitters: bool, mis: bool, rng: ptr<function, u32>, blocked: ptr<function, u32>) -> vec3<f32> {
     let emitted = select(vec3<f32>(0.0), m.emissive.rgb, front);
     if params.direct_photons != 0u {
         return emitted;
@@ -185,6 +185,7 @@ fn surface_light(m: Material, x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, front: 
     let samples = punctual + select(0u, 2u, emitters || mis);
     for (var k = 0u; k < samples; k += 1u) {
         var s = no_light();
+        var light = 32u;
         if k < punctual {
             var i = k;
             var weight = 1.0;
@@ -196,6 +197,7 @@ fn surface_light(m: Material, x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, front: 
             }
             s = punctual_sample(lights[i], x, rng);
             s.li *= weight;
+            light = i;
         } else if k == punctual {
 #ifdef SKY
             if !emitters {
@@ -232,7 +234,7 @@ fn surface_light(m: Material, x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, front: 
         if mis {
             f = path_f(f, m, n, wo, s.wi, front);
             if s.density > 0.0 {
-                f *= power_heuristic(s.density, path_pdf(m, n, wo, s.wi, front));
+                f *= power_heuristic(s.density, drawn_pdf(*blocked, m, x, n, wo, s.wi, front));
             }
         }
 #endif
@@ -240,7 +242,11 @@ fn surface_light(m: Material, x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, front: 
         // No shadow ray where nothing would arrive (behind an opaque surface, outside a
         // cone, a delta lobe).
         if any(lit > vec3<f32>(0.0)) {
-            sum += lit * visibility(x, s.wi, s.distance, origin_triangle);
+            let seen = visibility(x, s.wi, s.distance, origin_triangle);
+            sum += lit * seen;
+            if seen == 0.0 && k < punctual && light < 32u {
+                *blocked |= 1u << light;
+            }
         }
     }
 #else

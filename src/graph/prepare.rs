@@ -110,6 +110,10 @@ fn select_stages(
                 sky: scene.paths.contains(ScatterPaths::SKY),
                 layers,
                 bvh: state.key.bvh,
+                light_guide: state.importons
+                    && state.traced_shadows
+                    && scene.paths.contains(ScatterPaths::ROUGH_REFRACTION)
+                    && !scene.data.lights.is_empty(),
             },
         ),
         trace: traced.then(|| {

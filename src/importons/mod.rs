@@ -66,6 +66,10 @@ pub struct EyePathKey {
     pub layers: ScatterPaths,
     /// Rays through the hierarchy (`BVH`): `RppmTracer::Bvh`.
     pub bvh: bool,
+    /// Camera paths at rough vertices also draw toward punctual lights a shadow ray found
+    /// blocked (`LIGHT_GUIDE`, shaders/common/mis.wgsl): the scene has rough glass and
+    /// punctual lights, and camera paths go on with traced shadows.
+    pub light_guide: bool,
 }
 
 impl SpecializedComputePipeline for EyePathPipeline {
@@ -92,6 +96,9 @@ impl SpecializedComputePipeline for EyePathPipeline {
         }
         if key.traced_shadows {
             shader_defs.push("TRACED_SHADOWS".into());
+        }
+        if key.light_guide {
+            shader_defs.push("LIGHT_GUIDE".into());
         }
         if key.bvh {
             shader_defs.push("BVH".into());

@@ -67,7 +67,7 @@ pub fn specular_energy_average(roughness: f32, f0: [f32; 3]) -> [f32; 3] {
 
 /// `(A, B)` of the single-scattering GGX lobe (height-correlated Smith) at perceptual
 /// roughness `roughness` for light from cosine `mu`, by normal-distribution sampling with
-/// Hammersley points, the same sampling as `sample_ggx`.
+/// Hammersley points (a table computed once; `sample_ggx` in the renderer draws visible normals).
 pub fn directional_albedo(roughness: f32, mu: f32) -> (f32, f32) {
     let alpha = roughness * roughness;
     let mu = mu.clamp(1e-4, 1.0);

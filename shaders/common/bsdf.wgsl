@@ -291,24 +291,51 @@ fn has_glossy_lobe(m: Material) -> bool {
     return m.perceptual_roughness >= DELTA_ROUGHNESS;
 }
 
-// A microfacet normal drawn from GGX's D(h)·(n·h) around n, for α = a.
-fn ggx_normal(n: vec3<f32>, a: f32, u: vec2<f32>) -> vec3<f32> {
-    let cos_h = sqrt((1.0 - u.x) / (1.0 + (a * a - 1.0) * u.x));
-    let sin_h = sqrt(max(1.0 - cos_h * cos_h, 0.0));
-    let phi = 2.0 * PI * u.y;
+// Smith's G1 for GGX.
+fn smith_g1(cos_theta: f32, a: f32) -> f32 {
+    let c2 = max(cos_theta * cos_theta, 1e-8);
+    return 2.0 / (1.0 + sqrt(1.0 + a * a * (1.0 - c2) / c2));
+}
+
+// A microfacet normal of GGX (α = a) around n, drawn as seen from v.
+fn ggx_normal(n: vec3<f32>, v: vec3<f32>, a: f32, u: vec2<f32>) -> vec3<f32> {
+    // The microfacet normals v sees, by their visible area (Heitz 2018): weights stay under 1
+    // at grazing v, where drawing by D alone gave weights of 1/(n·v) (fireflies at the edges
+    // of rough glass and metal seen edge-on).
     let t = select(vec3<f32>(1.0, 0.0, 0.0), vec3<f32>(0.0, 1.0, 0.0), abs(n.x) > 0.9);
     let x = normalize(cross(t, n));
     let y = cross(n, x);
-    return x * (sin_h * cos(phi)) + y * (sin_h * sin(phi)) + n * cos_h;
+    let local = vec3<f32>(dot(v, x), dot(v, y), max(dot(v, n), 1e-6));
+    let vh = normalize(vec3<f32>(a * local.x, a * local.y, local.z));
+    let length2 = vh.x * vh.x + vh.y * vh.y;
+    let t1 = select(vec3<f32>(1.0, 0.0, 0.0), vec3<f32>(-vh.y, vh.x, 0.0) * inverseSqrt(max(length2, 1e-30)), length2 > 1e-12);
+    let t2 = cross(vh, t1);
+    let r = sqrt(u.x);
+    let phi = 2.0 * PI * u.y;
+    let p1 = r * cos(phi);
+    let s = 0.5 * (1.0 + vh.z);
+    let p2 = (1.0 - s) * sqrt(max(1.0 - p1 * p1, 0.0)) + s * r * sin(phi);
+    let nh = p1 * t1 + p2 * t2 + sqrt(max(1.0 - p1 * p1 - p2 * p2, 0.0)) * vh;
+    let h = normalize(vec3<f32>(a * nh.x, a * nh.y, max(nh.z, 1e-6)));
+    return x * h.x + y * h.y + n * h.z;
 }
 
-// Samples the GGX lobe by its normal distribution around n for light arriving from `v`
+// The density of `ggx_normal`'s h seen from v: G1(v) max(v·h, 0) D(h) / (n·v).
+fn visible_normal_pdf(n: vec3<f32>, v: vec3<f32>, h: vec3<f32>, a: f32) -> f32 {
+    let n_dot_v = dot(n, v);
+    let v_dot_h = dot(v, h);
+    if n_dot_v <= 0.0 || v_dot_h <= 0.0 {
+        return 0.0;
+    }
+    return smith_g1(n_dot_v, a) * v_dot_h * ggx_d(max(dot(n, h), 0.0), a) / n_dot_v;
+}
+
+// Samples the GGX lobe by its visible normals around n for light arriving from `v`
 // (pointing away from the surface): returns the scattered direction (xyz) and the weight
 // f·cos/pdf (w, scalar part; multiply by Fresnel), or w = 0 when it leaves below the surface.
 fn sample_ggx(m: Material, n: vec3<f32>, v: vec3<f32>, u: vec2<f32>) -> vec4<f32> {
     let a = m.perceptual_roughness * m.perceptual_roughness;
-    let h = ggx_normal(n, a, u);
-    let cos_h = dot(n, h);
+    let h = ggx_normal(n, v, a, u);
     let l = reflect(-v, h);
     let n_dot_l = dot(n, l);
     let n_dot_v = dot(n, v);
@@ -316,9 +343,9 @@ fn sample_ggx(m: Material, n: vec3<f32>, v: vec3<f32>, u: vec2<f32>) -> vec4<f32
     if n_dot_l <= 0.0 || n_dot_v <= 0.0 || v_dot_h <= 0.0 {
         return vec4<f32>(l, 0.0);
     }
-    // f cos / pdf with pdf = D (n·h) / (4 v·h): G · (v·h) / ((n·v)(n·h)), G = 4 V (n·v)(n·l).
+    // f cos / pdf with pdf = G1(v) D / (4 n·v): G / G1(v), G = 4 V (n·v)(n·l).
     let g = 4.0 * smith_visibility(n_dot_v, n_dot_l, a) * n_dot_v * n_dot_l;
-    return vec4<f32>(l, g * v_dot_h / (n_dot_v * cos_h));
+    return vec4<f32>(l, g / smith_g1(n_dot_v, a));
 }
 
 // Unpolarised Fresnel reflectance of a dielectric; eta = n_incident / n_transmitted.
@@ -454,12 +481,6 @@ fn opaque_part(m: Material) -> Material {
     return o;
 }
 
-// Smith's G1 for GGX.
-fn smith_g1(cos_theta: f32, a: f32) -> f32 {
-    let c2 = max(cos_theta * cos_theta, 1e-8);
-    return 2.0 / (1.0 + sqrt(1.0 + a * a * (1.0 - c2) / c2));
-}
-
 // What the rough interface reflects, f(wo, wi), both on n's side.
 fn rough_glass_reflection(m: Material, n: vec3<f32>, wo: vec3<f32>, wi: vec3<f32>) -> vec3<f32> {
     let n_dot_l = dot(n, wi);
@@ -477,12 +498,11 @@ fn rough_glass_reflection(m: Material, n: vec3<f32>, wo: vec3<f32>, wi: vec3<f32
 }
 
 // Samples the rough interface for light from wi (pointing away from the surface, on n's side;
-// `front` whether that is outside): a microfacet normal by D, then reflection with Fresnel's
-// probability, else refraction. The weight f·cos/pdf is |wi·h| G / (|wi·n| |h·n|) for both.
+// `front` whether that is outside): a microfacet normal as wi sees them, then reflection with Fresnel's
+// probability, else refraction.
 fn scatter_rough_glass(m: Material, n: vec3<f32>, wi: vec3<f32>, front: bool, rng: ptr<function, u32>) -> Scatter {
     let a = m.perceptual_roughness * m.perceptual_roughness;
-    let h = ggx_normal(n, a, vec2<f32>(random(rng), random(rng)));
-    let cos_h = dot(n, h);
+    let h = ggx_normal(n, wi, a, vec2<f32>(random(rng), random(rng)));
     let i_dot_h = dot(wi, h);
     let i_dot_n = dot(wi, n);
     if i_dot_h <= 0.0 || i_dot_n <= 0.0 {
@@ -500,8 +520,8 @@ fn scatter_rough_glass(m: Material, n: vec3<f32>, wi: vec3<f32>, front: bool, rn
     if (reflects && o_dot_n <= 0.0) || (!reflects && o_dot_n >= 0.0) {
         return Scatter(o, vec3<f32>(0.0));
     }
-    let g = smith_g1(i_dot_n, a) * smith_g1(abs(o_dot_n), a);
-    return Scatter(o, vec3<f32>(i_dot_h * g / (i_dot_n * cos_h)));
+    // f·cos/pdf = G1(i) G1(o) / G1(i) for both, h drawn by its visible area from wi.
+    return Scatter(o, vec3<f32>(smith_g1(abs(o_dot_n), a)));
 }
 #endif
 

@@ -12,7 +12,7 @@
 #import bevy_rppm::scene::lights
 #import bevy_rppm::bsdf::bsdf_eval
 #endif
-#import bevy_rppm::bsdf::{specular_f0, specular_at, specular_average, cosine_lobes_energy, ggx_d, translucency, layered}
+#import bevy_rppm::bsdf::{specular_f0, specular_at, specular_average, cosine_lobes_energy, ggx_d, translucency, layered, visible_normal_pdf}
 #ifdef ROUGH_REFRACTION
 #import bevy_rppm::bsdf::{rough_glass_share, smith_g1, fresnel_dielectric}
 #endif
@@ -86,9 +86,8 @@ fn path_pdf(m: Material, n: vec3<f32>, wo: vec3<f32>, wi: vec3<f32>, front: bool
     let p_glossy = min(luminance(o.single), left);
     left -= p_glossy;
     let h = normalize(wo + wi);
-    let n_dot_h = max(dot(n, h), 0.0);
     let a = l.perceptual_roughness * l.perceptual_roughness;
-    p += (1.0 - rough) * p_glossy * ggx_d(n_dot_h, a) * n_dot_h / (4.0 * max(dot(wo, h), 1e-6));
+    p += (1.0 - rough) * p_glossy * visible_normal_pdf(n, wo, h, a) / (4.0 * max(dot(wo, h), 1e-6));
 #endif
     let p_cosine = min(luminance(cosine_lobes_energy(l, f0, o, specular_average(l))), left);
     return p + (1.0 - rough) * p_cosine * mu_i / PI;
@@ -150,9 +149,8 @@ fn rough_glass_pdf(m: Material, n: vec3<f32>, wo: vec3<f32>, wi: vec3<f32>, fron
         return 0.0;
     }
     let a = m.perceptual_roughness * m.perceptual_roughness;
-    let n_dot_h = dot(n, t.h);
     let fresnel = fresnel_dielectric(t.oh, t.eta);
-    let normals = ggx_d(n_dot_h, a) * n_dot_h;
+    let normals = visible_normal_pdf(n, wo, t.h, a);
     if t.cos_i > 0.0 {
         return fresnel * normals / (4.0 * t.oh);
     }

@@ -1,7 +1,7 @@
 // The white furnace: what a surface reflects under uniform unit radiance, for the BSDF as the
 // splats and direct light evaluate it and as photons scatter off it. One workgroup per case.
 #import bevy_rppm::common::{Material, PI, random, pcg_hash, cosine_direction}
-#import bevy_rppm::bsdf::{bsdf_eval, scatter_photon, sample_ggx, has_glossy_lobe, ggx_d}
+#import bevy_rppm::bsdf::{bsdf_eval, scatter_photon, sample_ggx, has_glossy_lobe, visible_normal_pdf}
 
 struct Case {
     material: Material,
@@ -51,14 +51,13 @@ fn furnace(@builtin(workgroup_id) group: vec3<u32>, @builtin(local_invocation_in
         let cos_i = dot(n, wi);
         if cos_i > 0.0 {
             let h = normalize(wi + wo);
-            let n_dot_h = max(dot(n, h), 0.0);
-            let jacobian = n_dot_h / (4.0 * max(dot(wo, h), 1e-6));
+            let jacobian = 1.0 / (4.0 * max(dot(wo, h), 1e-6));
             var pdf = cos_i / PI;
             if glossy {
-                pdf += ggx_d(n_dot_h, a) * jacobian;
+                pdf += visible_normal_pdf(n, wo, h, a) * jacobian;
             }
             if coated {
-                pdf += ggx_d(n_dot_h, a_coat) * jacobian;
+                pdf += visible_normal_pdf(n, wo, h, a_coat) * jacobian;
             }
             eval_sum += bsdf_eval(m, n, wo, wi) * cos_i * strategies / max(pdf, 1e-12);
         }

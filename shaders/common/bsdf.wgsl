@@ -4,7 +4,7 @@
 // (the furnace test, tests/gpu/bsdf.rs).
 #define_import_path bevy_rppm::bsdf
 
-#import bevy_rppm::common::{Material, Outgoing, PI, DELTA_ROUGHNESS, luminance, random, cosine_direction}
+#import bevy_rppm::common::{Material, Outgoing, PI, DELTA_ROUGHNESS, luminance, random, cosine_direction, basis_around}
 #import bevy_rppm::scene::ggx_albedo
 
 // Below DELTA_ROUGHNESS (common.wgsl) the specular lobe is a perfect mirror: it carries no
@@ -302,10 +302,9 @@ fn ggx_normal(n: vec3<f32>, v: vec3<f32>, a: f32, u: vec2<f32>) -> vec3<f32> {
     // The microfacet normals v sees, by their visible area (Heitz 2018): weights stay under 1
     // at grazing v, where drawing by D alone gave weights of 1/(n·v) (fireflies at the edges
     // of rough glass and metal seen edge-on).
-    let t = select(vec3<f32>(1.0, 0.0, 0.0), vec3<f32>(0.0, 1.0, 0.0), abs(n.x) > 0.9);
-    let x = normalize(cross(t, n));
-    let y = cross(n, x);
-    let local = vec3<f32>(dot(v, x), dot(v, y), max(dot(v, n), 1e-6));
+    let frame = basis_around(n);
+    var local = v * frame;
+    local.z = max(local.z, 1e-6);
     let vh = normalize(vec3<f32>(a * local.x, a * local.y, local.z));
     let length2 = vh.x * vh.x + vh.y * vh.y;
     let t1 = select(vec3<f32>(1.0, 0.0, 0.0), vec3<f32>(-vh.y, vh.x, 0.0) * inverseSqrt(max(length2, 1e-30)), length2 > 1e-12);
@@ -317,7 +316,7 @@ fn ggx_normal(n: vec3<f32>, v: vec3<f32>, a: f32, u: vec2<f32>) -> vec3<f32> {
     let p2 = (1.0 - s) * sqrt(max(1.0 - p1 * p1, 0.0)) + s * r * sin(phi);
     let nh = p1 * t1 + p2 * t2 + sqrt(max(1.0 - p1 * p1 - p2 * p2, 0.0)) * vh;
     let h = normalize(vec3<f32>(a * nh.x, a * nh.y, max(nh.z, 1e-6)));
-    return x * h.x + y * h.y + n * h.z;
+    return frame * h;
 }
 
 // The density of `ggx_normal`'s h seen from v: G1(v) max(v·h, 0) D(h) / (n·v).

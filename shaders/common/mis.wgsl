@@ -163,9 +163,9 @@ fn rough_glass_pdf(m: Material, n: vec3<f32>, wo: vec3<f32>, wi: vec3<f32>, fron
 fn drawn_pdf(blocked: u32, m: Material, x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, wi: vec3<f32>, front: bool) -> f32 {
     let p = path_pdf(m, n, wo, wi, front);
 #ifdef LIGHT_GUIDE
-    let share = guide_share(blocked, m, x, n, wo, front);
+    let share = guide_share(blocked, m, x, n, front);
     if share > 0.0 {
-        return (1.0 - share) * p + share * guide_pdf(blocked, m, x, n, wo, front, wi);
+        return (1.0 - share) * p + share * guide_pdf(blocked, m, x, n, wi);
     }
 #endif
     return p;
@@ -190,7 +190,7 @@ struct GuideLobe {
     weight: f32,
 }
 
-fn guide_lobe(light_index: u32, m: Material, x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, front: bool) -> GuideLobe {
+fn guide_lobe(light_index: u32, m: Material, x: vec3<f32>, n: vec3<f32>) -> GuideLobe {
     let l = lights[light_index];
     var dir = -l.direction.xyz;
     var irradiance = luminance(l.radiance.rgb);
@@ -221,19 +221,19 @@ fn guide_lobe(light_index: u32, m: Material, x: vec3<f32>, n: vec3<f32>, wo: vec
     return GuideLobe(aim, min(1.0 / (sigma * sigma), 1e6), irradiance);
 }
 
-fn guide_total(blocked: u32, m: Material, x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, front: bool) -> f32 {
+fn guide_total(blocked: u32, m: Material, x: vec3<f32>, n: vec3<f32>) -> f32 {
     var total = 0.0;
     for (var bits = blocked; bits != 0u; bits &= bits - 1u) {
         let i = firstTrailingBit(bits);
-        total += guide_lobe(i, m, x, n, wo, front).weight;
+        total += guide_lobe(i, m, x, n).weight;
     }
     return total;
 }
 
-fn guide_share(blocked: u32, m: Material, x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, front: bool) -> f32 {
+fn guide_share(blocked: u32, m: Material, x: vec3<f32>, n: vec3<f32>, front: bool) -> f32 {
     // Outside glass only: guided inside it (toward a far face taken parallel to the one the
     // path meets) the pane's edges and a hollow lantern's walls turned to fireflies.
-    return select(0.0, GUIDE_SHARE, front && guide_total(blocked, m, x, n, wo, front) > 0.0);
+    return select(0.0, GUIDE_SHARE, front && guide_total(blocked, m, x, n) > 0.0);
 }
 
 // cos^k around the axis, normalised over the hemisphere around it.
@@ -243,12 +243,12 @@ fn lobe_pdf(lobe: GuideLobe, wi: vec3<f32>) -> f32 {
 }
 
 // The guide's density of wi: its lobes' mixture by weight.
-fn guide_pdf(blocked: u32, m: Material, x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, front: bool, wi: vec3<f32>) -> f32 {
+fn guide_pdf(blocked: u32, m: Material, x: vec3<f32>, n: vec3<f32>, wi: vec3<f32>) -> f32 {
     var total = 0.0;
     var p = 0.0;
     for (var bits = blocked; bits != 0u; bits &= bits - 1u) {
         let i = firstTrailingBit(bits);
-        let lobe = guide_lobe(i, m, x, n, wo, front);
+        let lobe = guide_lobe(i, m, x, n);
         if lobe.weight > 0.0 {
             total += lobe.weight;
             p += lobe.weight * lobe_pdf(lobe, wi);
@@ -258,12 +258,12 @@ fn guide_pdf(blocked: u32, m: Material, x: vec3<f32>, n: vec3<f32>, wo: vec3<f32
 }
 
 // One direction from the guide: a light drawn by weight, then its lobe.
-fn guide_sample(blocked: u32, m: Material, x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, front: bool, rng: ptr<function, u32>) -> vec3<f32> {
-    var pick = random(rng) * guide_total(blocked, m, x, n, wo, front);
+fn guide_sample(blocked: u32, m: Material, x: vec3<f32>, n: vec3<f32>, rng: ptr<function, u32>) -> vec3<f32> {
+    var pick = random(rng) * guide_total(blocked, m, x, n);
     var chosen = GuideLobe(n, 0.0, 0.0);
     for (var bits = blocked; bits != 0u; bits &= bits - 1u) {
         let i = firstTrailingBit(bits);
-        let lobe = guide_lobe(i, m, x, n, wo, front);
+        let lobe = guide_lobe(i, m, x, n);
         if lobe.weight > 0.0 {
             chosen = lobe;
             pick -= lobe.weight;
@@ -290,11 +290,11 @@ struct Guided {
 fn guided_bounce(blocked: u32, m: Material, x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, front: bool, share: f32, bsdf_drawn: vec3<f32>, bsdf_weight: vec3<f32>, use_guide: bool, rng: ptr<function, u32>) -> Guided {
     var wi = bsdf_drawn;
     if use_guide {
-        wi = guide_sample(blocked, m, x, n, wo, front, rng);
+        wi = guide_sample(blocked, m, x, n, rng);
     } else if all(bsdf_weight <= vec3<f32>(0.0)) {
         return Guided(wi, vec3<f32>(0.0), 0.0);
     }
-    let p = (1.0 - share) * path_pdf(m, n, wo, wi, front) + share * guide_pdf(blocked, m, x, n, wo, front, wi);
+    let p = (1.0 - share) * path_pdf(m, n, wo, wi, front) + share * guide_pdf(blocked, m, x, n, wi);
     if !(p > 0.0) {
         return Guided(wi, vec3<f32>(0.0), 0.0);
     }

@@ -219,8 +219,9 @@ fn camera_path(pixel: u32, first: Vertex, rng: ptr<function, u32>) -> vec3<f32> 
             return found;
         }
 #ifdef IMPORTONS
+        var guided = false;
 #ifdef LIGHT_GUIDE
-        let share = select(0.0, guide_share(blocked, v.m, v.x, v.n, v.wo, v.front), mis);
+        let share = select(0.0, guide_share(blocked, v.m, v.x, v.n, v.front), mis);
         if share > 0.0 {
             let by_guide = random(rng) < share;
             var drawn = Bounce(v.n, vec3<f32>(1.0));
@@ -230,22 +231,18 @@ fn camera_path(pixel: u32, first: Vertex, rng: ptr<function, u32>) -> vec3<f32> 
             let g = guided_bounce(blocked, v.m, v.x, v.n, v.wo, v.front, share, drawn.direction, drawn.weight, by_guide, rng);
             bounce = Bounce(g.direction, g.weight);
             drawn_density = g.density;
-        } else {
+            guided = true;
+        }
+#endif
+        if !guided {
             bounce = next_bounce(v.m, -v.wo, v.n, v.front, rng);
+#ifdef TRACED_SHADOWS
             if mis {
                 drawn_density = path_pdf(v.m, v.n, v.wo, bounce.direction, v.front);
             }
+#endif
         }
         throughput *= bounce.weight;
-#else
-        bounce = next_bounce(v.m, -v.wo, v.n, v.front, rng);
-        throughput *= bounce.weight;
-#ifdef TRACED_SHADOWS
-        if mis {
-            drawn_density = path_pdf(v.m, v.n, v.wo, bounce.direction, v.front);
-        }
-#endif
-#endif
 #ifdef ABSORPTION
         medium = medium_after(medium, v.m, v.front, dot(bounce.direction, v.n) < 0.0);
 #endif

@@ -29,8 +29,8 @@ bilinear repeating bitmaps, COLOR_0 as the `vertex_color` mesh attribute, alpha 
 base) as a `blendbsdf` of Lambert and the rough metal weighted by metallic, a normal texture
 as `normalmap`; KHR_texture_transform and the normal map's scale are left out.
 Lights: KHR_lights_punctual point (W/sr = cd; with `extras.rppm_radius` a sphere of that
-radius, radiance I/(πr²), that neither blocks nor reflects), spot (Mitsuba's ramp in angle from the inner cone, over 2/3 of the
-gap to the outer: the power Bevy's squared ramp sends into that band), directional (W/m² = lux); their
+radius, radiance I/(πr²), that neither blocks nor reflects), spot (Bevy's falloff, the square of a ramp in
+cos θ from the outer cone to the inner, as a texture the spot projects), directional (W/m² = lux); their
 colour is read as sRGB, as Bevy's glTF loader reads it.
 """
 
@@ -202,6 +202,22 @@ class Textures:
         p = self._pixels(info)[..., :3].copy()
         p[..., 1] = 1.0 - p[..., 1]
         return self._write(p, "normal")
+
+    def spot_falloff(self, inner, outer, size=1024):
+        """Bevy's spot falloff, the square of a ramp in cos θ from the outer cone to the inner,
+        as the texture Mitsuba's `spot` projects over its cone: texel (u, v) is the direction
+        (2u − 1, 2v − 1)·tan(outer) off the axis (Mitsuba's `direction_to_uv`)."""
+        import numpy as np
+
+        t = (2.0 * (np.arange(size) + 0.5) / size - 1.0) * math.tan(outer)
+        cos = 1.0 / np.sqrt(1.0 + t[None, :] ** 2 + t[:, None] ** 2)
+        if math.cos(inner) > math.cos(outer):
+            ramp = np.clip((cos - math.cos(outer)) / (math.cos(inner) - math.cos(outer)), 0.0, 1.0) ** 2
+        else:
+            ramp = (cos >= math.cos(outer)).astype(np.float32)
+        texture = self._write(np.stack([ramp] * 3, axis=2), "spot")
+        texture["wrap_mode"] = "clamp"
+        return texture
 
     def mask(self, info, alpha_factor, cutoff):
         """Opacity of an alpha cut-out: alpha upsampled 4× bilinearly, then thresholded (as
@@ -415,22 +431,20 @@ def build_scene(path, width, height, tmp, max_depth=16):
             elif kind == "directional":
                 scene[f"light_{len(scene)}"] = {"type": "directional", "direction": direction, "irradiance": {"type": "rgb", "value": colour}}
             elif kind == "spot":
-                # Bevy's falloff is the square of a ramp in cos θ from the outer cone to the
-                # inner; Mitsuba's a ramp in θ from `cutoff_angle` to `beam_width`. A ramp
-                # from the inner angle over 2/3 of the gap sends the same power into the same
-                # band (∫ of x² is 1/3, of a ramp over 2/3 also 1/3), so the cone's edge is
-                # soft where Bevy's is and its light the same.
+                # Mitsuba's own falloff is a ramp in θ; Bevy's, the square of a ramp in cos θ
+                # from the outer cone to the inner, is projected as a texture over a cone of
+                # full intensity out to the outer angle.
                 spot = l.get("spot", {})
                 outer = spot.get("outerConeAngle", math.pi / 4)
                 inner = min(spot.get("innerConeAngle", 0.0), outer)
-                cutoff = math.degrees(inner + 2.0 / 3.0 * (outer - inner))
                 target = [position[i] + direction[i] for i in range(3)]
                 scene[f"light_{len(scene)}"] = {
                     "type": "spot",
                     "to_world": mi.ScalarTransform4f().look_at(origin=position, target=target, up=[0, 1, 0] if abs(direction[1]) < 0.9 else [1, 0, 0]),
                     "intensity": {"type": "rgb", "value": colour},
-                    "cutoff_angle": cutoff,
-                    "beam_width": math.degrees(inner),
+                    "cutoff_angle": math.degrees(outer),
+                    "beam_width": math.degrees(outer) * (1.0 - 1e-6),
+                    "texture": textures.spot_falloff(inner, outer),
                 }
             mapping.append(f"{node.get('name', 'light')}: {kind} {l.get('intensity', 1.0)} x {l.get('color', [1, 1, 1])}")
     sky = (gltf.get("scenes") or [{}])[0].get("extras", {}).get("rppm_sky")

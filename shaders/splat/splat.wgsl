@@ -7,7 +7,7 @@
 // SUBSAMPLED (ISPM): the target has one texel per n×n pixels, gathered at one representative
 // pixel of the block, and holds incident light Σ Φ / (π r²) for the joint-bilateral upsampling
 // in shaders/accumulate/accumulate.wgsl, which applies each full-resolution pixel's own BSDF.
-#import bevy_rppm::common::{Material, Outgoing, Photon, IterationParams, PI, faces_reached, gather_radius, splat_weight, subsample_representative, unpack_normal}
+#import bevy_rppm::common::{Material, Outgoing, Photon, IterationParams, PI, basis_around, faces_reached, gather_radius, splat_weight, subsample_representative, unpack_normal}
 #import bevy_rppm::scene::{gbuffer_material, resolved_material, resolved_kernel_normal, kernel_normal}
 #import bevy_rppm::bsdf::{bsdf_from, bsdf_gathered, translucency, stores_photons}
 #import bevy_rppm::cubemap::cubemap
@@ -57,6 +57,50 @@ fn gather_run(k: Kernel, m: Material, out: Outgoing, shading: vec3<f32>, wo: vec
     return sum;
 }
 
+// Points on the kernel's disc checked for a surface: a Fermat spiral at the centres of equal
+// areas. (Turned by a random angle each iteration, the share's noise divided the estimate:
+// translucent's relMSE at 48 iterations 0.0022 → 0.0030.)
+const DISC_POINTS: u32 = 16u;
+
+// The share of the kernel's disc that lies on surface, as the G-buffer shows it: the photons
+// it holds are divided by that area, not the whole disc's (a disc that reaches past a
+// concave corner, or an object standing on the surface, or past a convex edge, holds none
+// there: the estimate read dark along every corner). A point on the disc is off the surface
+// where the G-buffer sees, along its line of sight, a surface behind the disc's plane (the
+// plane ends before it: an edge) or an opaque one in front of it within the radius (it is
+// inside what meets the plane there: a corner). Seen past a farther occluder, or off the
+// image, it counts.
+fn disc_on_surface(k: Kernel) -> f32 {
+    let frame = basis_around(k.plane);
+    let slack = params.kernel_flattening * k.radius;
+    var on = 0.0;
+    for (var i = 0u; i < DISC_POINTS; i += 1u) {
+        let rho = k.radius * sqrt((f32(i) + 0.5) / f32(DISC_POINTS));
+        let phi = f32(i) * 2.3999632;
+        let q = k.position + rho * (cos(phi) * frame[0] + sin(phi) * frame[1]);
+        let clip = params.clip_from_world * vec4<f32>(q, 1.0);
+        var counts = true;
+        if clip.w > 0.0 {
+            let uv = vec2<f32>(0.5, -0.5) * clip.xy / clip.w + 0.5;
+            let at = vec2<i32>(floor(uv * vec2<f32>(params.size)));
+            if all(at >= vec2<i32>(0)) && all(at < vec2<i32>(params.size)) {
+                let g = textureLoad(gbuffer_position, at, 0);
+                if g.w == 0.0 {
+                    counts = false;
+                } else {
+                    let height = dot(g.xyz - k.position, k.plane);
+                    // Glass or water meeting the plane lets photons through to it.
+                    let solid = height > slack && distance(g.xyz, q) <= k.radius
+                        && gbuffer_material(g, k.radius).specular_transmission <= 0.0;
+                    counts = abs(height) <= slack || (height > slack && !solid);
+                }
+            }
+        }
+        on += select(0.0, 1.0, counts);
+    }
+    return max(on / f32(DISC_POINTS), 0.25);
+}
+
 @compute @workgroup_size(8, 8, 1)
 fn gather(@builtin(global_invocation_id) id: vec3<u32>) {
     let texel = vec2<i32>(id.xy);
@@ -104,6 +148,6 @@ fn gather(@builtin(global_invocation_id) id: vec3<u32>) {
             sum += gather_run(k, m, out, gn.xyz, wo, gather_row_run(seen, face, y));
         }
     }
-    let density = splat_weight(params) / (PI * k.radius * k.radius);
+    let density = splat_weight(params) / (PI * k.radius * k.radius * disc_on_surface(k));
     textureStore(splats, texel, vec4<f32>(sum * density, 0.0));
 }

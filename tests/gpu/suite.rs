@@ -232,3 +232,28 @@ fn emitters_seen_in_rough_metal_converge_without_fireflies() {
 fn a_lamp_behind_frosted_glass_glows_through_it() {
     assert_close_after("frosted_lamp", 32, 0.03, 0.08);
 }
+
+/// The gather divides the photons in a pixel's disc by the area of the disc that lies on
+/// surface (`disc_on_surface`, shaders/splat/splat.wgsl), not the whole disc's: a disc that
+/// reaches past the box's corners and edges, or under a sphere resting on the floor, holds
+/// photons only where there is surface. With discs of 4 pixels at 64² (much of the image
+/// within a radius of a corner, an edge or a sphere's rim), 16 iterations of the matte
+/// spheres' box: relMSE under 0.0035 and energy within 2 % (0.0021 and 0.989 measured over
+/// three seeds; the whole disc's area gave 0.0054–0.0057 and 0.977).
+#[test]
+fn corners_edges_and_rims_are_not_dark() {
+    let settings = PhotonMapping {
+        photons_per_iteration: PhotonCount::Fixed(65_536),
+        initial_radius_pixels: 4.0,
+        ..default()
+    };
+    let image = render("suite/cornell_matte.gltf", settings, 16);
+    let reference = reference("suite/cornell_matte.ref.exr");
+    let energy = energy_ratio(&image, &reference).unwrap();
+    let error = relmse(&image, &reference).unwrap();
+    println!("cornell_matte: relMSE {error:.4}, energy {energy:.4} with discs of 4 pixels");
+    assert!(
+        error < 0.0035 && (energy - 1.0).abs() <= 0.02,
+        "relMSE {error:.4}, energy {energy:.4}"
+    );
+}

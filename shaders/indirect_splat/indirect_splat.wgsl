@@ -1,13 +1,14 @@
 // Indirect splatting, as a gather: the photon map holds the stored photons by deep cubemap
 // tile (photons/sort.wgsl); each importon visits the tiles its own gather sphere reaches, on
 // every face (a sphere near a face's edge reaches the next face), and adds the photons inside
-// its radius, on its surface: throughput · f(wo, wi) · Φ / (π r²). The work is the photons
+// its radius, on its surface: throughput · f(wo, wi) · Φ over the area of its disc that lies on
+// surface (π r² times `disc_on_surface`). The work is the photons
 // near importons, each importon's sum stays in registers (no atomics), and a large radius
 // elsewhere costs no one else.
-#import bevy_rppm::common::{Material, Outgoing, Photon, Importon, IterationParams, PI, NO_IMPORTON, faces_reached, splat_weight, unpack_normal}
+#import bevy_rppm::common::{Material, Outgoing, Photon, Importon, IterationParams, PI, NO_IMPORTON, basis_around, faces_reached, splat_weight, unpack_normal}
 #import bevy_rppm::scene::{triangle_at, barycentrics, material_at}
 #import bevy_rppm::bsdf::{bsdf_from, bsdf_toward, translucency}
-#import bevy_rppm::cubemap::cubemap
+#import bevy_rppm::cubemap::{cubemap, trace_ray, NO_HIT}
 #import bevy_rppm::photon_map::{photons, face_gather, gather_row_run, next_in_kernel}
 
 @group(1) @binding(0) var<uniform> params: IterationParams;
@@ -31,6 +32,34 @@ fn gather_run(imp: Importon, m: Material, out: Outgoing, pixel: u32, run: vec2<u
     return sum;
 }
 
+// Points of an importon's disc checked for a surface (the direct splat's G-buffer test,
+// shaders/splat/splat.wgsl, has no G-buffer here): a Fermat spiral at the centres of equal
+// areas.
+const DISC_POINTS: u32 = 8u;
+
+// The share of an importon's disc that lies on surface: a point of the disc does not count
+// where a ray along the plane, just above it, from the centre meets an opaque surface before
+// it (a corner, an object standing on the surface: no photon lands beyond). At least a
+// quarter.
+fn disc_on_surface(imp: Importon) -> f32 {
+    let frame = basis_around(imp.normal);
+    let r = imp.radius;
+    let origin = imp.position + imp.normal * (0.5 * params.kernel_flattening * r);
+    var on = 0.0;
+    for (var i = 0u; i < DISC_POINTS; i += 1u) {
+        let rho = r * sqrt((f32(i) + 0.5) / f32(DISC_POINTS));
+        let phi = f32(i) * 2.3999632;
+        let d = cos(phi) * frame[0] + sin(phi) * frame[1];
+        let hit = trace_ray(origin, d, 0.0, rho, imp.triangle);
+        var counts = hit.triangle == NO_HIT;
+        if !counts {
+            counts = material_at(hit.triangle, hit.uv, 0.0).specular_transmission > 0.0;
+        }
+        on += select(0.0, 1.0, counts);
+    }
+    return max(on / f32(DISC_POINTS), 0.25);
+}
+
 @compute @workgroup_size(64, 1, 1)
 fn gather(@builtin(global_invocation_id) id: vec3<u32>) {
     let pixel = id.x;
@@ -50,5 +79,6 @@ fn gather(@builtin(global_invocation_id) id: vec3<u32>) {
         }
     }
     let r = imp.radius;
-    importon_radiance[pixel] = vec4<f32>(imp.throughput * sum * (splat_weight(params) / (PI * r * r)), 0.0);
+    let area = PI * r * r * disc_on_surface(imp);
+    importon_radiance[pixel] = vec4<f32>(imp.throughput * sum * (splat_weight(params) / area), 0.0);
 }

@@ -143,7 +143,11 @@ fn select_stages(
             pipelines.indirect_splat_variants.specialize(
                 cache,
                 &pipelines.indirect_splat,
-                IndirectSplatKey { lookups, layers },
+                IndirectSplatKey {
+                    lookups,
+                    layers,
+                    bvh: state.key.bvh,
+                },
             )
         }),
         accumulate: pipelines.accumulate_variants.specialize(

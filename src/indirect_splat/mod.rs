@@ -49,6 +49,8 @@ pub struct IndirectSplatKey {
     pub lookups: Lookups,
     /// The scene's extra BSDF layers ([`ScatterPaths::LAYERS`]).
     pub layers: ScatterPaths,
+    /// Rays (the importons' discs checked for corners) walk the scene's BVH.
+    pub bvh: bool,
 }
 
 impl SpecializedComputePipeline for IndirectSplatPipeline {
@@ -56,7 +58,13 @@ impl SpecializedComputePipeline for IndirectSplatPipeline {
 
     fn specialize(&self, key: IndirectSplatKey) -> ComputePipelineDescriptor {
         ComputePipelineDescriptor {
-            shader_defs: material_defs(key.lookups, key.layers),
+            shader_defs: {
+                let mut defs = material_defs(key.lookups, key.layers);
+                if key.bvh {
+                    defs.push("BVH".into());
+                }
+                defs
+            },
             entry_point: Some("gather".into()),
             ..self.descriptor.clone()
         }

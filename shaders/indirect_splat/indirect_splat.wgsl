@@ -7,9 +7,9 @@
 // elsewhere costs no one else.
 #import bevy_rppm::common::{Material, Outgoing, Photon, Importon, IterationParams, PI, NO_IMPORTON, basis_around, faces_reached, splat_weight, unpack_normal}
 #import bevy_rppm::scene::{triangle_at, barycentrics, material_at}
-#import bevy_rppm::bsdf::{bsdf_from, bsdf_toward, translucency}
+#import bevy_rppm::bsdf::{bsdf_from, bsdf_toward, glass_share, translucency}
 #import bevy_rppm::cubemap::{cubemap, trace_ray, NO_HIT}
-#import bevy_rppm::photon_map::{photons, face_gather, gather_row_run, next_in_kernel}
+#import bevy_rppm::photon_map::{photons, face_gather, gather_row_run, next_in_kernel, disc_point, disc_share}
 
 @group(1) @binding(0) var<uniform> params: IterationParams;
 
@@ -32,9 +32,8 @@ fn gather_run(imp: Importon, m: Material, out: Outgoing, pixel: u32, run: vec2<u
     return sum;
 }
 
-// Points of an importon's disc checked for a surface (the direct splat's G-buffer test,
-// shaders/splat/splat.wgsl, has no G-buffer here): a Fermat spiral at the centres of equal
-// areas.
+// Points of an importon's disc checked for a surface (`disc_point`; the direct splat's
+// G-buffer test, shaders/splat/splat.wgsl, has no G-buffer here).
 const DISC_POINTS: u32 = 8u;
 
 // The share of an importon's disc that lies on surface: a point of the disc does not count
@@ -47,17 +46,17 @@ fn disc_on_surface(imp: Importon) -> f32 {
     let origin = imp.position + imp.normal * (0.5 * params.kernel_flattening * r);
     var on = 0.0;
     for (var i = 0u; i < DISC_POINTS; i += 1u) {
-        let rho = r * sqrt((f32(i) + 0.5) / f32(DISC_POINTS));
-        let phi = f32(i) * 2.3999632;
-        let d = cos(phi) * frame[0] + sin(phi) * frame[1];
-        let hit = trace_ray(origin, d, 0.0, rho, imp.triangle);
+        let q = disc_point(frame, r, i, DISC_POINTS);
+        let rho = length(q);
+        let hit = trace_ray(origin, q / rho, 0.0, rho, imp.triangle);
         var counts = hit.triangle == NO_HIT;
         if !counts {
-            counts = material_at(hit.triangle, hit.uv, 0.0).specular_transmission > 0.0;
+            // Glass or water meeting the plane lets photons through to it.
+            counts = glass_share(material_at(hit.triangle, hit.uv, 0.0)) > 0.0;
         }
         on += select(0.0, 1.0, counts);
     }
-    return max(on / f32(DISC_POINTS), 0.25);
+    return disc_share(on, DISC_POINTS);
 }
 
 @compute @workgroup_size(64, 1, 1)

@@ -182,6 +182,22 @@ fn in_kernel(params: IterationParams, photon: u32, centre: vec3<f32>, plane: vec
     return select(facing, abs(facing), both_sides) >= 0.5 && splat_survives(params, photon, pixel);
 }
 
+// The kernel's disc is checked for surface at points of a Fermat spiral, at the centres of
+// equal areas (the gathers' `disc_on_surface`): the photons are divided by the area of the
+// disc that lies on surface, not π r² (none land past a corner or an edge). Point i of
+// `count`, on the disc of radius r in the plane of `frame` (its first two axes).
+fn disc_point(frame: mat3x3<f32>, r: f32, i: u32, count: u32) -> vec3<f32> {
+    let rho = r * sqrt((f32(i) + 0.5) / f32(count));
+    let phi = f32(i) * 2.3999632;
+    return rho * (cos(phi) * frame[0] + sin(phi) * frame[1]);
+}
+
+// The share of the disc on surface from `on` of `count` points, at least a quarter (a thin
+// surface's disc is not divided by next to nothing).
+fn disc_share(on: f32, count: u32) -> f32 {
+    return max(on / f32(count), 0.25);
+}
+
 // From photon `at` of the map on, the first before `end` inside the kernel of `pixel`
 // (in_kernel); `end` when none is. The gathers evaluate the BSDF only for these: llvmpipe
 // runs a loop body's code for every lane, so a BSDF behind a `continue` was paid for every

@@ -9,9 +9,9 @@
 // in shaders/accumulate/accumulate.wgsl, which applies each full-resolution pixel's own BSDF.
 #import bevy_rppm::common::{Material, Outgoing, Photon, IterationParams, PI, basis_around, faces_reached, gather_radius, splat_weight, subsample_representative, unpack_normal}
 #import bevy_rppm::scene::{gbuffer_material, resolved_material, resolved_kernel_normal, kernel_normal}
-#import bevy_rppm::bsdf::{bsdf_from, bsdf_gathered, translucency, stores_photons}
+#import bevy_rppm::bsdf::{bsdf_from, bsdf_gathered, glass_share, translucency, stores_photons}
 #import bevy_rppm::cubemap::cubemap
-#import bevy_rppm::photon_map::{photons, face_gather, gather_row_run, next_in_kernel}
+#import bevy_rppm::photon_map::{photons, face_gather, gather_row_run, next_in_kernel, disc_point, disc_share}
 
 @group(1) @binding(0) var<uniform> params: IterationParams;
 
@@ -57,9 +57,9 @@ fn gather_run(k: Kernel, m: Material, out: Outgoing, shading: vec3<f32>, wo: vec
     return sum;
 }
 
-// Points on the kernel's disc checked for a surface: a Fermat spiral at the centres of equal
-// areas. (Turned by a random angle each iteration, the share's noise divided the estimate:
-// translucent's relMSE at 48 iterations 0.0022 → 0.0030.)
+// Points of the kernel's disc checked for a surface (`disc_point`). (The spiral turned by a
+// random angle each iteration, the share's noise divided the estimate: translucent's relMSE
+// at 48 iterations 0.0022 → 0.0030.)
 const DISC_POINTS: u32 = 16u;
 
 // The share of the kernel's disc that lies on surface, as the G-buffer shows it: the photons
@@ -75,9 +75,7 @@ fn disc_on_surface(k: Kernel) -> f32 {
     let slack = params.kernel_flattening * k.radius;
     var on = 0.0;
     for (var i = 0u; i < DISC_POINTS; i += 1u) {
-        let rho = k.radius * sqrt((f32(i) + 0.5) / f32(DISC_POINTS));
-        let phi = f32(i) * 2.3999632;
-        let q = k.position + rho * (cos(phi) * frame[0] + sin(phi) * frame[1]);
+        let q = k.position + disc_point(frame, k.radius, i, DISC_POINTS);
         let clip = params.clip_from_world * vec4<f32>(q, 1.0);
         var counts = true;
         if clip.w > 0.0 {
@@ -91,14 +89,14 @@ fn disc_on_surface(k: Kernel) -> f32 {
                     let height = dot(g.xyz - k.position, k.plane);
                     // Glass or water meeting the plane lets photons through to it.
                     let solid = height > slack && distance(g.xyz, q) <= k.radius
-                        && gbuffer_material(g, k.radius).specular_transmission <= 0.0;
+                        && glass_share(gbuffer_material(g, 0.0)) <= 0.0;
                     counts = abs(height) <= slack || (height > slack && !solid);
                 }
             }
         }
         on += select(0.0, 1.0, counts);
     }
-    return max(on / f32(DISC_POINTS), 0.25);
+    return disc_share(on, DISC_POINTS);
 }
 
 @compute @workgroup_size(8, 8, 1)

@@ -23,6 +23,9 @@
 #ifdef LIGHT_GUIDE
 #import bevy_rppm::mis::{guide_share, guided_bounce}
 #endif
+#ifdef SPHERE_LIGHTS
+#import bevy_rppm::lighting::sphere_lights_met
+#endif
 #endif
 
 @group(2) @binding(0) var gbuffer_position: texture_2d<f32>;
@@ -135,6 +138,11 @@ fn camera_path(pixel: u32, first: Vertex, rng: ptr<function, u32>) -> vec3<f32> 
             }
             let d = bounce.direction;
             let hit = trace_ray(v.x, d, t_min, 1.0e30, v.triangle);
+#ifdef SPHERE_LIGHTS
+            if drawn_density > 0.0 {
+                found += throughput * sphere_lights_met(v.x, d, select(hit.t, 1.0e30, hit.triangle == NO_HIT), drawn_density);
+            }
+#endif
 #ifdef ABSORPTION
             throughput *= exp(-medium * hit.t);
 #endif

@@ -97,12 +97,7 @@ fn punctual_sample(l: Light, x: vec3<f32>, rng: ptr<function, u32>) -> LightSamp
     }
     let to_light = l.position.xyz - x;
     let d2 = max(dot(to_light, to_light), 1e-12);
-    var s = LightSample(to_light / sqrt(d2), sqrt(d2), l.radiance.rgb / d2, false, 0.0);
-    if l.kind == LIGHT_SPOT {
-        let c = dot(-s.wi, l.direction.xyz);
-        let a = clamp((c - l.cos_outer) / max(l.cos_inner - l.cos_outer, 1e-6), 0.0, 1.0);
-        s.li *= select(a * a, select(0.0, 1.0, c >= l.cos_outer), l.cos_inner <= l.cos_outer);
-    }
+    var s = LightSample(to_light / sqrt(d2), sqrt(d2), l.radiance.rgb / d2 * spot_falloff(l, -to_light / sqrt(d2)), false, 0.0);
 #ifdef TRACED_SHADOWS
     let radius = l.position.w;
     if radius > 0.0 && d2 > radius * radius * 1.0001 {
@@ -120,10 +115,67 @@ fn punctual_sample(l: Light, x: vec3<f32>, rng: ptr<function, u32>) -> LightSamp
         let b = dot(dir, to_light);
         s.distance = b - sqrt(max(b * b - (d2 - radius * radius), 0.0));
         s.wi = dir;
+#ifdef SPHERE_LIGHTS
+        // For MIS where camera paths also meet the sphere (`sphere_lights_met`).
+        s.density = 1.0 / (2.0 * PI * one_minus);
+#endif
     }
 #endif
     return s;
 }
+
+// A spot light's falloff toward `dir` (from the light; 1 for other lights).
+fn spot_falloff(l: Light, dir: vec3<f32>) -> f32 {
+    if l.kind != LIGHT_SPOT {
+        return 1.0;
+    }
+    let c = dot(dir, l.direction.xyz);
+    let a = clamp((c - l.cos_outer) / max(l.cos_inner - l.cos_outer, 1e-6), 0.0, 1.0);
+    return select(a * a, select(0.0, 1.0, c >= l.cos_outer), l.cos_inner <= l.cos_outer);
+}
+
+#ifdef SPHERE_LIGHTS
+// The share of the traced-shadow samples that draw light i: 1 each, or MANY_LIGHTS drawn by
+// power.
+fn light_samples(i: u32) -> f32 {
+    if params.light_count <= MANY_LIGHTS {
+        return 1.0;
+    }
+    let total = light_cdf[params.light_count - 1u];
+    let p = (light_cdf[i] - select(0.0, light_cdf[max(i, 1u) - 1u], i > 0u)) / total;
+    return f32(MANY_LIGHTS) * p;
+}
+
+// Light from the sphere lights (a punctual light's radius) that a camera path's ray from x
+// along d meets before `t_max`, having left a rough vertex whose shadow rays sample them too:
+// each weighted by the power heuristic against those (a sphere seen in a sharp lobe is found
+// by the path far more often than by a point drawn on it). The sphere blocks nothing, as
+// Bevy's lights do not; its radiance is I/(πR²), a spot's falloff that of its centre, as
+// its shadow rays see it.
+fn sphere_lights_met(x: vec3<f32>, d: vec3<f32>, t_max: f32, drawn_density: f32) -> vec3<f32> {
+    var sum = vec3<f32>(0.0);
+    for (var i = 0u; i < params.light_count; i += 1u) {
+        let l = lights[i];
+        let r = l.position.w;
+        if l.kind == LIGHT_DIRECTIONAL || r <= 0.0 {
+            continue;
+        }
+        let to_light = l.position.xyz - x;
+        let d2 = dot(to_light, to_light);
+        let b = dot(d, to_light);
+        let disc = b * b - (d2 - r * r);
+        if d2 <= r * r * 1.0001 || b <= 0.0 || disc <= 0.0 || b - sqrt(disc) >= t_max {
+            continue;
+        }
+        let sin2 = r * r / d2;
+        let one_minus = sin2 / (1.0 + sqrt(1.0 - sin2));
+        let density = light_samples(i) / (2.0 * PI * one_minus);
+        let radiance = l.radiance.rgb / (PI * r * r) * spot_falloff(l, -to_light * inverseSqrt(d2));
+        sum += radiance * power_heuristic(drawn_density, density);
+    }
+    return sum;
+}
+#endif
 
 #ifdef TRACED_SHADOWS
 // The emissive triangles seen from x: one triangle drawn by power, one point on it by area.
@@ -183,6 +235,11 @@ fn surface_light(m: Material, x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, front: 
     let many = params.light_count > MANY_LIGHTS;
     let punctual = select(params.light_count, MANY_LIGHTS, many);
     let samples = punctual + select(0u, 2u, emitters || mis);
+#ifdef SPHERE_LIGHTS
+    var spheres: array<vec4<f32>, MANY_LIGHTS>;
+    var sphere_directions: array<vec3<f32>, MANY_LIGHTS>;
+    var sphere_count = 0u;
+#endif
     for (var k = 0u; k < samples; k += 1u) {
         var s = no_light();
         var light = 32u;
@@ -197,6 +254,7 @@ fn surface_light(m: Material, x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, front: 
             }
             s = punctual_sample(lights[i], x, rng);
             s.li *= weight;
+            s.density /= weight;
             light = i;
         } else if k == punctual {
 #ifdef SKY
@@ -233,7 +291,7 @@ fn surface_light(m: Material, x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, front: 
 #ifdef IMPORTONS
         if mis {
             f = path_f(f, m, n, wo, s.wi, front);
-            if s.density > 0.0 {
+            if s.density > 0.0 && k >= punctual {
                 f *= power_heuristic(s.density, drawn_pdf(*blocked, m, x, n, wo, s.wi, front));
             }
         }
@@ -243,12 +301,27 @@ fn surface_light(m: Material, x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, front: 
         // cone, a delta lobe).
         if any(lit > vec3<f32>(0.0)) {
             let seen = visibility(x, s.wi, s.distance, origin_triangle);
-            sum += lit * seen;
             if seen == 0.0 && k < punctual && light < 32u {
                 *blocked |= 1u << light;
             }
+#ifdef SPHERE_LIGHTS
+            if mis && s.density > 0.0 && k < punctual {
+                // Weighed once every light's shadow ray is known (the density the path
+                // draws with depends on which are blocked).
+                spheres[sphere_count] = vec4<f32>(lit * seen, s.density);
+                sphere_directions[sphere_count] = s.wi;
+                sphere_count += 1u;
+                continue;
+            }
+#endif
+            sum += lit * seen;
         }
     }
+#ifdef SPHERE_LIGHTS
+    for (var j = 0u; j < sphere_count; j += 1u) {
+        sum += spheres[j].rgb * power_heuristic(spheres[j].w, drawn_pdf(*blocked, m, x, n, wo, sphere_directions[j], front));
+    }
+#endif
 #else
     for (var i = 0u; i < params.light_count; i += 1u) {
         let l = lights[i];

@@ -96,6 +96,8 @@ fn select_stages(
     let subsampled = state.key.subsampling > 1;
     let lookups = scene.lookups;
     let layers = scene.paths & ScatterPaths::LAYERS;
+    // Camera paths go on past the G-buffer and trace their shadow rays; lobes they go on from.
+    let (paths_lit, rough) = (state.importons && state.traced_shadows, ScatterPaths::ROUGH);
     StageIds {
         gbuffer: pipelines
             .gbuffer_variants
@@ -110,10 +112,12 @@ fn select_stages(
                 sky: scene.paths.contains(ScatterPaths::SKY),
                 layers,
                 bvh: state.key.bvh,
-                light_guide: state.importons
-                    && state.traced_shadows
+                light_guide: paths_lit
                     && scene.paths.contains(ScatterPaths::ROUGH_REFRACTION)
                     && !scene.data.lights.is_empty(),
+                sphere_lights: paths_lit
+                    && scene.paths.intersects(rough)
+                    && scene.data.has_sphere_lights(),
             },
         ),
         trace: traced.then(|| {

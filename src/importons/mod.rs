@@ -70,6 +70,10 @@ pub struct EyePathKey {
     /// blocked (`LIGHT_GUIDE`, shaders/common/mis.wgsl): the scene has rough glass and
     /// punctual lights, and camera paths go on with traced shadows.
     pub light_guide: bool,
+    /// Camera paths from rough vertices meet the sphere lights (a punctual light's radius)
+    /// and weigh them by MIS against their shadow rays (`SPHERE_LIGHTS`): the scene has one
+    /// and rough lobes (glossy or rough glass), and camera paths go on with traced shadows.
+    pub sphere_lights: bool,
 }
 
 impl SpecializedComputePipeline for EyePathPipeline {
@@ -99,6 +103,9 @@ impl SpecializedComputePipeline for EyePathPipeline {
         }
         if key.light_guide {
             shader_defs.push("LIGHT_GUIDE".into());
+        }
+        if key.sphere_lights {
+            shader_defs.push("SPHERE_LIGHTS".into());
         }
         if key.bvh {
             shader_defs.push("BVH".into());

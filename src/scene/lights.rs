@@ -104,6 +104,13 @@ pub(crate) struct LightQueries<'w, 's> {
     >,
 }
 
+impl SceneData {
+    /// Whether a point or spot light has a radius (a sphere that camera paths can meet).
+    pub fn has_sphere_lights(&self) -> bool {
+        (self.lights.iter()).any(|l| l.kind != LightKind::Directional as u32 && l.position[3] > 0.0)
+    }
+}
+
 /// Solid-angle integral of Bevy's spot falloff a², a = saturate((cosθ − cos_o)/(cos_i − cos_o)).
 pub fn spot_cone_fraction(cos_inner: f32, cos_outer: f32) -> f32 {
     2.0 * PI * ((1.0 - cos_inner) + (cos_inner - cos_outer).max(0.0) / 3.0)

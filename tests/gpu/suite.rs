@@ -257,3 +257,38 @@ fn corners_edges_and_rims_are_not_dark() {
         "relMSE {error:.4}, energy {energy:.4}"
     );
 }
+
+/// A sphere light (radius 3 cm) inside a hollow lantern of frosted glass (roughness 0.2,
+/// `suite/frosted_lantern`) is seen through lobes narrower than the sphere: camera paths that
+/// go on from rough vertices meet the sphere and are weighed by MIS against its shadow rays
+/// (`SPHERE_LIGHTS`). Found by shadow rays alone, a point drawn on the sphere lands in such a
+/// lobe about once in a hundred tries, and those samples are worth thousands: the image's
+/// energy swung with the seed. Six seeds of 30 iterations at 128²: energy each within 6 %
+/// (0.987–1.023 measured; by shadow rays alone 0.874–1.199).
+#[test]
+fn a_sphere_light_in_frosted_glass_converges_from_every_seed() {
+    let reference = read_exr(&asset("suite/frosted_lantern.ref.exr")).unwrap();
+    let reference = downsample(&reference, reference.width / 128);
+    let mut energies = Vec::new();
+    for seed in 11..=16 {
+        let request = RenderRequest {
+            scene: asset("suite/frosted_lantern.gltf"),
+            width: 128,
+            height: 128,
+            budget: Budget::Iterations(30),
+            settings: PhotonMapping {
+                photons_per_iteration: PhotonCount::Fixed(65_536),
+                seed,
+                ..default()
+            },
+        };
+        let image = render_gltf(&request, |_| {}).unwrap().image;
+        assert_eq!(bad_pixels(&image), 0, "seed {seed}");
+        energies.push(energy_ratio(&image, &reference).unwrap());
+    }
+    println!("frosted_lantern: energy by seed {energies:.3?}");
+    assert!(
+        energies.iter().all(|e| (e - 1.0).abs() <= 0.06),
+        "energy by seed {energies:.3?}"
+    );
+}

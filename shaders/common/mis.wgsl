@@ -218,6 +218,10 @@ fn guide_lobe(light_index: u32, m: Material, x: vec3<f32>, n: vec3<f32>) -> Guid
         }
         sigma = a * abs(m.ior - 1.0) / max(m.ior, 1.0);
     }
+    // A sphere light wider than the lobe needs no aim: paths drawn by the BSDF meet it.
+    if l.kind != LIGHT_DIRECTIONAL && l.position.w > sigma * length(l.position.xyz - x) {
+        return GuideLobe(dir, 0.0, 0.0);
+    }
     return GuideLobe(aim, min(1.0 / (sigma * sigma), 1e6), irradiance);
 }
 

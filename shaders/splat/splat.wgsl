@@ -44,6 +44,13 @@ fn gather_run(k: Kernel, m: Material, out: Outgoing, shading: vec3<f32>, wo: vec
     while i < run.y {
         let p = photons[i];
         i = next_in_kernel(i + 1u, run.y, params, k.position, k.plane, k.radius, k.index, both_sides);
+#ifdef GLASS
+        // Under glass or water that meets the surface (a wall below the water line), other
+        // light arrives than on the surface the camera sees: the disc's area leaves it out too.
+        if disc_view(k, p.position) == UNDER_GLASS {
+            continue;
+        }
+#endif
 #ifdef SUBSAMPLED
         sum += p.flux;
 #else
@@ -62,39 +69,50 @@ fn gather_run(k: Kernel, m: Material, out: Outgoing, shading: vec3<f32>, wo: vec
 // at 48 iterations 0.0022 → 0.0030.)
 const DISC_POINTS: u32 = 16u;
 
+// What the G-buffer shows along the line of sight of a point q on a kernel's disc (`disc_view`).
+const ON_SURFACE: u32 = 0u;
+// Nothing, or a surface behind the disc's plane: the plane ends before q (an edge, a rim).
+const OFF_EDGE: u32 = 1u;
+// An opaque surface in front of the plane within the radius: q is inside what meets the
+// plane there (a corner, an object standing on the surface).
+const INSIDE: u32 = 2u;
+// Glass or water in front of the plane within the radius: q is under what meets the plane.
+const UNDER_GLASS: u32 = 3u;
+
+// Seen past a farther occluder, or off the image, q is on surface.
+fn disc_view(k: Kernel, q: vec3<f32>) -> u32 {
+    let clip = params.clip_from_world * vec4<f32>(q, 1.0);
+    if clip.w <= 0.0 {
+        return ON_SURFACE;
+    }
+    let uv = vec2<f32>(0.5, -0.5) * clip.xy / clip.w + 0.5;
+    let at = vec2<i32>(floor(uv * vec2<f32>(params.size)));
+    if any(at < vec2<i32>(0)) || any(at >= vec2<i32>(params.size)) {
+        return ON_SURFACE;
+    }
+    let g = textureLoad(gbuffer_position, at, 0);
+    let height = dot(g.xyz - k.position, k.plane);
+    let slack = params.kernel_flattening * k.radius;
+    if g.w == 0.0 || height < -slack {
+        return OFF_EDGE;
+    }
+    if height <= slack || distance(g.xyz, q) > k.radius {
+        return ON_SURFACE;
+    }
+    return select(INSIDE, UNDER_GLASS, glass_share(gbuffer_material(g, 0.0)) > 0.0);
+}
+
 // The share of the kernel's disc that lies on surface, as the G-buffer shows it: the photons
 // it holds are divided by that area, not the whole disc's (a disc that reaches past a
 // concave corner, or an object standing on the surface, or past a convex edge, holds none
-// there: the estimate read dark along every corner). A point on the disc is off the surface
-// where the G-buffer sees, along its line of sight, a surface behind the disc's plane (the
-// plane ends before it: an edge) or an opaque one in front of it within the radius (it is
-// inside what meets the plane there: a corner). Seen past a farther occluder, or off the
-// image, it counts.
+// there: the estimate read dark along every corner). Under glass or water that meets the
+// surface the disc is off it too, and so are its photons there (`gather_run`).
 fn disc_on_surface(k: Kernel) -> f32 {
     let frame = basis_around(k.plane);
-    let slack = params.kernel_flattening * k.radius;
     var on = 0.0;
     for (var i = 0u; i < DISC_POINTS; i += 1u) {
         let q = k.position + disc_point(frame, k.radius, i, DISC_POINTS);
-        let clip = params.clip_from_world * vec4<f32>(q, 1.0);
-        var counts = true;
-        if clip.w > 0.0 {
-            let uv = vec2<f32>(0.5, -0.5) * clip.xy / clip.w + 0.5;
-            let at = vec2<i32>(floor(uv * vec2<f32>(params.size)));
-            if all(at >= vec2<i32>(0)) && all(at < vec2<i32>(params.size)) {
-                let g = textureLoad(gbuffer_position, at, 0);
-                if g.w == 0.0 {
-                    counts = false;
-                } else {
-                    let height = dot(g.xyz - k.position, k.plane);
-                    // Glass or water meeting the plane lets photons through to it.
-                    let solid = height > slack && distance(g.xyz, q) <= k.radius
-                        && glass_share(gbuffer_material(g, 0.0)) <= 0.0;
-                    counts = abs(height) <= slack || (height > slack && !solid);
-                }
-            }
-        }
-        on += select(0.0, 1.0, counts);
+        on += select(0.0, 1.0, disc_view(k, q) == ON_SURFACE);
     }
     return disc_share(on, DISC_POINTS);
 }

@@ -140,6 +140,7 @@ fn select_stages(
                     subsampled,
                     lookups,
                     layers,
+                    glass: scene.paths.intersects(ScatterPaths::GLASS),
                 },
             )
         }),

@@ -61,6 +61,8 @@ bitflags::bitflags! {
         const LAYERS = Self::CLEARCOAT.bits() | Self::DIFFUSE_TRANSMISSION.bits();
         /// Rough lobes camera paths may go on from (glossy metal, rough glass).
         const ROUGH = Self::GLOSSY.bits() | Self::ROUGH_REFRACTION.bits();
+        /// Glass or water, smooth or rough.
+        const GLASS = Self::REFRACTION.bits() | Self::ROUGH_REFRACTION.bits();
     }
 }
 

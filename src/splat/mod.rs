@@ -58,6 +58,8 @@ pub struct SplatKey {
     pub lookups: Lookups,
     /// The scene's extra BSDF layers ([`ScatterPaths::LAYERS`]).
     pub layers: ScatterPaths,
+    /// The scene has glass or water, under which a disc's photons are left out (`GLASS`).
+    pub glass: bool,
 }
 
 impl SpecializedComputePipeline for SplatPipeline {
@@ -67,6 +69,9 @@ impl SpecializedComputePipeline for SplatPipeline {
         let mut shader_defs = material_defs(key.lookups, key.layers);
         if key.subsampled {
             shader_defs.push("SUBSAMPLED".into());
+        }
+        if key.glass {
+            shader_defs.push("GLASS".into());
         }
         ComputePipelineDescriptor {
             shader_defs,

@@ -51,7 +51,8 @@ fn disc_on_surface(imp: Importon) -> f32 {
         let hit = trace_ray(origin, q / rho, 0.0, rho, imp.triangle);
         var counts = hit.triangle == NO_HIT;
         if !counts {
-            // Glass or water meeting the plane lets photons through to it.
+            // Past glass or water the disc counts, unlike the direct splat's (`disc_view`):
+            // with no G-buffer to look its photons up in, they all count here, so its area does.
             counts = glass_share(material_at(hit.triangle, hit.uv, 0.0)) > 0.0;
         }
         on += select(0.0, 1.0, counts);

@@ -97,16 +97,16 @@ fn punctual_sample(l: Light, x: vec3<f32>, rng: ptr<function, u32>) -> LightSamp
     }
     let to_light = l.position.xyz - x;
     let d2 = max(dot(to_light, to_light), 1e-12);
-    var s = LightSample(to_light / sqrt(d2), sqrt(d2), l.radiance.rgb / d2 * spot_falloff(l, -to_light / sqrt(d2)), false, 0.0);
+    var s = LightSample(to_light / sqrt(d2), sqrt(d2), l.radiance.rgb / d2, false, 0.0);
+    s.li *= spot_falloff(l, -s.wi);
 #ifdef TRACED_SHADOWS
     let radius = l.position.w;
-    if radius > 0.0 && d2 > radius * radius * 1.0001 {
+    let one_minus = sphere_cap(radius, d2);
+    if one_minus > 0.0 {
         // A direction in the cone the sphere subtends, uniform in solid angle Ω: the sphere's
         // radiance I/(πR²) times Ω averages to I/d² (and the spot's falloff stays that of
         // the centre).
         let sin2 = radius * radius / d2;
-        let cos_max = sqrt(1.0 - sin2);
-        let one_minus = sin2 / (1.0 + cos_max);
         let cos_t = 1.0 - random(rng) * one_minus;
         let sin_t = sqrt(max(1.0 - cos_t * cos_t, 0.0));
         let phi = 2.0 * PI * random(rng);
@@ -124,6 +124,16 @@ fn punctual_sample(l: Light, x: vec3<f32>, rng: ptr<function, u32>) -> LightSamp
     return s;
 }
 
+// 1 − cos of the half-angle that a sphere light of radius r subtends at distance² d2; 0 for
+// a point, or from inside the sphere (sampled as a point there).
+fn sphere_cap(r: f32, d2: f32) -> f32 {
+    if r <= 0.0 || d2 <= r * r * 1.0001 {
+        return 0.0;
+    }
+    let sin2 = r * r / d2;
+    return sin2 / (1.0 + sqrt(1.0 - sin2));
+}
+
 // A spot light's falloff toward `dir` (from the light; 1 for other lights).
 fn spot_falloff(l: Light, dir: vec3<f32>) -> f32 {
     if l.kind != LIGHT_SPOT {
@@ -134,18 +144,20 @@ fn spot_falloff(l: Light, dir: vec3<f32>) -> f32 {
     return select(a * a, select(0.0, 1.0, c >= l.cos_outer), l.cos_inner <= l.cos_outer);
 }
 
-#ifdef SPHERE_LIGHTS
-// The share of the traced-shadow samples that draw light i: 1 each, or MANY_LIGHTS drawn by
-// power.
+#ifdef TRACED_SHADOWS
+// How many of a point's traced-shadow samples draw light i, on average: 1, or past
+// MANY_LIGHTS lights MANY_LIGHTS of them drawn by power.
 fn light_samples(i: u32) -> f32 {
     if params.light_count <= MANY_LIGHTS {
         return 1.0;
     }
     let total = light_cdf[params.light_count - 1u];
     let p = (light_cdf[i] - select(0.0, light_cdf[max(i, 1u) - 1u], i > 0u)) / total;
-    return f32(MANY_LIGHTS) * p;
+    return f32(MANY_LIGHTS) * max(p, 1e-12);
 }
+#endif
 
+#ifdef SPHERE_LIGHTS
 // Light from the sphere lights (a punctual light's radius) that a camera path's ray from x
 // along d meets before `t_max`, having left a rough vertex whose shadow rays sample them too:
 // each weighted by the power heuristic against those (a sphere seen in a sharp lobe is found
@@ -164,12 +176,11 @@ fn sphere_lights_met(x: vec3<f32>, d: vec3<f32>, t_max: f32, drawn_density: f32)
         let d2 = dot(to_light, to_light);
         let b = dot(d, to_light);
         let disc = b * b - (d2 - r * r);
-        if d2 <= r * r * 1.0001 || b <= 0.0 || disc <= 0.0 || b - sqrt(disc) >= t_max {
+        let cap = sphere_cap(r, d2);
+        if cap <= 0.0 || b <= 0.0 || disc <= 0.0 || b - sqrt(disc) >= t_max {
             continue;
         }
-        let sin2 = r * r / d2;
-        let one_minus = sin2 / (1.0 + sqrt(1.0 - sin2));
-        let density = light_samples(i) / (2.0 * PI * one_minus);
+        let density = light_samples(i) / (2.0 * PI * cap);
         let radiance = l.radiance.rgb / (PI * r * r) * spot_falloff(l, -to_light * inverseSqrt(d2));
         sum += radiance * power_heuristic(drawn_density, density);
     }
@@ -245,16 +256,14 @@ fn surface_light(m: Material, x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, front: 
         var light = 32u;
         if k < punctual {
             var i = k;
-            var weight = 1.0;
             if many {
                 let total = light_cdf[params.light_count - 1u];
                 i = find_source(random(rng) * total, 0u, params.light_count - 1u);
-                let p = (light_cdf[i] - select(0.0, light_cdf[max(i, 1u) - 1u], i > 0u)) / total;
-                weight = 1.0 / (f32(MANY_LIGHTS) * max(p, 1e-12));
             }
             s = punctual_sample(lights[i], x, rng);
-            s.li *= weight;
-            s.density /= weight;
+            let drawn = light_samples(i);
+            s.li /= drawn;
+            s.density *= drawn;
             light = i;
         } else if k == punctual {
 #ifdef SKY

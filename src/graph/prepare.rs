@@ -96,8 +96,8 @@ fn select_stages(
     let subsampled = state.key.subsampling > 1;
     let lookups = scene.lookups;
     let layers = scene.paths & ScatterPaths::LAYERS;
-    // Camera paths go on past the G-buffer and trace their shadow rays; lobes they go on from.
-    let (paths_lit, rough) = (state.importons && state.traced_shadows, ScatterPaths::ROUGH);
+    // Camera paths go on past the G-buffer and trace their shadow rays.
+    let paths_lit = state.importons && state.traced_shadows;
     StageIds {
         gbuffer: pipelines
             .gbuffer_variants
@@ -115,9 +115,7 @@ fn select_stages(
                 light_guide: paths_lit
                     && scene.paths.contains(ScatterPaths::ROUGH_REFRACTION)
                     && !scene.data.lights.is_empty(),
-                sphere_lights: paths_lit
-                    && scene.paths.intersects(rough)
-                    && scene.data.has_sphere_lights(),
+                sphere_lights: paths_lit && scene.sphere_lights,
             },
         ),
         trace: traced.then(|| {

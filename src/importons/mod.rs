@@ -72,7 +72,8 @@ pub struct EyePathKey {
     pub light_guide: bool,
     /// Camera paths from rough vertices meet the sphere lights (a punctual light's radius)
     /// and weigh them by MIS against their shadow rays (`SPHERE_LIGHTS`): the scene has one
-    /// and rough lobes (glossy or rough glass), and camera paths go on with traced shadows.
+    /// and rough lobes (`SceneBuffers::sphere_lights`), and camera paths go on with traced
+    /// shadows.
     pub sphere_lights: bool,
 }
 

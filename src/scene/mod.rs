@@ -59,8 +59,6 @@ bitflags::bitflags! {
         const DIFFUSE_TRANSMISSION = 1 << 7;
         /// The layers every stage that evaluates the BSDF needs, gathers included.
         const LAYERS = Self::CLEARCOAT.bits() | Self::DIFFUSE_TRANSMISSION.bits();
-        /// Rough lobes camera paths may go on from (glossy metal, rough glass).
-        const ROUGH = Self::GLOSSY.bits() | Self::ROUGH_REFRACTION.bits();
         /// Glass or water, smooth or rough.
         const GLASS = Self::REFRACTION.bits() | Self::ROUGH_REFRACTION.bits();
     }

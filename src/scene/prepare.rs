@@ -55,6 +55,9 @@ pub struct SceneBuffers {
     pub paths: ScatterPaths,
     /// The lookups the materials make (made once per scene change).
     pub lookups: Lookups,
+    /// Whether camera paths can meet a sphere light (a point or spot light's radius) from a
+    /// rough lobe they go on from (`GLOSSY`, rough glass included); once per scene change.
+    pub sphere_lights: bool,
     /// The largest probability a photon goes on after a hit (sizes the photon store).
     pub max_scatter: f32,
     /// Bytes written to the GPU by the latest scene change: what changed, not the scene.
@@ -317,11 +320,13 @@ pub(crate) fn prepare_scene(
         _ => upload.new_buffer("rppm_texels", data.texels.as_slice()),
     };
     let upload_bytes = upload.bytes;
+    let paths = data.scatter_paths();
     commands.insert_resource(SceneBuffers {
         epoch: scene.epoch,
         data: data.clone(),
-        paths: data.scatter_paths(),
+        paths,
         lookups: data.lookups(),
+        sphere_lights: paths.contains(ScatterPaths::GLOSSY) && data.has_sphere_lights(),
         max_scatter: data.max_scatter_probability(),
         triangles,
         moved_marks: count > 0 && moves,

@@ -401,11 +401,17 @@ def build_scene(path, width, height, tmp, max_depth=16):
                 scene[f"{name}_{k}_{len(scene)}"] = shape
                 mapping.append(f"{name}[{k}]: {len(faces)} tris, material '{material.get('name', '')}' -> {description}")
         if "camera" in node and camera is None:
-            cam = gltf["cameras"][node["camera"]]["perspective"]
+            cam = gltf["cameras"][node["camera"]]
             origin = transform_point(world, [0, 0, 0])
             forward = transform_dir(world, [0, 0, -1])
             up = transform_dir(world, [0, 1, 0])
-            camera = (origin, [origin[i] + forward[i] for i in range(3)], up, math.degrees(cam["yfov"]))
+            if cam.get("type") == "orthographic":
+                # Bevy's glTF loader makes the view xmag wide (ScalingMode::FixedHorizontal),
+                # not 2·xmag as the glTF spec reads it; its height follows the image's aspect.
+                size = ("orthographic", cam["orthographic"]["xmag"])
+            else:
+                size = ("perspective", math.degrees(cam["perspective"]["yfov"]))
+            camera = (origin, [origin[i] + forward[i] for i in range(3)], up, size)
         light = node.get("extensions", {}).get("KHR_lights_punctual")
         if light is not None:
             l = lights[light["light"]]
@@ -453,15 +459,15 @@ def build_scene(path, width, height, tmp, max_depth=16):
         scene["sky"] = {"type": "constant", "radiance": {"type": "rgb", "value": sky}}
         mapping.append(f"sky: constant radiance {sky}")
     if camera is None:
-        sys.exit("reference.py: error: the scene has no perspective camera")
-    origin, target, up, fov = camera
-    scene["sensor"] = {
-        "type": "perspective",
-        "fov": fov,
-        "fov_axis": "y",
-        "to_world": mi.ScalarTransform4f().look_at(origin=origin, target=target, up=up),
-        "film": {"type": "hdrfilm", "width": width, "height": height, "rfilter": {"type": "box"}, "pixel_format": "rgb", "component_format": "float32"},
-    }
+        sys.exit("reference.py: error: the scene has no camera")
+    origin, target, up, (kind, size) = camera
+    to_world = mi.ScalarTransform4f().look_at(origin=origin, target=target, up=up)
+    film = {"type": "hdrfilm", "width": width, "height": height, "rfilter": {"type": "box"}, "pixel_format": "rgb", "component_format": "float32"}
+    if kind == "orthographic":
+        # Mitsuba's orthographic view spans x in [-1, 1] and y by the film's aspect.
+        scene["sensor"] = {"type": "orthographic", "to_world": to_world @ mi.ScalarTransform4f().scale([size / 2, size / 2, 1]), "film": film}
+    else:
+        scene["sensor"] = {"type": "perspective", "fov": size, "fov_axis": "y", "to_world": to_world, "film": film}
     return scene, mapping
 
 

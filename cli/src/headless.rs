@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use bevy::asset::LoadState;
+use bevy::asset::{LoadState, RecursiveDependencyLoadState};
 use bevy::camera::RenderTarget;
 use bevy::core_pipeline::tonemapping::Tonemapping;
 use bevy::gltf::GltfAssetLabel;
@@ -94,8 +94,11 @@ pub fn headless_app_unfinished(asset_root: &Path) -> App {
     let plugins = if LOGGER_SET.swap(true, std::sync::atomic::Ordering::SeqCst) {
         plugins.disable::<bevy::log::LogPlugin>()
     } else {
+        // A failed asset load is our one error line (`load_gltf`), not a log with a backtrace.
         plugins.set(bevy::log::LogPlugin {
-            filter: "warn,wgpu=error,naga=warn,bevy_light=error,bevy_rppm=info".into(),
+            filter:
+                "warn,wgpu=error,naga=warn,bevy_light=error,bevy_asset::server=off,bevy_rppm=info"
+                    .into(),
             ..default()
         })
     };
@@ -215,14 +218,30 @@ pub fn load_gltf_with(scene: &Path, access: Access) -> Result<App, String> {
         },
     );
     let start = Instant::now();
-    while !app.world().contains_resource::<SceneReady>() {
+    // Ready once spawned with every texture it names loaded: one that fails (missing,
+    // not an image) is an error, not an image without it.
+    let loaded = |app: &App| {
+        app.world().contains_resource::<SceneReady>()
+            && app
+                .world()
+                .resource::<AssetServer>()
+                .is_loaded_with_dependencies(&handle)
+    };
+    while !loaded(&app) {
         app.update();
-        let state = app
-            .world()
-            .resource::<AssetServer>()
-            .get_load_state(&handle);
-        if let Some(LoadState::Failed(e)) = state {
-            return Err(format!("cannot load {}: {e}", scene.display()));
+        let server = app.world().resource::<AssetServer>();
+        // The error's first line: the rest is a backtrace where one is asked for.
+        let failed = |e: &dyn std::fmt::Display| {
+            let e = e.to_string();
+            let line = e.lines().next().unwrap_or_default().to_string();
+            format!("cannot load {}: {line}", scene.display())
+        };
+        if let Some(LoadState::Failed(e)) = server.get_load_state(&handle) {
+            return Err(failed(&e));
+        }
+        let dependencies = server.get_recursive_dependency_load_state(&handle);
+        if let Some(RecursiveDependencyLoadState::Failed(e)) = dependencies {
+            return Err(failed(&e));
         }
         if start.elapsed() > STALL {
             return Err(format!(

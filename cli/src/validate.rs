@@ -248,9 +248,16 @@ fn local_file(uri: &str, folder: &Path, access: Access) -> Result<PathBuf, Strin
             "{uri:?} leaves the scene's folder (rppm render --allow-outside-files allows it)"
         ));
     }
-    let file = folder.join(relative);
+    // Bevy's loader reads an absolute path from its asset root, the scene's folder.
+    let inside = relative.strip_prefix("/").unwrap_or(relative);
+    let file = folder.join(inside);
     if !file.is_file() {
-        return Err(format!("{} is not a file", file.display()));
+        let root = if inside == relative {
+            ""
+        } else {
+            " (Bevy reads an absolute path inside the scene's folder)"
+        };
+        return Err(format!("{} is not a file{root}", file.display()));
     }
     Ok(file)
 }

@@ -2,7 +2,7 @@
 // (directly on the G-buffer, and through importons), averaged into the radiance of all
 // iterations since the last reset (w: the pixel's count), or with HISTORY of the pixel's
 // history kept through motion.
-#import bevy_rppm::common::{IterationParams, MOVED_TRIANGLE, DELTA_ROUGHNESS, subsample_representative}
+#import bevy_rppm::common::{IterationParams, MOVED_TRIANGLE, DELTA_ROUGHNESS, subsample_representative, toward_eye}
 #ifdef SUBSAMPLED
 #import bevy_rppm::bsdf::{bsdf_from, bsdf_gathered}
 #import bevy_rppm::scene::{gbuffer_material, scene_material, triangles}
@@ -86,7 +86,7 @@ fn same_surface(kept: vec4<f32>, position: vec4<f32>, normal: vec4<f32>, marks: 
     let kept_normal = unpack4x8snorm(packed).xyz;
     let d = position.xyz - kept.xyz;
     let slack = 1e-4 * length(position.xyz);
-    let facing = abs(dot(normal.xyz, normalize(params.camera_position.xyz - position.xyz)));
+    let facing = abs(dot(normal.xyz, toward_eye(params, position.xyz)));
     let across = 3.0 * normal.w / max(facing, 0.2);
     let near = length(d) <= across + slack && abs(dot(d, normal.xyz)) <= normal.w + slack;
     return near && dot(kept_normal, normal.xyz) > 0.9 && emitting(packed >> 24u) == emitting(marks);
@@ -272,7 +272,7 @@ fn iteration_sample(pixel: vec2<u32>) -> vec3<f32> {
     if gp.w != 0.0 {
         let gn = textureLoad(gbuffer_normal, vec2<i32>(pixel), 0);
         let m = gbuffer_material(gp, gn.w);
-        let wo = normalize(params.camera_position.xyz - gp.xyz);
+        let wo = toward_eye(params, gp.xyz);
         let light = upsampled_light(pixel, gp.xyz, gn.xyz, gn.w);
         sample += bsdf_gathered(m, bsdf_from(m, gn.xyz, wo), gn.xyz, wo, gn.xyz) * light;
     }

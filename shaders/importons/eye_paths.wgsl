@@ -3,7 +3,7 @@
 // With IMPORTONS, a pixel that sees a specular surface (mirror, glass) follows the camera path
 // through the deep cubemap to the first non-specular surface, lights it the same way, and
 // leaves an importon there for indirect splatting.
-#import bevy_rppm::common::{Material, IterationParams, Importon, NO_IMPORTON, gather_radius, random, pcg_hash, stratified_draws}
+#import bevy_rppm::common::{Material, IterationParams, Importon, NO_IMPORTON, gather_radius, random, pcg_hash, stratified_draws, toward_eye}
 #import bevy_rppm::scene::{triangle_at, gbuffer_material, resolve_surface, kernel_normal, material_at, as_seen_from, normal_at, interpolated_normal}
 #import bevy_rppm::lighting::{params, surface_light}
 #ifdef IMPORTONS
@@ -287,7 +287,7 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
 #ifdef TEXTURED
         surfaces[pixel] = resolve_surface(m, kernel_normal(gp, gn.xyz), gn.xyz);
 #endif
-        let wo = normalize(params.camera_position.xyz - gp.xyz);
+        let wo = toward_eye(params, gp.xyz);
         let first = Vertex(gp.xyz, gn.xyz, m, gp.w > 0.0, u32(abs(gp.w)) - 1u, wo);
         sample = camera_path(pixel, first, &rng);
     }

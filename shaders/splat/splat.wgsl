@@ -7,7 +7,7 @@
 // SUBSAMPLED (ISPM): the target has one texel per n×n pixels, gathered at one representative
 // pixel of the block, and holds incident light Σ Φ / (π r²) for the joint-bilateral upsampling
 // in shaders/accumulate/accumulate.wgsl, which applies each full-resolution pixel's own BSDF.
-#import bevy_rppm::common::{Material, Outgoing, Photon, IterationParams, PI, basis_around, faces_reached, gather_radius, splat_weight, subsample_representative, unpack_normal}
+#import bevy_rppm::common::{Material, Outgoing, Photon, IterationParams, PI, basis_around, faces_reached, gather_radius, splat_weight, subsample_representative, toward_eye, unpack_normal}
 #import bevy_rppm::scene::{gbuffer_material, resolved_material, resolved_kernel_normal, kernel_normal}
 #import bevy_rppm::bsdf::{bsdf_from, bsdf_gathered, glass_share, translucency, stores_photons}
 #import bevy_rppm::cubemap::cubemap
@@ -153,7 +153,7 @@ fn gather(@builtin(global_invocation_id) id: vec3<u32>) {
         textureStore(splats, texel, vec4<f32>(0.0));
         return;
     }
-    let wo = normalize(params.camera_position.xyz - gp.xyz);
+    let wo = toward_eye(params, gp.xyz);
     let out = bsdf_from(m, gn.xyz, wo);
     var sum = vec3<f32>(0.0);
     let faces = faces_reached(cubemap, k.position, k.radius);

@@ -4,6 +4,7 @@
 use std::sync::Arc;
 
 use bevy::ecs::entity::EntityHashSet;
+use bevy::mesh::UvChannel;
 use bevy::platform::collections::{HashMap, HashSet};
 use bevy::prelude::*;
 
@@ -199,6 +200,21 @@ pub(super) fn extract_scene(
             let mut slot = |image: &Option<Handle<Image>>| {
                 textures.slot(image.as_ref(), &image_assets, &mut cache, &mut warnings)
             };
+            let second_uvs = [
+                (&material.base_color_texture, &material.base_color_channel),
+                (
+                    &material.metallic_roughness_texture,
+                    &material.metallic_roughness_channel,
+                ),
+                (&material.emissive_texture, &material.emissive_channel),
+                (&material.normal_map_texture, &material.normal_map_channel),
+            ];
+            if (second_uvs.iter()).any(|(t, c)| t.is_some() && **c == UvChannel::Uv1) {
+                warn_once!(
+                    "bevy_rppm: a material reads a texture through the second UV set \
+                     (UvChannel::Uv1); bevy_rppm reads every texture through the first"
+                );
+            }
             let slots = [
                 slot(&material.base_color_texture),
                 slot(&material.metallic_roughness_texture),

@@ -136,14 +136,28 @@ impl SceneData {
             .collect()
     }
 
-    /// Per world-space triangle UVs and colours (empty when untextured).
+    /// Per world-space triangle UVs and colours (empty when untextured), their corners in the
+    /// placed triangles' order (a mirrored instance swaps the second and third).
     pub fn world_attributes(&self) -> Vec<GpuTriangleAttributes> {
         if !self.is_textured() {
             return Vec::new();
         }
         self.instances
             .iter()
-            .flat_map(|i| self.meshes[i.mesh as usize].attributes.iter().copied())
+            .flat_map(|i| {
+                let mirrored = i.mirrored != 0;
+                self.meshes[i.mesh as usize]
+                    .attributes
+                    .iter()
+                    .map(move |a| {
+                        let mut a = *a;
+                        if mirrored {
+                            a.uv.swap(1, 2);
+                            a.color.swap(1, 2);
+                        }
+                        a
+                    })
+            })
             .collect()
     }
 }
@@ -179,5 +193,49 @@ mod tests {
         assert!(GpuInstance::new(Affine3A::from_scale(Vec3::new(1.0, 0.0, 1.0)), 0, 0).is_none());
         let nan = Affine3A::from_translation(Vec3::splat(f32::NAN));
         assert!(GpuInstance::new(nan, 0, 0).is_none());
+    }
+
+    /// A mirrored instance's texture coordinates and colours follow its swapped corners, so
+    /// each placed corner keeps its own (a mirrored textured asset showed its texture sheared).
+    #[test]
+    fn mirrored_instances_keep_each_corners_attributes() {
+        let local = GpuTriangle {
+            position_a: [0.0, 0.0, 0.0],
+            position_b: [1.0, 0.0, 0.0],
+            position_c: [0.0, 1.0, 0.0],
+            ..default()
+        };
+        let uv = [[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]];
+        let mesh = SceneMesh {
+            triangles: vec![local],
+            attributes: Arc::new(vec![GpuTriangleAttributes {
+                uv,
+                color: [[1, 1], [2, 2], [3, 3]],
+            }]),
+            colored: true,
+        };
+        let material = super::super::GpuMaterial {
+            flags: super::super::MaterialFlags::TEXTURED.bits(),
+            ..default()
+        };
+        let plain = GpuInstance::new(Affine3A::IDENTITY, 0, 0).unwrap();
+        let mirror = GpuInstance::new(Affine3A::from_scale(Vec3::new(-1.0, 1.0, 1.0)), 0, 0);
+        let data = SceneData {
+            meshes: vec![Arc::new(mesh)],
+            instances: vec![plain, mirror.unwrap()],
+            materials: vec![material],
+            ..default()
+        };
+        let world = data.world_attributes();
+        assert_eq!(world[0].uv, uv);
+        for (instance, attributes) in data.instances.iter().zip(&world) {
+            let placed = instance.place(&local).positions();
+            for (corner, uv) in placed.iter().zip(attributes.uv) {
+                // Local (u, v) sits at (±u, v) in this test's mesh.
+                assert_eq!(corner.x.abs(), uv[0], "{instance:?}");
+                assert_eq!(corner.y, uv[1]);
+            }
+        }
+        assert_eq!(world[1].color, [[1, 1], [3, 3], [2, 2]]);
     }
 }

@@ -167,7 +167,8 @@ impl Upload<'_> {
                 && (!textured
                     || l.data.instances.len() == data.instances.len()
                         && (l.data.instances.iter().zip(&data.instances)).all(|(a, b)| {
-                            Arc::ptr_eq(&attributes(&l.data, a), &attributes(data, b))
+                            a.mirrored == b.mirrored
+                                && Arc::ptr_eq(&attributes(&l.data, a), &attributes(data, b))
                         }))
         });
         match kept {

@@ -26,3 +26,4 @@ mod sky;
 mod suite;
 mod textures;
 mod util;
+mod variants;

@@ -249,6 +249,26 @@ pub fn render_asset(
     render_gltf(&request, |_| {}).unwrap_or_else(|e| panic!("{e}"))
 }
 
+/// A glTF scene rendered in-process at 64², `iterations` of 65 536 photons, every pixel finite.
+pub fn render_gltf_64(scene: PathBuf, iterations: u32) -> RgbImage {
+    use bevy_rppm_cli::headless::{Budget, RenderRequest, render_gltf};
+    let request = RenderRequest {
+        scene,
+        width: 64,
+        height: 64,
+        budget: Budget::Iterations(iterations),
+        settings: PhotonMapping {
+            photons_per_iteration: PhotonCount::Fixed(65_536),
+            ..default()
+        },
+    };
+    let image = render_gltf(&request, |_| {})
+        .unwrap_or_else(|e| panic!("{}: {e}", request.scene.display()))
+        .image;
+    assert_eq!(bad_pixels(&image), 0, "{}", request.scene.display());
+    image
+}
+
 pub fn render_box(settings: PhotonMapping, size: u32, iterations: u32) -> RgbImage {
     render_asset(settings, size, size, iterations).image
 }

@@ -267,6 +267,38 @@ pub fn structure() -> Vec<Case> {
             .into_iter()
             .map(|(name, edit)| edited(name, g, error(bad), edit)),
     );
+    let textured = |uri: &str| {
+        let uri = uri.to_string();
+        move |s: &mut serde_json::Value| {
+            set(s, "/images", json!([{ "uri": uri }]));
+            set(s, "/textures", json!([{"source": 0}]));
+            set(
+                s,
+                "/materials/0/pbrMetallicRoughness/baseColorTexture",
+                json!({"index": 0}),
+            );
+        }
+    };
+    // Found by the loader, not the checks: the render would go on without the texture.
+    let mut noise = edited(
+        "an image file that is not an image",
+        g,
+        error("Invalid PNG signature"),
+        textured("noise.png"),
+    );
+    noise
+        .files
+        .push(("noise.png".into(), b"not a PNG".repeat(40)));
+    cases.push(noise);
+    // Bevy reads an absolute path inside the scene's folder, not from the file system's root.
+    let mut absolute = edited(
+        "an absolute image URI, outside files allowed",
+        g,
+        error("Bevy reads an absolute path inside the scene's folder"),
+        textured("/etc/hostname"),
+    );
+    absolute.args.push("--allow-outside-files".into());
+    cases.push(absolute);
     // A chain of nodes 1 000 deep (Bevy's loader recurses per level).
     for (depth, expect) in [(1000, error("levels deep")), (100, Expect::Image)] {
         cases.push(edited(

@@ -1,0 +1,115 @@
+#!/usr/bin/env python3
+"""Writes a variant of a glTF scene whose image is known from the scene's own: the same scene
+mirrored, scaled, or seen through an orthographic camera. Each probes something a renderer can
+get wrong on assets it never saw (a mirroring node, units other than metres, an isometric view).
+
+    python3 tools/variant.py mirror SCENE.gltf OUT.gltf        # image: the scene's, flipped left to right
+    python3 tools/variant.py scale SCENE.gltf OUT.gltf --by 100 # image: the scene's
+    python3 tools/variant.py orthographic SCENE.gltf OUT.gltf --width 2.4 --back 1.0
+
+The meshes go under one new root node (scaled by (-1, 1, 1) or s); lights and the camera stay
+at the root, moved to match. `mirror` needs a camera on x = 0 that turns about x only. External
+buffer URIs are made absolute so OUT may lie elsewhere; image URIs stay relative (copy or link
+the textures beside OUT: Bevy reads an absolute URI inside the scene's folder).
+"""
+import argparse
+import json
+import math
+import os
+
+
+def load(path):
+    scene = json.load(open(path))
+    folder = os.path.dirname(os.path.abspath(path))
+    for b in scene.get("buffers", []):
+        if "uri" in b and not b["uri"].startswith("data:"):
+            b["uri"] = os.path.join(folder, b["uri"])
+    return scene
+
+
+def wrap_meshes(scene, node):
+    """Puts the root nodes holding meshes under `node`; returns the other roots."""
+    roots = scene["scenes"][scene.get("scene", 0)]["nodes"]
+    meshes = [i for i in roots if "mesh" in scene["nodes"][i] or "children" in scene["nodes"][i]]
+    rest = [i for i in roots if i not in meshes]
+    scene["nodes"].append(dict(node, children=meshes))
+    scene["scenes"][scene.get("scene", 0)]["nodes"] = rest + [len(scene["nodes"]) - 1]
+    return [scene["nodes"][i] for i in rest]
+
+
+def mirror(scene, _args):
+    for node in wrap_meshes(scene, {"name": "mirrored", "scale": [-1, 1, 1]}):
+        if "camera" in node:
+            t, q = node.get("translation", [0, 0, 0]), node.get("rotation", [0, 0, 0, 1])
+            if abs(t[0]) > 1e-9 or abs(q[1]) > 1e-9 or abs(q[2]) > 1e-9:
+                raise SystemExit("variant.py: mirror needs a camera on x = 0 turning about x only")
+        elif "translation" in node:
+            node["translation"][0] *= -1
+            if "rotation" in node:
+                x, y, z, w = node["rotation"]
+                node["rotation"] = [x, -y, -z, w]
+
+
+def scale(scene, args):
+    s = args.by
+    for node in wrap_meshes(scene, {"name": "scaled", "scale": [s, s, s]}):
+        if "translation" in node:
+            node["translation"] = [t * s for t in node["translation"]]
+    # Radiance is kept: a punctual light's intensity grows with the distances squared.
+    for light in scene.get("extensions", {}).get("KHR_lights_punctual", {}).get("lights", []):
+        if light["type"] in ("point", "spot"):
+            light["intensity"] = light.get("intensity", 1.0) * s * s
+        if "range" in light:
+            light["range"] *= s
+        extras = light.get("extras", {})
+        if "rppm_radius" in extras:
+            extras["rppm_radius"] *= s
+    for camera in scene.get("cameras", []):
+        for kind in ("perspective", "orthographic"):
+            if kind in camera:
+                camera[kind]["znear"] *= s
+                if "zfar" in camera[kind]:
+                    camera[kind]["zfar"] *= s
+                if kind == "orthographic":
+                    camera[kind]["xmag"] *= s
+                    camera[kind]["ymag"] *= s
+    for material in scene.get("materials", []):
+        volume = material.get("extensions", {}).get("KHR_materials_volume")
+        if volume:
+            for key in ("attenuationDistance", "thicknessFactor"):
+                if key in volume:
+                    volume[key] *= s
+
+
+def orthographic(scene, args):
+    # Bevy's glTF loader makes the view xmag wide (not 2·xmag as the glTF spec reads it).
+    scene["cameras"] = [{"type": "orthographic", "orthographic": {
+        "xmag": args.width, "ymag": args.width, "znear": 0.05, "zfar": 100.0}}]
+    for node in scene["nodes"]:
+        if "camera" in node:
+            node["camera"] = 0
+            x, y, z, w = node.get("rotation", [0, 0, 0, 1])
+            forward = [-2 * (x * z + w * y), -2 * (y * z - w * x), -(1 - 2 * (x * x + y * y))]
+            t = node.get("translation", [0, 0, 0])
+            node["translation"] = [t[i] - args.back * forward[i] for i in range(3)]
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("kind", choices=["mirror", "scale", "orthographic"])
+    parser.add_argument("scene")
+    parser.add_argument("out")
+    parser.add_argument("--by", type=float, default=100.0, help="scale: the factor")
+    parser.add_argument("--width", type=float, default=2.0, help="orthographic: the view's width, m")
+    parser.add_argument("--back", type=float, default=0.0, help="orthographic: move the camera back, m")
+    args = parser.parse_args()
+    if not math.isfinite(args.by) or args.by <= 0:
+        raise SystemExit("variant.py: --by must be a positive number")
+    scene = load(args.scene)
+    {"mirror": mirror, "scale": scale, "orthographic": orthographic}[args.kind](scene, args)
+    json.dump(scene, open(args.out, "w"))
+    print(f"wrote {args.out}: {args.kind} of {args.scene}")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,21 +1,26 @@
 #!/usr/bin/env python3
 """Writes a variant of a glTF scene whose image is known from the scene's own: the same scene
 mirrored, scaled, or seen through an orthographic camera. Each probes something a renderer can
-get wrong on assets it never saw (a mirroring node, units other than metres, an isometric view).
+get wrong on assets it never saw (a mirroring node, units other than metres, an isometric view,
+meshes stored as triangle strips).
 
     python3 tools/variant.py mirror SCENE.gltf OUT.gltf        # image: the scene's, flipped left to right
     python3 tools/variant.py scale SCENE.gltf OUT.gltf --by 100 # image: the scene's
     python3 tools/variant.py orthographic SCENE.gltf OUT.gltf --width 2.4 --back 1.0
+    python3 tools/variant.py strips SCENE.gltf OUT.gltf         # image: the scene's
 
-The meshes go under one new root node (scaled by (-1, 1, 1) or s); lights and the camera stay
+`strips` stores every indexed or plain triangle list as one TRIANGLE_STRIP (its triangles
+joined by degenerate ones). Otherwise the meshes go under one new root node (scaled by (-1, 1, 1) or s); lights and the camera stay
 at the root, moved to match. `mirror` needs a camera on x = 0 that turns about x only. External
 buffer URIs are made absolute so OUT may lie elsewhere; image URIs stay relative (copy or link
 the textures beside OUT: Bevy reads an absolute URI inside the scene's folder).
 """
 import argparse
+import base64
 import json
 import math
 import os
+import struct
 
 
 def load(path):
@@ -94,9 +99,50 @@ def orthographic(scene, args):
             node["translation"] = [t[i] - args.back * forward[i] for i in range(3)]
 
 
+def accessor_values(scene, index):
+    """The integers of a scalar accessor (indices), read from its buffer."""
+    accessor = scene["accessors"][index]
+    view = scene["bufferViews"][accessor["bufferView"]]
+    uri = scene["buffers"][view["buffer"]]["uri"]
+    data = base64.b64decode(uri.split(",", 1)[1]) if uri.startswith("data:") else open(uri, "rb").read()
+    kind = {5121: "B", 5123: "H", 5125: "I"}[accessor["componentType"]]
+    start = view.get("byteOffset", 0) + accessor.get("byteOffset", 0)
+    stride = view.get("byteStride", struct.calcsize(kind))
+    return [struct.unpack_from("<" + kind, data, start + i * stride)[0] for i in range(accessor["count"])]
+
+
+def strips(scene, _args):
+    for mesh in scene["meshes"]:
+        for primitive in mesh["primitives"]:
+            if primitive.get("mode", 4) != 4:
+                continue
+            if "indices" in primitive:
+                corners = accessor_values(scene, primitive["indices"])
+            else:
+                corners = list(range(scene["accessors"][primitive["attributes"]["POSITION"]]["count"]))
+            strip = []
+            for t in range(0, len(corners) - 2, 3):
+                a, b, c = corners[t:t + 3]
+                if strip:
+                    # Degenerate joins (a corner repeated around each): each triangle starts
+                    # at an even place, keeping its front.
+                    strip += [strip[-1], a]
+                    if len(strip) % 2 == 1:
+                        strip.append(a)
+                strip += [a, b, c]
+            data = struct.pack(f"<{len(strip)}I", *strip)
+            scene["buffers"].append({"byteLength": len(data),
+                                     "uri": "data:application/octet-stream;base64," + base64.b64encode(data).decode()})
+            scene["bufferViews"].append({"buffer": len(scene["buffers"]) - 1, "byteLength": len(data)})
+            scene["accessors"].append({"bufferView": len(scene["bufferViews"]) - 1, "componentType": 5125,
+                                       "count": len(strip), "type": "SCALAR"})
+            primitive["indices"] = len(scene["accessors"]) - 1
+            primitive["mode"] = 5
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("kind", choices=["mirror", "scale", "orthographic"])
+    parser.add_argument("kind", choices=["mirror", "scale", "orthographic", "strips"])
     parser.add_argument("scene")
     parser.add_argument("out")
     parser.add_argument("--by", type=float, default=100.0, help="scale: the factor")
@@ -106,7 +152,7 @@ def main():
     if not math.isfinite(args.by) or args.by <= 0:
         raise SystemExit("variant.py: --by must be a positive number")
     scene = load(args.scene)
-    {"mirror": mirror, "scale": scale, "orthographic": orthographic}[args.kind](scene, args)
+    {"mirror": mirror, "scale": scale, "orthographic": orthographic, "strips": strips}[args.kind](scene, args)
     json.dump(scene, open(args.out, "w"))
     print(f"wrote {args.out}: {args.kind} of {args.scene}")
 

@@ -140,11 +140,12 @@ pub(super) fn append_triangles(
     out: &mut Vec<GpuTriangle>,
     attributes: &mut Vec<GpuTriangleAttributes>,
 ) -> Result<bool, String> {
-    if mesh.primitive_topology() != PrimitiveTopology::TriangleList {
-        return Err(format!(
-            "topology {:?} is not a triangle list",
-            mesh.primitive_topology()
-        ));
+    let topology = mesh.primitive_topology();
+    if !matches!(
+        topology,
+        PrimitiveTopology::TriangleList | PrimitiveTopology::TriangleStrip
+    ) {
+        return Err(format!("topology {topology:?} has no triangles"));
     }
     let positions = match mesh.try_attribute(Mesh::ATTRIBUTE_POSITION) {
         Ok(VertexAttributeValues::Float32x3(p)) => p,
@@ -176,7 +177,10 @@ pub(super) fn append_triangles(
         Ok(Some(Indices::U32(i))) => Box::new(i.iter().map(|&i| i as usize)),
         _ => Box::new(0..positions.len()),
     };
-    let indices: Vec<usize> = indices.collect();
+    let mut indices: Vec<usize> = indices.collect();
+    if topology == PrimitiveTopology::TriangleStrip {
+        indices = strip_to_list(&indices);
+    }
     if let Some(bad) = indices.iter().find(|&&i| i >= positions.len()) {
         return Err(format!(
             "index {bad} is out of range ({} vertices)",
@@ -388,4 +392,39 @@ fn blend(joints: &[Affine3A], index: [u16; 4], weight: [f32; 4]) -> Result<Affin
         translation += Vec3::from(joint.translation) * (w / total);
     }
     Ok(Affine3A::from_mat3_translation(matrix3, translation))
+}
+
+/// A triangle strip's corners as a list (glTF's `TRIANGLE_STRIP`): every other triangle's
+/// first two corners swapped so that all keep the strip's front.
+fn strip_to_list(strip: &[usize]) -> Vec<usize> {
+    (0..strip.len().saturating_sub(2))
+        .flat_map(|k| {
+            let (a, b) = if k % 2 == 0 { (k, k + 1) } else { (k + 1, k) };
+            [strip[a], strip[b], strip[k + 2]]
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A strip of four corners is two triangles facing one way; a strip too short is none.
+    #[test]
+    fn strips_become_lists_that_keep_their_front() {
+        let corners = [
+            Vec3::ZERO,
+            Vec3::new(0.0, 1.0, 0.0),
+            Vec3::new(1.0, 0.0, 0.0),
+            Vec3::new(1.0, 1.0, 0.0),
+        ];
+        let list = strip_to_list(&[0, 1, 2, 3]);
+        assert_eq!(list, vec![0, 1, 2, 2, 1, 3]);
+        for t in list.chunks_exact(3) {
+            let [a, b, c] = [t[0], t[1], t[2]].map(|i| corners[i]);
+            assert_eq!((b - a).cross(c - a).normalize(), Vec3::NEG_Z);
+        }
+        assert!(strip_to_list(&[0, 1]).is_empty());
+        assert!(strip_to_list(&[]).is_empty());
+    }
 }

@@ -13,12 +13,28 @@ fn extraction_gives_world_space_triangles() {
     let transform = Transform::from_xyz(1.0, -2.0, 3.0)
         .with_rotation(Quat::from_euler(EulerRot::XYZ, 0.3, -1.1, 0.7))
         .with_scale(Vec3::new(2.0, 0.5, 1.5));
-    let (m_cuboid, m_u16, m_plain) = {
+    // A square as glTF's TRIANGLE_STRIP gives it (Bevy renders strips; they used to be left
+    // out), facing +Y.
+    let mut strip = Mesh::new(
+        PrimitiveTopology::TriangleStrip,
+        RenderAssetUsages::default(),
+    );
+    strip.insert_attribute(
+        Mesh::ATTRIBUTE_POSITION,
+        vec![
+            [-1.0, 0.0, -1.0],
+            [-1.0, 0.0, 1.0],
+            [1.0, 0.0, -1.0],
+            [1.0, 0.0, 1.0],
+        ],
+    );
+    let (m_cuboid, m_u16, m_plain, m_strip) = {
         let mut meshes = world.resource_mut::<Assets<Mesh>>();
         (
             meshes.add(cuboid),
             meshes.add(quad(1.0, Some(Indices::U16(vec![0, 1, 2, 0, 2, 3])), true)),
             meshes.add(quad(2.0, None, false)),
+            meshes.add(strip),
         )
     };
     let material = matte(&mut world.resource_mut::<Assets<StandardMaterial>>(), 0.5);
@@ -34,15 +50,20 @@ fn extraction_gives_world_space_triangles() {
     ));
     world.spawn((
         Mesh3d(m_plain),
-        MeshMaterial3d(material),
+        MeshMaterial3d(material.clone()),
         Transform::from_xyz(0.0, -5.0, 0.0),
+    ));
+    world.spawn((
+        Mesh3d(m_strip),
+        MeshMaterial3d(material),
+        Transform::from_xyz(0.0, 10.0, 0.0),
     ));
     frames(&mut app, 3);
     let scene = app.world().resource::<RppmScene>().data.clone();
     assert_eq!(
         scene.triangle_count(),
-        12 + 2 + 2,
-        "cuboid 12, u16 quad 2, unindexed quad 2"
+        12 + 2 + 2 + 2,
+        "cuboid 12, u16 quad 2, unindexed quad 2, strip 2"
     );
     assert_eq!(scene.materials.len(), 1);
     // The cuboid's triangles, transformed on the CPU, must be in the table (order of entities
@@ -59,16 +80,18 @@ fn extraction_gives_world_space_triangles() {
         });
         assert!(found, "transformed cuboid triangle {expected:?} missing");
     }
-    // The quad without normals gets flat normals, pointing up for its winding.
-    let flat: Vec<_> = scene
-        .world_triangles()
-        .into_iter()
-        .filter(|t| t.position_a[1] == -5.0)
-        .collect();
-    assert_eq!(flat.len(), 2);
-    for t in flat {
-        for n in [t.normal_a, t.normal_b, t.normal_c] {
-            assert!(Vec3::from(n).distance(Vec3::Y) < 1e-6, "flat normal {n:?}");
+    // The quad and the strip without normals get flat normals, pointing up for their winding.
+    for height in [-5.0, 10.0] {
+        let flat: Vec<_> = scene
+            .world_triangles()
+            .into_iter()
+            .filter(|t| t.position_a[1] == height)
+            .collect();
+        assert_eq!(flat.len(), 2);
+        for t in flat {
+            for n in [t.normal_a, t.normal_b, t.normal_c] {
+                assert!(Vec3::from(n).distance(Vec3::Y) < 1e-6, "flat normal {n:?}");
+            }
         }
     }
 }

@@ -203,11 +203,20 @@ pub fn numbers() -> Vec<Case> {
             "/meshes/0/primitives/0/mode",
             json!(1),
         ),
+        // Its indices read as a strip: other triangles, rendered as Bevy renders them.
+        ("a triangle strip", "/meshes/0/primitives/0/mode", json!(5)),
         ("an empty scene", "/scenes/0/nodes", json!([])),
     ];
     cases.extend(clamped.into_iter().map(|(name, pointer, value)| {
         edited(name, g, Expect::Image, move |s| set(s, pointer, value))
     }));
+    // Bevy's loader turns fans down (wgpu draws none).
+    cases.push(edited(
+        "a triangle fan",
+        g,
+        error("unsupported primitive mode"),
+        |s| set(s, "/meshes/0/primitives/0/mode", json!(6)),
+    ));
     cases
 }
 

@@ -2,13 +2,15 @@
 """Writes a variant of a glTF scene whose image is known from the scene's own: the same scene
 mirrored, scaled, or seen through an orthographic camera. Each probes something a renderer can
 get wrong on assets it never saw (a mirroring node, units other than metres, an isometric view,
-meshes stored as triangle strips).
+meshes stored as triangle strips, a wide landscape around a small scene).
 
     python3 tools/variant.py mirror SCENE.gltf OUT.gltf        # image: the scene's, flipped left to right
     python3 tools/variant.py scale SCENE.gltf OUT.gltf --by 100 # image: the scene's
     python3 tools/variant.py orthographic SCENE.gltf OUT.gltf --width 2.4 --back 1.0
     python3 tools/variant.py strips SCENE.gltf OUT.gltf         # image: the scene's
+    python3 tools/variant.py ground SCENE.gltf OUT.gltf --half 500  # a new scene: its own reference
 
+`ground` adds a grey ground (albedo 0.3) 2·half wide, 5 cm under y = 0, around the scene.
 `strips` stores every indexed or plain triangle list as one TRIANGLE_STRIP (its triangles
 joined by degenerate ones). Otherwise the meshes go under one new root node (scaled by (-1, 1, 1) or s); lights and the camera stay
 at the root, moved to match. `mirror` needs a camera on x = 0 that turns about x only. External
@@ -140,19 +142,47 @@ def strips(scene, _args):
             primitive["mode"] = 5
 
 
+def ground(scene, args):
+    half, y = args.half, -0.05
+    corners = [(-half, y, -half), (-half, y, half), (half, y, half), (half, y, -half)]
+    data = b"".join(struct.pack("<3f", *c) for c in corners) + struct.pack("<12f", *[0, 1, 0] * 4)
+    data += struct.pack("<6H", 0, 1, 2, 0, 2, 3) + b"\0\0"
+    scene["buffers"].append({"byteLength": len(data),
+                             "uri": "data:application/octet-stream;base64," + base64.b64encode(data).decode()})
+    buffer = len(scene["buffers"]) - 1
+    views = len(scene["bufferViews"])
+    scene["bufferViews"] += [{"buffer": buffer, "byteOffset": 0, "byteLength": 48},
+                             {"buffer": buffer, "byteOffset": 48, "byteLength": 48},
+                             {"buffer": buffer, "byteOffset": 96, "byteLength": 12}]
+    accessors = len(scene["accessors"])
+    scene["accessors"] += [
+        {"bufferView": views, "componentType": 5126, "count": 4, "type": "VEC3",
+         "min": [-half, y, -half], "max": [half, y, half]},
+        {"bufferView": views + 1, "componentType": 5126, "count": 4, "type": "VEC3"},
+        {"bufferView": views + 2, "componentType": 5123, "count": 6, "type": "SCALAR"}]
+    scene["materials"].append({"name": "ground", "pbrMetallicRoughness": {
+        "baseColorFactor": [0.3, 0.3, 0.3, 1], "metallicFactor": 0, "roughnessFactor": 1}})
+    scene["meshes"].append({"primitives": [{
+        "attributes": {"POSITION": accessors, "NORMAL": accessors + 1}, "indices": accessors + 2,
+        "material": len(scene["materials"]) - 1}]})
+    scene["nodes"].append({"name": "ground", "mesh": len(scene["meshes"]) - 1})
+    scene["scenes"][scene.get("scene", 0)]["nodes"].append(len(scene["nodes"]) - 1)
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("kind", choices=["mirror", "scale", "orthographic", "strips"])
+    parser.add_argument("kind", choices=["mirror", "scale", "orthographic", "strips", "ground"])
     parser.add_argument("scene")
     parser.add_argument("out")
     parser.add_argument("--by", type=float, default=100.0, help="scale: the factor")
     parser.add_argument("--width", type=float, default=2.0, help="orthographic: the view's width, m")
     parser.add_argument("--back", type=float, default=0.0, help="orthographic: move the camera back, m")
+    parser.add_argument("--half", type=float, default=500.0, help="ground: half its width, m")
     args = parser.parse_args()
     if not math.isfinite(args.by) or args.by <= 0:
         raise SystemExit("variant.py: --by must be a positive number")
     scene = load(args.scene)
-    {"mirror": mirror, "scale": scale, "orthographic": orthographic, "strips": strips}[args.kind](scene, args)
+    {"mirror": mirror, "scale": scale, "orthographic": orthographic, "strips": strips, "ground": ground}[args.kind](scene, args)
     json.dump(scene, open(args.out, "w"))
     print(f"wrote {args.out}: {args.kind} of {args.scene}")
 

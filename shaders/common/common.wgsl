@@ -215,7 +215,9 @@ struct IterationParams {
     photon_lanes: u32,
     // Power of all emissive triangles together (luminance W, as the CPU's emitter table).
     emitter_power: f32,
-    pad_c: u32,
+    // 1 when photons leave a sun or the sky: local illumination counts how far the camera
+    // sees (`seen`), which their emission follows.
+    seen_region: u32,
 }
 
 // What f(wo, ·) needs of a material and wo alone (bsdf.wgsl's `bsdf_from`), found once for

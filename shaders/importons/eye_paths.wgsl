@@ -268,8 +268,40 @@ fn camera_path(pixel: u32, first: Vertex, rng: ptr<function, u32>) -> vec3<f32> 
     return found;
 }
 
+// How far the camera sees (group 1, binding 1): visible pixels counted by distance from the
+// camera, [k] those within (R/2^(k+1), R/2^k] (R the scene's radius; [0] farther too, [15]
+// nearer too); photon emission reads it (`emission_disc` in photons/trace.wgsl).
+@group(1) @binding(1) var<storage, read_write> seen: array<atomic<u32>, 16>;
+var<workgroup> seen_here: array<atomic<u32>, 16>;
+
+// Counts this workgroup's visible pixels into `seen`, one atomic per distance per workgroup.
+fn see(pixel: vec2<u32>, lane: u32) {
+    if lane < 16u {
+        atomicStore(&seen_here[lane], 0u);
+    }
+    workgroupBarrier();
+    if all(pixel < params.size) {
+        let p = textureLoad(gbuffer_position, vec2<i32>(pixel), 0);
+        if p.w != 0.0 {
+            let d = max(distance(p.xyz, params.camera_position.xyz), 1e-30);
+            let k = clamp(floor(log2(params.scene_sphere.w / d)), 0.0, 15.0);
+            atomicAdd(&seen_here[u32(k)], 1u);
+        }
+    }
+    workgroupBarrier();
+    if lane < 16u {
+        let count = atomicLoad(&seen_here[lane]);
+        if count != 0u {
+            atomicAdd(&seen[lane], count);
+        }
+    }
+}
+
 @compute @workgroup_size(8, 8, 1)
-fn main(@builtin(global_invocation_id) id: vec3<u32>) {
+fn main(@builtin(global_invocation_id) id: vec3<u32>, @builtin(local_invocation_index) lane: u32) {
+    if params.seen_region != 0u {
+        see(id.xy, lane);
+    }
     if any(id.xy >= params.size) {
         return;
     }

@@ -36,6 +36,76 @@ fn uniform_sphere(u: vec2<f32>) -> vec3<f32> {
     return vec3<f32>(r * cos(phi), r * sin(phi), z);
 }
 
+// How far the camera sees, as local illumination counted it this iteration (eye_paths.wgsl).
+@group(1) @binding(1) var<storage, read_write> seen: array<atomic<u32>, 16>;
+
+// The radius around the camera within which 90 % of the visible pixels lie, when under half
+// the scene's radius (a room in a wide landscape, a window's view out included); else 0.
+fn seen_radius() -> f32 {
+    var total = 0u;
+    for (var k = 0u; k < 16u; k += 1u) {
+        total += atomicLoad(&seen[k]);
+    }
+    var within = 0u;
+    for (var k = 15u; k >= 1u; k -= 1u) {
+        within += atomicLoad(&seen[k]);
+        if f32(within) >= 0.9 * f32(total) && total > 0u {
+            return params.scene_sphere.w * exp2(-f32(k));
+        }
+    }
+    return 0.0;
+}
+
+// Where a photon travelling along `direction` (a sun's or the sky's) starts, and the area it
+// stands for (1/pdf), on a disc across the scene upstream. Where the camera sees only nearby
+// (`seen_radius`), the photons start on discs around the camera's line along `direction`,
+// from that radius up, each 4× wider than the last up to the scene's: half the photons on the
+// nearest, the rest alike on the others, so that their density falls as 1/d² away from the
+// camera as the pixels' need does (a pixel twice as far covers four times the area); the pdf
+// sums every disc, so every part of the scene is still reached.
+fn emission_disc(direction: vec3<f32>, rng: ptr<function, u32>) -> vec4<f32> {
+    let scene = params.scene_sphere;
+    let b = basis_around(direction);
+    var near = scene.w;
+    var levels = 1u;
+    if params.seen_region != 0u {
+        let radius = seen_radius();
+        if radius > 0.0 {
+            near = radius;
+            levels = min(u32(ceil(0.5 * log2(scene.w / radius))), 7u) + 1u;
+        }
+    }
+    let c = params.camera_position.xyz - scene.xyz;
+    let camera = vec2<f32>(dot(c, b[0]), dot(c, b[1]));
+    // Disc k < levels - 1: around the camera, 4^k × `near`; the last, the scene's. Half the
+    // photons start on the nearest, the other half on the wider ones alike.
+    var level = levels - 1u;
+    if levels > 1u {
+        let u = random(rng);
+        let wider = min(u32((2.0 * u - 1.0) * f32(levels - 1u)), levels - 2u) + 1u;
+        level = select(wider, 0u, u < 0.5);
+    }
+    let last = level == levels - 1u;
+    let centre = select(camera, vec2<f32>(0.0), last);
+    let radius = select(near * exp2(2.0 * f32(level)), scene.w, last);
+    let r = radius * sqrt(random(rng));
+    let phi = 2.0 * PI * random(rng);
+    let at = centre + r * vec2<f32>(cos(phi), sin(phi));
+    var density = 1.0 / (PI * scene.w * scene.w);
+    if levels > 1u {
+        let wider = 0.5 / f32(levels - 1u);
+        density = select(0.0, wider * density, dot(at, at) <= scene.w * scene.w);
+        let d2 = dot(at - camera, at - camera);
+        for (var k = 0u; k + 1u < levels; k += 1u) {
+            let rk = near * exp2(2.0 * f32(k));
+            let share = select(wider, 0.5, k == 0u);
+            density += select(0.0, share / (PI * rk * rk), d2 <= rk * rk);
+        }
+    }
+    let origin = scene.xyz - direction * (2.0 * scene.w) + b * vec3<f32>(at, 0.0);
+    return vec4<f32>(origin, 1.0 / density);
+}
+
 fn emit(rng: ptr<function, u32>) -> Ray {
     let index = find_source(random(rng), 0u, params.source_count - 1u);
     let previous = select(0.0, light_cdf[index - 1u], index > 0u);
@@ -48,13 +118,10 @@ fn emit(rng: ptr<function, u32>) -> Ray {
         // The sky (the last source): a direction uniform on the sphere, from a disc across
         // the scene's bounding sphere upstream of it; 4π directions × πR² carry its power.
         let direction = uniform_sphere(vec2<f32>(random(rng), random(rng)));
-        let radius = params.scene_sphere.w;
-        let b = basis_around(direction);
-        let r = radius * sqrt(random(rng));
-        let phi = 2.0 * PI * random(rng);
-        ray.origin = params.scene_sphere.xyz - direction * (2.0 * radius) + b * vec3<f32>(r * cos(phi), r * sin(phi), 0.0);
+        let start = emission_disc(direction, rng);
+        ray.origin = start.xyz;
         ray.direction = direction;
-        ray.flux = params.sky.rgb * (4.0 * PI * PI * radius * radius * share);
+        ray.flux = params.sky.rgb * (4.0 * PI * start.w * share);
         return ray;
     }
 #endif
@@ -73,14 +140,10 @@ fn emit(rng: ptr<function, u32>) -> Ray {
     }
     let l = lights[index];
     if l.kind == LIGHT_DIRECTIONAL {
-        // A disc across the scene's bounding sphere, upstream of it.
-        let radius = params.scene_sphere.w;
-        let b = basis_around(l.direction.xyz);
-        let r = radius * sqrt(random(rng));
-        let phi = 2.0 * PI * random(rng);
-        ray.origin = params.scene_sphere.xyz - l.direction.xyz * (2.0 * radius) + b * vec3<f32>(r * cos(phi), r * sin(phi), 0.0);
+        let start = emission_disc(l.direction.xyz, rng);
+        ray.origin = start.xyz;
         ray.direction = l.direction.xyz;
-        ray.flux = l.radiance.rgb * (PI * radius * radius * share);
+        ray.flux = l.radiance.rgb * (start.w * share);
         return ray;
     }
     ray.origin = l.position.xyz;

@@ -192,6 +192,7 @@ fn encode_iteration(
     if state.importons {
         state.eye_paths.encode_clear(encoder);
     }
+    encoder.clear_buffer(&state.seen_region, 0, None);
     let trace_group = cubemap
         .filter(|_| state.importons || state.traced_shadows)
         .map(|c| &c.trace_group);

@@ -19,7 +19,7 @@ use crate::shadows::ShadowMaps;
 use crate::splat::{SplatPipeline, SplatTarget};
 use crate::stats::profile::WallProfile;
 use crate::stats::timing::StageTimer;
-use crate::view::params::params_binding;
+use crate::view::params::{SEEN_REGION_BYTES, params_binding};
 use crate::view::{PARAMS_STRIDE, ViewLayouts};
 
 /// What forces the view's GPU resources to be made anew.
@@ -117,6 +117,8 @@ pub struct RppmViewState {
     pub indirect_group: Option<BindGroup>,
     pub estimate: Estimate,
     pub params: Buffer,
+    /// How far the camera sees, counted each iteration (`SEEN_REGION_BYTES`).
+    pub seen_region: Buffer,
     pub scene_group: BindGroup,
     pub params_group: BindGroup,
     pub output_group: BindGroup,
@@ -170,10 +172,19 @@ impl RppmViewState {
         let splats = SplatTarget::new(textures, device, size, key.subsampling);
         let estimate = Estimate::new(device, size, key.history);
         let (store, indirect_group) = photon_store(key, device, cache, pipelines, &eye_paths);
+        let seen_region = device.create_buffer(&BufferDescriptor {
+            label: Some("rppm_seen_region"),
+            size: SEEN_REGION_BYTES,
+            usage: BufferUsages::STORAGE | BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
         let params_group = device.create_bind_group(
             "rppm_params_group",
             &cache.get_bind_group_layout(&pipelines.layouts.params),
-            &BindGroupEntries::single(params_binding(&params)),
+            &BindGroupEntries::sequential((
+                params_binding(&params),
+                seen_region.as_entire_binding(),
+            )),
         );
         let output_group = output::bind_group(
             device,
@@ -220,6 +231,7 @@ impl RppmViewState {
             indirect_group,
             estimate,
             params,
+            seen_region,
             scene_group,
             params_group,
             output_group,

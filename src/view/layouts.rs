@@ -5,7 +5,7 @@ use std::num::NonZeroU64;
 
 use bevy::prelude::*;
 use bevy::render::render_resource::binding_types::{
-    storage_buffer_read_only_sized, texture_2d, uniform_buffer_sized,
+    storage_buffer_read_only_sized, storage_buffer_sized, texture_2d, uniform_buffer_sized,
 };
 use bevy::render::render_resource::*;
 
@@ -17,7 +17,8 @@ pub struct ViewLayouts {
     /// 0 triangles, 1 shadow views, 2 materials, 3 lights, 4 emitters, 5 light CDF, 6 the
     /// GGX albedo table ([`crate::bsdf`]), 7 triangle attributes, 8 textures, 9 texels.
     pub scene: BindGroupLayoutDescriptor,
-    /// 0 per-iteration params (dynamic offset).
+    /// 0 per-iteration params (dynamic offset), 1 how far the camera sees (compute only:
+    /// local illumination counts it, photon emission follows it; `SEEN_REGION_BYTES`).
     pub params: BindGroupLayoutDescriptor,
 }
 
@@ -51,7 +52,13 @@ impl Default for ViewLayouts {
             ),
             params: BindGroupLayoutDescriptor::new(
                 "rppm_params_layout",
-                &BindGroupLayoutEntries::single(all, params_entry()),
+                &BindGroupLayoutEntries::sequential(
+                    all,
+                    (
+                        params_entry(),
+                        storage_buffer_sized(false, None).visibility(ShaderStages::COMPUTE),
+                    ),
+                ),
             ),
         }
     }

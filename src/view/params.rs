@@ -8,7 +8,7 @@ use bevy::render::view::ExtractedView;
 use bytemuck::{Pod, Zeroable};
 
 use crate::ppm::{halton, pcg, unit_random};
-use crate::scene::{GpuTriangle, SceneData};
+use crate::scene::{GpuTriangle, LightKind, SceneData};
 
 /// Byte stride between per-iteration slots of the params buffer (dynamic-offset alignment).
 pub const PARAMS_STRIDE: u64 = 512;
@@ -60,8 +60,14 @@ pub struct IterationParams {
     /// Power of all emissive triangles together (luminance-weighted W): the emitters'
     /// densities for multiple importance sampling at camera paths' rough vertices.
     pub emitter_power: f32,
-    pub pad: u32,
+    /// 1 when photons leave a sun or the sky: local illumination counts how far the camera
+    /// sees, which their emission follows (photons/trace.wgsl).
+    pub seen_region: u32,
 }
+
+/// Bytes of how far the camera sees (`seen` in importons/eye_paths.wgsl): visible pixels
+/// counted in 16 distance bins.
+pub const SEEN_REGION_BYTES: u64 = 64;
 
 /// The first slot of a params buffer, as group 1 binds it.
 pub fn params_binding(params: &Buffer) -> BufferBinding<'_> {
@@ -146,6 +152,10 @@ pub fn camera_params(
         tonemap: (!camera.hdr) as u32,
         max_eye_depth: 1,
         emitter_power: data.emitter_power(),
+        seen_region: u32::from(
+            data.sky[3] > 0.0
+                || (data.lights.iter()).any(|l| l.kind == LightKind::Directional as u32),
+        ),
         scene_sphere: {
             let (centre, radius) = data.bounding_sphere();
             centre.extend(radius.max(1e-6)).into()

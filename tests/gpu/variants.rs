@@ -11,9 +11,9 @@ fn suite() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/suite")
 }
 
-/// `scene` from the suite, changed by `edit`, written with its textures into a folder of its
-/// own; rendered at 64², 16 iterations of 65 536 photons.
-fn render_variant(scene: &str, name: &str, edit: impl FnOnce(&mut Value)) -> RgbImage {
+/// `scene` from the suite, changed by `edit` (which may write files beside it), written with
+/// its textures into a folder of its own; rendered at 64², 16 iterations of 65 536 photons.
+fn render_variant(scene: &str, name: &str, edit: impl FnOnce(&mut Value, &Path)) -> RgbImage {
     let dir = temp(name);
     std::fs::create_dir_all(dir.join("textures")).unwrap();
     for entry in std::fs::read_dir(suite().join("textures")).unwrap() {
@@ -22,7 +22,7 @@ fn render_variant(scene: &str, name: &str, edit: impl FnOnce(&mut Value)) -> Rgb
     }
     let source = std::fs::read_to_string(suite().join(format!("{scene}.gltf"))).unwrap();
     let mut gltf: Value = serde_json::from_str(&source).unwrap();
-    edit(&mut gltf);
+    edit(&mut gltf, &dir);
     let path = dir.join("scene.gltf");
     std::fs::write(&path, serde_json::to_string(&gltf).unwrap()).unwrap();
     render_gltf_64(path, 16)
@@ -60,7 +60,7 @@ fn roots(gltf: &Value) -> (Vec<u64>, Vec<u64>) {
 /// out sheared along each triangle's diagonal, relMSE 0.71 here).
 #[test]
 fn a_mirrored_textured_asset_renders_as_the_mirror_image() {
-    let image = render_variant("textured_box", "mirrored_textured_box", |gltf| {
+    let image = render_variant("textured_box", "mirrored_textured_box", |gltf, _| {
         let (meshes, mut rest) = roots(gltf);
         let nodes = gltf["nodes"].as_array_mut().unwrap();
         // The light moves to the mirrored place; the camera stands on x = 0 and turns about
@@ -91,10 +91,105 @@ fn a_mirrored_textured_asset_renders_as_the_mirror_image() {
 /// `tools/variant.py orthographic assets/suite/glossy_metal.gltf … --width 2.2`.
 #[test]
 fn an_orthographic_view_of_rough_metal_matches_its_reference() {
-    let image = render_variant("glossy_metal", "orthographic_glossy_metal", |gltf| {
+    let image = render_variant("glossy_metal", "orthographic_glossy_metal", |gltf, _| {
         gltf["cameras"] = json!([{ "type": "orthographic", "orthographic":
             { "xmag": 2.2, "ymag": 2.2, "znear": 0.05, "zfar": 100.0 } }]);
     });
     let reference = reference("glossy_metal.orthographic.ref.exr");
     assert_close(&image, &reference, 0.01, "orthographic glossy_metal");
+}
+
+/// A closed room lit by a sun through its window (`sun_room`) standing on a ground 1 km wide:
+/// the sun's photons used to start uniformly over the whole landscape, so about one in a
+/// million entered the room and its walls, lit only by light bounced off the sunlit floor,
+/// stayed black. They now follow how far the camera sees (`emission_disc` in
+/// photons/trace.wgsl). Its reference is `tools/variant.py ground assets/suite/sun_room.gltf
+/// … --half 500`.
+#[test]
+fn a_room_in_a_wide_landscape_gets_the_suns_photons() {
+    let image = render_variant("sun_room", "sun_room_on_wide_ground", |gltf, dir| {
+        let (half, y) = (500.0f32, -0.05f32);
+        let corners = [
+            [-half, y, -half],
+            [-half, y, half],
+            [half, y, half],
+            [half, y, -half],
+        ];
+        let mut bytes: Vec<u8> = bytemuck::cast_slice(&corners).to_vec();
+        bytes.extend_from_slice(bytemuck::cast_slice(&[[0.0f32, 1.0, 0.0]; 4]));
+        bytes.extend_from_slice(bytemuck::cast_slice(&[0u16, 1, 2, 0, 2, 3, 0]));
+        std::fs::write(dir.join("ground.bin"), &bytes).unwrap();
+        let count = |gltf: &Value, key: &str| gltf[key].as_array().unwrap().len();
+        let (buffer, view) = (count(gltf, "buffers"), count(gltf, "bufferViews"));
+        let (accessor, material) = (count(gltf, "accessors"), count(gltf, "materials"));
+        let mesh = count(gltf, "meshes");
+        let push = |gltf: &mut Value, key: &str, item: Value| {
+            gltf[key].as_array_mut().unwrap().push(item);
+        };
+        push(
+            gltf,
+            "buffers",
+            json!({ "uri": "ground.bin", "byteLength": bytes.len() }),
+        );
+        for (offset, length) in [(0, 48), (48, 48), (96, 12)] {
+            push(
+                gltf,
+                "bufferViews",
+                json!({ "buffer": buffer, "byteOffset": offset, "byteLength": length }),
+            );
+        }
+        push(
+            gltf,
+            "accessors",
+            json!({ "bufferView": view, "componentType": 5126, "count": 4,
+            "type": "VEC3", "min": [-half, y, -half], "max": [half, y, half] }),
+        );
+        push(
+            gltf,
+            "accessors",
+            json!({ "bufferView": view + 1, "componentType": 5126, "count": 4, "type": "VEC3" }),
+        );
+        push(
+            gltf,
+            "accessors",
+            json!({ "bufferView": view + 2, "componentType": 5123, "count": 6, "type": "SCALAR" }),
+        );
+        push(
+            gltf,
+            "materials",
+            json!({ "pbrMetallicRoughness":
+            { "baseColorFactor": [0.3, 0.3, 0.3, 1.0], "metallicFactor": 0.0, "roughnessFactor": 1.0 } }),
+        );
+        push(
+            gltf,
+            "meshes",
+            json!({ "primitives": [{ "attributes": { "POSITION": accessor,
+            "NORMAL": accessor + 1 }, "indices": accessor + 2, "material": material }] }),
+        );
+        push(gltf, "nodes", json!({ "mesh": mesh }));
+        let nodes = count(gltf, "nodes") as u64 - 1;
+        gltf["scenes"][0]["nodes"]
+            .as_array_mut()
+            .unwrap()
+            .push(nodes.into());
+    });
+    let reference = reference("sun_room.ground.ref.exr");
+    // The pixels lit only by bounced light (the walls and the ceiling): black before.
+    let (mut ours, mut theirs) = (0.0, 0.0);
+    for (a, r) in image.pixels.iter().zip(&reference.pixels) {
+        if r.iter().sum::<f32>() < 0.06 {
+            ours += a.iter().sum::<f32>() as f64;
+            theirs += r.iter().sum::<f32>() as f64;
+        }
+    }
+    let bounced = ours / theirs;
+    let error = relmse(&image, &reference).unwrap();
+    println!(
+        "sun_room on a 1 km ground: bounced light {bounced:.3} of the reference's, relMSE {error:.4}"
+    );
+    assert!(
+        (0.85..=1.15).contains(&bounced),
+        "bounced light {bounced:.3} of the reference's"
+    );
+    assert!(error < 0.02, "relMSE {error:.4}");
 }

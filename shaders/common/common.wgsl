@@ -215,8 +215,8 @@ struct IterationParams {
     photon_lanes: u32,
     // Power of all emissive triangles together (luminance W, as the CPU's emitter table).
     emitter_power: f32,
-    // 1 when photons leave a sun: local illumination counts how far the camera sees
-    // (`seen`), which their emission follows.
+    // 1 when photons leave a sun or the sky: local illumination counts how far the camera
+    // sees (`seen`), which their emission follows.
     seen_region: u32,
 }
 

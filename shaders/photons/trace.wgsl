@@ -57,18 +57,18 @@ fn seen_radius() -> f32 {
 }
 
 // Where a photon travelling along `direction` (a sun's or the sky's) starts, and the area it
-// stands for (1/pdf), on a disc across the scene upstream. Where it `follow`s the camera (a
-// sun's) and the camera sees only nearby (`seen_radius`), the photons start on discs around the camera's line along `direction`,
+// stands for (1/pdf), on a disc across the scene upstream. Where the camera sees only nearby
+// (`seen_radius`), the photons start on discs around the camera's line along `direction`,
 // from that radius up, each 4× wider than the last up to the scene's: half the photons on the
 // nearest, the rest alike on the others, so that their density falls as 1/d² away from the
 // camera as the pixels' need does (a pixel twice as far covers four times the area); the pdf
 // sums every disc, so every part of the scene is still reached.
-fn emission_disc(direction: vec3<f32>, follow: bool, rng: ptr<function, u32>) -> vec4<f32> {
+fn emission_disc(direction: vec3<f32>, rng: ptr<function, u32>) -> vec4<f32> {
     let scene = params.scene_sphere;
     let b = basis_around(direction);
     var near = scene.w;
     var levels = 1u;
-    if follow && params.seen_region != 0u {
+    if params.seen_region != 0u {
         let radius = seen_radius();
         if radius > 0.0 {
             near = radius;
@@ -118,9 +118,7 @@ fn emit(rng: ptr<function, u32>) -> Ray {
         // The sky (the last source): a direction uniform on the sphere, from a disc across
         // the scene's bounding sphere upstream of it; 4π directions × πR² carry its power.
         let direction = uniform_sphere(vec2<f32>(random(rng), random(rng)));
-        // Uniform over the scene's disc: discs around the camera made an open yard under
-        // the sky blotchy (its walls' light bounced off the ground around it by heavy photons).
-        let start = emission_disc(direction, false, rng);
+        let start = emission_disc(direction, rng);
         ray.origin = start.xyz;
         ray.direction = direction;
         ray.flux = params.sky.rgb * (4.0 * PI * start.w * share);
@@ -142,7 +140,7 @@ fn emit(rng: ptr<function, u32>) -> Ray {
     }
     let l = lights[index];
     if l.kind == LIGHT_DIRECTIONAL {
-        let start = emission_disc(l.direction.xyz, true, rng);
+        let start = emission_disc(l.direction.xyz, rng);
         ray.origin = start.xyz;
         ray.direction = l.direction.xyz;
         ray.flux = l.radiance.rgb * (start.w * share);

@@ -60,8 +60,8 @@ pub struct IterationParams {
     /// Power of all emissive triangles together (luminance-weighted W): the emitters'
     /// densities for multiple importance sampling at camera paths' rough vertices.
     pub emitter_power: f32,
-    /// 1 when photons leave a sun: local illumination counts how far the camera sees, which
-    /// their emission follows (photons/trace.wgsl).
+    /// 1 when photons leave a sun or the sky: local illumination counts how far the camera
+    /// sees, which their emission follows (photons/trace.wgsl).
     pub seen_region: u32,
 }
 
@@ -153,7 +153,8 @@ pub fn camera_params(
         max_eye_depth: 1,
         emitter_power: data.emitter_power(),
         seen_region: u32::from(
-            (data.lights.iter()).any(|l| l.kind == LightKind::Directional as u32),
+            data.sky[3] > 0.0
+                || (data.lights.iter()).any(|l| l.kind == LightKind::Directional as u32),
         ),
         scene_sphere: {
             let (centre, radius) = data.bounding_sphere();

@@ -39,6 +39,9 @@ fn uniform_sphere(u: vec2<f32>) -> vec3<f32> {
 // How far the camera sees, as local illumination counted it this iteration (eye_paths.wgsl).
 @group(1) @binding(1) var<storage, read_write> seen: array<atomic<u32>, 16>;
 
+// `seen_radius`, found once per workgroup (not per photon) at the start of `trace`.
+var<workgroup> seen_near: f32;
+
 // The radius around the camera within which 90 % of the visible pixels lie, when under half
 // the scene's radius (a room in a wide landscape, a window's view out included); else 0.
 fn seen_radius() -> f32 {
@@ -69,7 +72,7 @@ fn emission_disc(direction: vec3<f32>, rng: ptr<function, u32>) -> vec4<f32> {
     var near = scene.w;
     var levels = 1u;
     if params.seen_region != 0u {
-        let radius = seen_radius();
+        let radius = seen_near;
         if radius > 0.0 {
             near = radius;
             levels = min(u32(ceil(0.5 * log2(scene.w / radius))), 7u) + 1u;
@@ -194,7 +197,13 @@ fn photon_seed(index: u32) -> u32 {
 // the next (index + lanes) when its photon ends, so the lanes of a SIMD group stay busy
 // until all their photons are done instead of idling behind the longest path of the group.
 @compute @workgroup_size(64, 1, 1)
-fn trace(@builtin(global_invocation_id) id: vec3<u32>) {
+fn trace(@builtin(global_invocation_id) id: vec3<u32>, @builtin(local_invocation_index) lane: u32) {
+    if params.seen_region != 0u {
+        if lane == 0u {
+            seen_near = seen_radius();
+        }
+        workgroupBarrier();
+    }
     let lanes = params.photon_lanes;
     var index = id.x;
     if index >= lanes || index >= params.photons {

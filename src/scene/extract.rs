@@ -394,14 +394,8 @@ fn collect_emitters(data: &mut SceneData, textures: &[Arc<PackedTexture>]) {
                 push_emitter(&mut data.emitters, triangle, 0, area, radiance);
                 continue;
             };
-            // Texture coordinates at world barycentrics (placing a mirrored instance swaps
-            // its second and third vertices).
-            let [a, b, c] = attributes.uv.map(Vec2::from);
-            let (b, c) = if instance.mirrored != 0 {
-                (c, b)
-            } else {
-                (b, c)
-            };
+            // Texture coordinates at world barycentrics, the corners in placed order.
+            let [a, b, c] = instance.placed_order(attributes.uv.map(Vec2::from));
             let uv = |w: Vec2| transform * (a + (b - a) * w.x + (c - a) * w.y) + offset;
             let texels = (transform * (b - a)).perp_dot(transform * (c - a)).abs()
                 * 0.5

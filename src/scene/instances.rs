@@ -75,18 +75,30 @@ impl GpuInstance {
         Vec3::from(self.normal_rows.map(|r| Vec4::from(r).truncate().dot(n))).normalize_or_zero()
     }
 
+    /// A local triangle's three corner values (positions, normals, UVs, colours) in the order
+    /// placement puts them: a mirroring transform swaps the second and third, to keep the
+    /// front in front (as `place` in shaders/scene/place.wgsl does).
+    pub fn placed_order<T>(&self, [a, b, c]: [T; 3]) -> [T; 3] {
+        if self.mirrored != 0 {
+            [a, c, b]
+        } else {
+            [a, b, c]
+        }
+    }
+
     /// A local triangle in world space, as the GPU places it.
     pub fn place(&self, t: &GpuTriangle) -> GpuTriangle {
-        let (b, c) = if self.mirrored != 0 { (2, 1) } else { (1, 2) };
         let p = [t.position_a, t.position_b, t.position_c].map(|p| self.point(p).to_array());
         let n = [t.normal_a, t.normal_b, t.normal_c].map(|n| self.normal(n).to_array());
+        let [position_a, position_b, position_c] = self.placed_order(p);
+        let [normal_a, normal_b, normal_c] = self.placed_order(n);
         GpuTriangle {
-            position_a: p[0],
-            position_b: p[b],
-            position_c: p[c],
-            normal_a: n[0],
-            normal_b: n[b],
-            normal_c: n[c],
+            position_a,
+            position_b,
+            position_c,
+            normal_a,
+            normal_b,
+            normal_c,
             material: self.material,
             ..default()
         }
@@ -145,18 +157,10 @@ impl SceneData {
         self.instances
             .iter()
             .flat_map(|i| {
-                let mirrored = i.mirrored != 0;
-                self.meshes[i.mesh as usize]
-                    .attributes
-                    .iter()
-                    .map(move |a| {
-                        let mut a = *a;
-                        if mirrored {
-                            a.uv.swap(1, 2);
-                            a.color.swap(1, 2);
-                        }
-                        a
-                    })
+                (self.meshes[i.mesh as usize].attributes.iter()).map(|a| GpuTriangleAttributes {
+                    uv: i.placed_order(a.uv),
+                    color: i.placed_order(a.color),
+                })
             })
             .collect()
     }

@@ -34,6 +34,19 @@ pub fn structure() -> Vec<Case> {
         raw("no asset", json_bytes(&json!({"scenes": [{}]})), error(bad)),
         raw("an empty object", b"{}".to_vec(), error(bad)),
     ];
+    // The base scene's material textured by one image at `uri`.
+    let textured = |uri: &str| {
+        let uri = uri.to_string();
+        move |s: &mut serde_json::Value| {
+            set(s, "/images", json!([{ "uri": uri }]));
+            set(s, "/textures", json!([{"source": 0}]));
+            set(
+                s,
+                "/materials/0/pbrMetallicRoughness/baseColorTexture",
+                json!({"index": 0}),
+            );
+        }
+    };
     let edits: Vec<(&str, Edit)> = vec![
         (
             "asset.version 1.0",
@@ -239,27 +252,11 @@ pub fn structure() -> Vec<Case> {
         ),
         (
             "an image file that is missing",
-            Box::new(|s| {
-                set(s, "/images", json!([{"uri": "missing.png"}]));
-                set(s, "/textures", json!([{"source": 0}]));
-                set(
-                    s,
-                    "/materials/0/pbrMetallicRoughness/baseColorTexture",
-                    json!({"index": 0}),
-                );
-            }),
+            Box::new(textured("missing.png")),
         ),
         (
             "an image URI up and out",
-            Box::new(|s| {
-                set(s, "/images", json!([{"uri": "../../../../etc/hostname"}]));
-                set(s, "/textures", json!([{"source": 0}]));
-                set(
-                    s,
-                    "/materials/0/pbrMetallicRoughness/baseColorTexture",
-                    json!({"index": 0}),
-                );
-            }),
+            Box::new(textured("../../../../etc/hostname")),
         ),
     ];
     cases.extend(
@@ -267,18 +264,6 @@ pub fn structure() -> Vec<Case> {
             .into_iter()
             .map(|(name, edit)| edited(name, g, error(bad), edit)),
     );
-    let textured = |uri: &str| {
-        let uri = uri.to_string();
-        move |s: &mut serde_json::Value| {
-            set(s, "/images", json!([{ "uri": uri }]));
-            set(s, "/textures", json!([{"source": 0}]));
-            set(
-                s,
-                "/materials/0/pbrMetallicRoughness/baseColorTexture",
-                json!({"index": 0}),
-            );
-        }
-    };
     // Found by the loader, not the checks: the render would go on without the texture.
     let mut noise = edited(
         "an image file that is not an image",

@@ -16,7 +16,7 @@ macro_rules! wgsl {
 /// Handles of every stage's shader.
 #[derive(Resource, Clone)]
 pub struct RppmShaders {
-    /// Import-only libraries (`bevy_rppm::common`, `scene`, `bsdf`, `mis`, `cubemap`, `lighting`,
+    /// Import-only libraries (`bevy_rppm::common`, `scene`, `bsdf`, `mis`, `panes`, `cubemap`, `lighting`,
     /// `photon_map`),
     /// held so they stay loaded.
     _libraries: Vec<Handle<Shader>>,
@@ -47,6 +47,7 @@ impl RppmShaders {
                 wgsl!(shaders, "common/common.wgsl"),
                 wgsl!(shaders, "common/bsdf.wgsl"),
                 wgsl!(shaders, "common/mis.wgsl"),
+                wgsl!(shaders, "common/panes.wgsl"),
                 wgsl!(shaders, "scene/scene.wgsl"),
                 wgsl!(shaders, "cubemap/trace.wgsl"),
                 wgsl!(shaders, "shadows/lighting.wgsl"),

@@ -4,6 +4,9 @@ of failure:
 
 - `sun_room`: a closed room with dark walls (albedo 0.12–0.2) and one-sided faces, lit only by
   a directional sun through a window in one wall, the camera inside;
+- `glazed_room`: `sun_room`'s room with its window double-glazed (two 4 mm panes of clear
+  glass), lit by the sun and a sky through it; the camera looks away from the window
+  (reference by light tracing);
 - `glass_slab`: a flat-faced glass block (ior 1.5, one-sided faces) 5 mm over the floor of an
   open box, under a small bright emissive panel: its caustic and total internal reflection;
 - `tinted_glass`: two blocks of coloured glass (`KHR_materials_volume`: absorption along the
@@ -211,8 +214,9 @@ def rotate_y(points, angle, centre):
              centre[2] - s * (p[0] - centre[0]) + c * (p[2] - centre[2])] for p in points]
 
 
-def sun_room(path):
-    g = Gltf()
+def window_room(g):
+    """sun_room's room: dark walls (one-sided), a grey block on the floor, and in the left wall
+    (x = −2, facing +x) a window; returns the opening (x, z0, z1, y0, y1)."""
     w, h, d = 4.0, 3.0, 4.0
     x0, x1, z0, z1 = -w / 2, w / 2, -d / 2, d / 2
     floor, ceiling, back, front, _left, right = box([x0, 0, z0], [x1, h, z1], inward=True)
@@ -220,7 +224,6 @@ def sun_room(path):
     g.quads([ceiling, front], g.material([0.18, 0.18, 0.18]))
     g.quads([back], g.material([0.2, 0.12, 0.1]))
     g.quads([right], g.material([0.1, 0.15, 0.12]))
-    # The left wall (x = x0, facing +x) around a window of z in [wz0, wz1], y in [wy0, wy1].
     wz0, wz1, wy0, wy1 = -0.9, 0.7, 1.0, 2.3
     wall = g.material([0.15, 0.15, 0.18])
 
@@ -230,9 +233,28 @@ def sun_room(path):
     # A grey block on the floor in the sunlit patch.
     g.quads([rotate_y(f, 0.4, [0.2, 0, 0.0]) for f in box([-0.1, 0, -0.3], [0.5, 0.6, 0.3], inward=False)],
             g.material([0.5, 0.5, 0.5]))
+    return x0, wz0, wz1, wy0, wy1
+
+
+def sun_room(path):
+    g = Gltf()
+    window_room(g)
     g.light({"type": "directional", "color": [1.0, 0.95, 0.85], "intensity": 6.0}, direction=[0.75, -0.55, 0.1])
     g.camera([1.6, 1.7, 1.8], [-1.2, 0.6, -0.7])
     g.write(path, "bevy_rppm tools/suite_scenes.py sun_room")
+
+
+def glazed_room(path):
+    g = Gltf()
+    x0, wz0, wz1, wy0, wy1 = window_room(g)
+    # Double glazing: two 4 mm panes of clear glass (ior 1.5) 12 mm apart fill the window.
+    glass = g.glass(1.5)
+    for outer in (x0, x0 - 0.016):
+        g.quads(box([outer - 0.004, wy0, wz0], [outer, wy1, wz1], inward=False), glass)
+    g.light({"type": "directional", "color": [1.0, 0.95, 0.85], "intensity": 6.0}, direction=[0.75, -0.55, 0.3])
+    # The camera looks away from the window (what it shows, light tracing cannot render).
+    g.camera([-1.5, 1.6, 1.8], [1.0, 0.3, -1.0])
+    g.write(path, "bevy_rppm tools/suite_scenes.py glazed_room", sky=[0.25, 0.32, 0.45])
 
 
 def glass_slab(path):
@@ -501,7 +523,7 @@ def main():
     parser.add_argument("out", help="folder for the .gltf files")
     args = parser.parse_args()
     os.makedirs(args.out, exist_ok=True)
-    for make in (sun_room, glass_slab, tinted_glass, frosted_glass, frosted_lamp, frosted_lantern, water_pool, sky_court, lens_caustic, clearcoat, translucent,
+    for make in (sun_room, glazed_room, glass_slab, tinted_glass, frosted_glass, frosted_lamp, frosted_lantern, water_pool, sky_court, lens_caustic, clearcoat, translucent,
                  mirror_caustic, sun_spot_caustics):
         path = os.path.join(args.out, f"{make.__name__}.gltf")
         make(path)

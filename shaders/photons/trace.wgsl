@@ -9,6 +9,9 @@
 #ifdef ABSORPTION
 #import bevy_rppm::scene::medium_after
 #endif
+#ifdef PANES
+#import bevy_rppm::panes::{PaneWalk, pane_walk, pane_segment, pane_scatter, pane_direct}
+#endif
 
 @group(1) @binding(0) var<uniform> params: IterationParams;
 
@@ -27,6 +30,8 @@ struct Ray {
     flux: vec3<f32>,
     // Triangle the ray leaves (NO_HIT at a light).
     ignore: u32,
+    // It left a light at a finite distance (not a sun or the sky).
+    finite: bool,
 }
 
 fn uniform_sphere(u: vec2<f32>) -> vec3<f32> {
@@ -116,6 +121,7 @@ fn emit(rng: ptr<function, u32>) -> Ray {
     let share = 1.0 / (max(light_cdf[index] - previous, 1e-12) * f32(params.photons));
     var ray: Ray;
     ray.ignore = NO_HIT;
+    ray.finite = true;
 #ifdef SKY
     if index == params.source_count - 1u {
         // The sky (the last source): a direction uniform on the sphere, from a disc across
@@ -125,6 +131,7 @@ fn emit(rng: ptr<function, u32>) -> Ray {
         ray.origin = start.xyz;
         ray.direction = direction;
         ray.flux = params.sky.rgb * (4.0 * PI * start.w * share);
+        ray.finite = false;
         return ray;
     }
 #endif
@@ -147,6 +154,7 @@ fn emit(rng: ptr<function, u32>) -> Ray {
         ray.origin = start.xyz;
         ray.direction = l.direction.xyz;
         ray.flux = l.radiance.rgb * (start.w * share);
+        ray.finite = false;
         return ray;
     }
     ray.origin = l.position.xyz;
@@ -217,6 +225,12 @@ fn trace(@builtin(global_invocation_id) id: vec3<u32>, @builtin(local_invocation
     // σ of the coloured glass the photon is in (lights are outside every medium).
     var medium = vec3<f32>(0.0);
 #endif
+#ifdef PANES
+    // Light through panes is direct light, the shadow rays' (panes.wgsl), except where Bevy
+    // or photons give direct light.
+    let panes = params.indirect_only == 0u && params.direct_photons == 0u;
+    var walk = pane_walk();
+#endif
     // Segments this invocation may trace: its photons × the depth each may reach.
     let steps = ((params.photons - 1u - index) / lanes + 1u) * params.max_photon_depth;
     for (var step = 0u; step < steps; step += 1u) {
@@ -246,13 +260,21 @@ fn trace(@builtin(global_invocation_id) id: vec3<u32>, @builtin(local_invocation
                 interpolated = -interpolated;
             }
             let direct_only = params.direct_photons != 0u;
-            if (depth > 0u || direct_only) && stores_photons(m) {
+            var indirect = depth > 0u;
+#ifdef PANES
+            walk = pane_segment(walk, hit.t);
+            indirect = indirect && !(panes && pane_direct(walk, ray.finite));
+#endif
+            if (indirect || direct_only) && stores_photons(m) {
                 store(x, ray, interpolated);
             }
             let s = scatter_photon(m, n, -ray.direction, front, &rng);
             if !direct_only && any(s.weight > vec3<f32>(0.0)) && depth + 1u < params.max_photon_depth {
 #ifdef ABSORPTION
                 medium = medium_after(medium, m, front, dot(s.direction, n) < 0.0);
+#endif
+#ifdef PANES
+                walk = pane_scatter(walk, m, n, front, dot(s.direction, n) < 0.0);
 #endif
                 ray.origin = x;
                 ray.direction = s.direction;
@@ -272,6 +294,9 @@ fn trace(@builtin(global_invocation_id) id: vec3<u32>, @builtin(local_invocation
             depth = 0u;
 #ifdef ABSORPTION
             medium = vec3<f32>(0.0);
+#endif
+#ifdef PANES
+            walk = pane_walk();
 #endif
         }
     }

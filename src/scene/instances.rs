@@ -3,7 +3,8 @@
 //! a transform and a material. The GPU makes the world-space triangles from both
 //! (shaders/scene/place.wgsl), so a moved entity costs one instance, not its triangles.
 
-use std::sync::Arc;
+use std::collections::HashSet;
+use std::sync::{Arc, OnceLock};
 
 use bevy::math::Affine3A;
 use bevy::prelude::*;
@@ -12,7 +13,7 @@ use bytemuck::{Pod, Zeroable};
 use super::{GpuTriangle, GpuTriangleAttributes, SceneData};
 
 /// One mesh's triangles in its own space (a skinned mesh's: posed, in world space).
-#[derive(Clone, Debug, Default, PartialEq)]
+#[derive(Clone, Debug, Default)]
 pub struct SceneMesh {
     /// Material 0: an instance gives it.
     pub triangles: Vec<GpuTriangle>,
@@ -20,6 +21,53 @@ pub struct SceneMesh {
     pub attributes: Arc<Vec<GpuTriangleAttributes>>,
     /// Whether the mesh has vertex colours.
     pub colored: bool,
+    /// `has_parallel_faces`, found when first asked.
+    pub parallel_faces: OnceLock<bool>,
+}
+
+impl PartialEq for SceneMesh {
+    /// The same triangles and attributes (what was found of them aside).
+    fn eq(&self, other: &Self) -> bool {
+        self.triangles == other.triangles
+            && self.attributes == other.attributes
+            && self.colored == other.colored
+    }
+}
+
+impl SceneMesh {
+    /// Whether two of its flat-shaded triangles face opposite ways (a slab, a box, a window
+    /// pane): made of clear glass, light may cross it straight through (`ScatterPaths::PANES`).
+    /// A transform keeps parallel faces parallel, so the mesh's own space tells.
+    pub fn has_parallel_faces(&self) -> bool {
+        *self
+            .parallel_faces
+            .get_or_init(|| parallel_faces(&self.triangles))
+    }
+}
+
+/// `SceneMesh::has_parallel_faces` of these triangles: their face normals, where every corner's
+/// normal is the face's, on a grid of 1/512 (an exact opposite lands on the opposite cell).
+fn parallel_faces(triangles: &[GpuTriangle]) -> bool {
+    let mut seen = HashSet::new();
+    for t in triangles {
+        let [a, b, c] = [t.position_a, t.position_b, t.position_c].map(Vec3::from);
+        let Some(n) = (b - a).cross(c - a).try_normalize() else {
+            continue;
+        };
+        let corners = [t.normal_a, t.normal_b, t.normal_c].map(Vec3::from);
+        if !corners
+            .iter()
+            .all(|m| m.normalize_or_zero().dot(n) >= 0.9999)
+        {
+            continue;
+        }
+        let cell = (n * 512.0).round().as_ivec3();
+        if seen.contains(&-cell) {
+            return true;
+        }
+        seen.insert(cell);
+    }
+    false
 }
 
 /// One placed mesh (128 bytes), mirrored by `Instance` in shaders/scene/place.wgsl.
@@ -171,6 +219,34 @@ mod tests {
     use super::*;
 
     #[test]
+    fn slabs_have_parallel_faces_and_spheres_and_single_quads_do_not() {
+        let flat = |a: [f32; 3], b: [f32; 3], c: [f32; 3]| {
+            let n = (Vec3::from(b) - Vec3::from(a))
+                .cross(Vec3::from(c) - Vec3::from(a))
+                .normalize();
+            let n = n.to_array();
+            GpuTriangle {
+                position_a: a,
+                position_b: b,
+                position_c: c,
+                normal_a: n,
+                normal_b: n,
+                normal_c: n,
+                ..default()
+            }
+        };
+        let top = flat([0.0, 1.0, 0.0], [0.0, 1.0, 1.0], [1.0, 1.0, 0.0]);
+        let bottom = flat([0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]);
+        let side = flat([0.0, 0.0, 0.0], [0.0, 1.0, 0.0], [1.0, 0.0, 0.0]);
+        assert!(parallel_faces(&[top, side, bottom]));
+        assert!(!parallel_faces(&[top, side]));
+        // Opposite faces with smooth normals (a sphere's) are curved, not parallel.
+        let mut round = bottom;
+        round.normal_a = Vec3::new(0.3, -1.0, 0.0).normalize().to_array();
+        assert!(!parallel_faces(&[top, round]));
+    }
+
+    #[test]
     fn mirrored_instances_keep_the_front_and_normals_follow_the_inverse_transpose() {
         let local = GpuTriangle {
             position_a: [0.0, 0.0, 0.0],
@@ -217,6 +293,7 @@ mod tests {
                 color: [[1, 1], [2, 2], [3, 3]],
             }]),
             colored: true,
+            ..default()
         };
         let material = super::super::GpuMaterial {
             flags: super::super::MaterialFlags::TEXTURED.bits(),

@@ -153,6 +153,18 @@ pub(super) fn material_to_gpu(m: &StandardMaterial, textures: [u32; 4]) -> GpuMa
 }
 
 impl GpuMaterial {
+    /// Clear, smooth glass and nothing else (`is_pane` in shaders/common/panes.wgsl): light
+    /// crosses a flat-faced slab of it straight through.
+    pub(super) fn is_pane(&self) -> bool {
+        let cut = MaterialFlags::ALPHA_MASK | MaterialFlags::ALPHA_HASHED;
+        self.perceptual_roughness < DELTA_ROUGHNESS
+            && self.specular_transmission >= 1.0
+            && self.metallic <= 0.0
+            && self.clearcoat[0] <= 0.0
+            && self.diffuse_transmission <= 0.0
+            && !MaterialFlags::from_bits_truncate(self.flags).intersects(cut)
+    }
+
     /// `SceneData::max_scatter_probability` of the layers under a clearcoat.
     pub(super) fn under_coat_scatter_probability(&self) -> f32 {
         let m = self;

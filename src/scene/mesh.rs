@@ -113,6 +113,7 @@ fn make(mesh: &Mesh, pose: &Pose, weights: &[f32]) -> Result<SceneMesh, String> 
         triangles,
         attributes: Arc::new(attributes),
         colored,
+        ..default()
     })
 }
 

@@ -40,7 +40,7 @@ bitflags::bitflags! {
     /// stages, so that a scene compiles and runs only its own code paths (no glass: no
     /// refraction; no sky: none of its code).
     #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
-    pub struct ScatterPaths: u8 {
+    pub struct ScatterPaths: u16 {
         /// A rough specular layer (GGX).
         const GLOSSY = 1 << 0;
         /// Smooth metal.
@@ -57,6 +57,9 @@ bitflags::bitflags! {
         const CLEARCOAT = 1 << 6;
         /// Diffuse transmission (a Lambertian lobe through to the other side).
         const DIFFUSE_TRANSMISSION = 1 << 7;
+        /// Panes: clear glass with flat faces facing opposite ways, which light crosses
+        /// straight through (direct light to shadow rays, shaders/common/panes.wgsl).
+        const PANES = 1 << 8;
         /// The layers every stage that evaluates the BSDF needs, gathers included.
         const LAYERS = Self::CLEARCOAT.bits() | Self::DIFFUSE_TRANSMISSION.bits();
         /// Glass or water, smooth or rough.
@@ -76,6 +79,7 @@ impl ScatterPaths {
             (Self::ROUGH_REFRACTION, "ROUGH_REFRACTION"),
             (Self::CLEARCOAT, "CLEARCOAT"),
             (Self::DIFFUSE_TRANSMISSION, "DIFFUSE_TRANSMISSION"),
+            (Self::PANES, "PANES"),
         ]
         .into_iter()
         .filter_map(|(path, def)| self.contains(path).then_some(def))
@@ -398,6 +402,14 @@ impl SceneData {
         paths.set(ScatterPaths::SKY, self.sky[3] > 0.0);
         paths.set(ScatterPaths::CLEARCOAT, clearcoat);
         paths.set(ScatterPaths::DIFFUSE_TRANSMISSION, translucent);
+        let panes = self.instances.iter().any(|i| {
+            let pane = self
+                .materials
+                .get(i.material as usize)
+                .is_some_and(|m| m.is_pane());
+            pane && (self.meshes.get(i.mesh as usize)).is_some_and(|m| m.has_parallel_faces())
+        });
+        paths.set(ScatterPaths::PANES, panes);
         paths.set(
             ScatterPaths::ABSORPTION,
             absorption && (refraction || rough_refraction),

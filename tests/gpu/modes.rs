@@ -132,7 +132,7 @@ fn indirect_mode_adds_our_light_to_bevys_and_off_gives_bevys_image() {
 
 /// Passes and shader paths follow the scene and settings: a matte plane compiles no
 /// specular path, depth 1 runs no photon pass (its shadows are still traced), eye depth 1 no
-/// importons; glass adds refraction.
+/// importons; glass adds refraction (and panes only with parallel faces).
 #[test]
 fn only_the_passes_and_code_paths_the_scene_needs_run() {
     let passes = |settings: PhotonMapping, glass: bool| {
@@ -190,6 +190,8 @@ fn only_the_passes_and_code_paths_the_scene_needs_run() {
     );
     let (glass, paths, _) = passes(PhotonMapping::default(), true);
     assert!(paths.contains(&"REFRACTION".to_string()), "{paths:?}");
+    // A ball has no flat faces facing opposite ways: no light crosses it straight through.
+    assert!(!paths.contains(&"PANES".to_string()), "{paths:?}");
     assert!(glass.contains(&"importon_tracing".to_string()), "{glass:?}");
     assert!(glass.contains(&"indirect_splat".to_string()), "{glass:?}");
     let (no_eye, _, _) = passes(

@@ -16,7 +16,7 @@ macro_rules! wgsl {
 /// Handles of every stage's shader.
 #[derive(Resource, Clone)]
 pub struct RppmShaders {
-    /// Import-only libraries (`bevy_rppm::common`, `scene`, `bsdf`, `mis`, `panes`, `cubemap`, `lighting`,
+    /// Import-only libraries (`bevy_rppm::common`, `scene`, `bsdf`, `mis`, `panes`, `cubemap`, `pane_rays`, `lighting`,
     /// `photon_map`),
     /// held so they stay loaded.
     _libraries: Vec<Handle<Shader>>,
@@ -50,6 +50,7 @@ impl RppmShaders {
                 wgsl!(shaders, "common/panes.wgsl"),
                 wgsl!(shaders, "scene/scene.wgsl"),
                 wgsl!(shaders, "cubemap/trace.wgsl"),
+                wgsl!(shaders, "shadows/panes.wgsl"),
                 wgsl!(shaders, "shadows/lighting.wgsl"),
                 wgsl!(shaders, "photons/map.wgsl"),
             ],

@@ -5,8 +5,8 @@ of failure:
 - `sun_room`: a closed room with dark walls (albedo 0.12–0.2) and one-sided faces, lit only by
   a directional sun through a window in one wall, the camera inside;
 - `glazed_room`: `sun_room`'s room with its window double-glazed (two 4 mm panes of clear
-  glass), lit by the sun and a sky through it; the camera looks away from the window
-  (reference by light tracing);
+  glass), lit through it by the sun, a sky and a spot light outside; the camera looks away
+  from the window (reference by light tracing);
 - `glass_slab`: a flat-faced glass block (ior 1.5, one-sided faces) 5 mm over the floor of an
   open box, under a small bright emissive panel: its caustic and total internal reflection;
 - `tinted_glass`: two blocks of coloured glass (`KHR_materials_volume`: absorption along the
@@ -252,6 +252,10 @@ def glazed_room(path):
     for outer in (x0, x0 - 0.016):
         g.quads(box([outer - 0.004, wy0, wz0], [outer, wy1, wz1], inward=False), glass)
     g.light({"type": "directional", "color": [1.0, 0.95, 0.85], "intensity": 6.0}, direction=[0.75, -0.55, 0.3])
+    # A lamp outside, 1.2 m from the window, shines in past the sun's patch.
+    g.light({"type": "spot", "color": [1.0, 0.9, 0.8], "intensity": 30.0,
+             "spot": {"innerConeAngle": 0.3, "outerConeAngle": 0.45}},
+            translation=[-3.2, 2.6, 0.0], direction=[0.8, -0.55, -0.05])
     # The camera looks away from the window (what it shows, light tracing cannot render).
     g.camera([-1.5, 1.6, 1.8], [1.0, 0.3, -1.0])
     g.write(path, "bevy_rppm tools/suite_scenes.py glazed_room", sky=[0.25, 0.32, 0.45])

@@ -1,6 +1,6 @@
 // Panes: clear glass that light crosses straight through, in at one face and out at a parallel
 // one (a window, a slab). Light that reaches a surface that way is direct light dimmed by
-// Fresnel: shadow rays follow it through (`through_panes` in shadows/lighting.wgsl) and photons
+// Fresnel: shadow rays follow it through (`through_panes` in shadows/panes.wgsl) and photons
 // leave it to them (`PaneWalk`), so a room lit through its windows is as sharp and as quiet as
 // one with open windows. Light through any other glass stays the photons' (caustics).
 #define_import_path bevy_rppm::panes
@@ -11,10 +11,12 @@
 // ~0.4° of the way it came for glass of ior 1.5).
 const PANE_COS: f32 = 0.9999;
 
-// From a point light, a sphere or an emitter (not a sun or the sky, whose parallel light a
-// slab passes unchanged), at most this share of a path's length may lie inside panes: through
-// a slab of thickness t a light d away looks nearer by t(1 − 1/η), which a shadow ray that goes
-// on straight to it does not see; at 1 % the light is off by under 1 %.
+// From a light at a finite distance (not a sun or the sky, whose parallel light a slab passes
+// unchanged), the glass crossed may be at most this share of the light's distance beyond it:
+// through a slab of thickness t a light d away looks nearer and shifted by about t(1 − 1/η),
+// which a shadow ray that goes on straight to it does not see, and past a pane's edge the
+// shadow ray and the photon then take different ways (a lamp 10 cm inside a glass case of
+// 4 mm walls cast lines where the gather's disc blurred the photons' share).
 const PANE_SHARE: f32 = 0.01;
 
 // At most this many panes between a surface and a light (double glazing is two).
@@ -34,13 +36,16 @@ struct PaneWalk {
     // Inside a pane: the entry face's normal (on the side the photon came from) and ior;
     // w = 0 outside.
     entry: vec4<f32>,
-    // Its length so far, and the part of it inside panes.
+    // Its length so far, the part of it in panes, and how far it came before the first.
     travelled: f32,
     inside: f32,
+    before: f32,
+    // The panes it crossed.
+    crossed: u32,
 }
 
 fn pane_walk() -> PaneWalk {
-    return PaneWalk(true, vec4<f32>(0.0), 0.0, 0.0);
+    return PaneWalk(true, vec4<f32>(0.0), 0.0, 0.0, 0.0, 0u);
 }
 
 // The walk after a segment of length t.
@@ -62,16 +67,27 @@ fn pane_scatter(w: PaneWalk, m: Material, n: vec3<f32>, front: bool, crossed: bo
         v.direct = false;
     } else if v.entry.w <= 0.0 && front {
         v.entry = vec4<f32>(n, m.ior);
+        v.before = select(v.before, v.travelled, v.inside <= 0.0);
     } else if v.entry.w > 0.0 && !front && m.ior == v.entry.w && dot(n, v.entry.xyz) >= PANE_COS {
         v.entry = vec4<f32>(0.0);
+        v.crossed += 1u;
+        // Shadow rays look through no more (`through_panes`).
+        v.direct = v.crossed <= MAX_PANES;
     } else {
         v.direct = false;
     }
     return v;
 }
 
-// Whether a photon that arrives at a surface on walk w is direct light that shadow rays
-// bring (`finite`: it left a light at a finite distance).
-fn pane_direct(w: PaneWalk, finite: bool) -> bool {
-    return w.direct && w.entry.w <= 0.0 && (!finite || w.inside <= PANE_SHARE * w.travelled);
+// Whether a photon that arrives at a surface on walk w crossed panes only; shadow rays bring
+// its light where they find the way to where it left its light (`through_panes`).
+fn pane_direct(w: PaneWalk) -> bool {
+    return w.direct && w.entry.w <= 0.0;
+}
+
+// Whether shadow rays cannot bring a photon's light on walk w from a light at a finite
+// distance (PANE_SHARE, with room to spare for the shadow ray's slightly other way), so that
+// it need not look.
+fn pane_too_thick(w: PaneWalk) -> bool {
+    return w.inside > 2.0 * PANE_SHARE * w.before;
 }

@@ -10,7 +10,8 @@
 #import bevy_rppm::scene::medium_after
 #endif
 #ifdef PANES
-#import bevy_rppm::panes::{PaneWalk, pane_walk, pane_segment, pane_scatter, pane_direct}
+#import bevy_rppm::panes::{PaneWalk, pane_walk, pane_segment, pane_scatter, pane_direct, pane_too_thick}
+#import bevy_rppm::pane_rays::through_panes
 #endif
 
 @group(1) @binding(0) var<uniform> params: IterationParams;
@@ -30,8 +31,8 @@ struct Ray {
     flux: vec3<f32>,
     // Triangle the ray leaves (NO_HIT at a light).
     ignore: u32,
-    // It left a light at a finite distance (not a sun or the sky).
-    finite: bool,
+    // Where it left its light, or for a sun's or the sky's photon the way back to it (w 1).
+    source: vec4<f32>,
 }
 
 fn uniform_sphere(u: vec2<f32>) -> vec3<f32> {
@@ -121,7 +122,6 @@ fn emit(rng: ptr<function, u32>) -> Ray {
     let share = 1.0 / (max(light_cdf[index] - previous, 1e-12) * f32(params.photons));
     var ray: Ray;
     ray.ignore = NO_HIT;
-    ray.finite = true;
 #ifdef SKY
     if index == params.source_count - 1u {
         // The sky (the last source): a direction uniform on the sphere, from a disc across
@@ -131,7 +131,7 @@ fn emit(rng: ptr<function, u32>) -> Ray {
         ray.origin = start.xyz;
         ray.direction = direction;
         ray.flux = params.sky.rgb * (4.0 * PI * start.w * share);
-        ray.finite = false;
+        ray.source = vec4<f32>(-direction, 1.0);
         return ray;
     }
 #endif
@@ -146,6 +146,7 @@ fn emit(rng: ptr<function, u32>) -> Ray {
         let emitted = material_at(e.triangle, b, 0.0).emissive.rgb;
         ray.flux = emitted * (PI * e.area * share);
         ray.ignore = e.triangle;
+        ray.source = vec4<f32>(ray.origin, 0.0);
         return ray;
     }
     let l = lights[index];
@@ -154,7 +155,7 @@ fn emit(rng: ptr<function, u32>) -> Ray {
         ray.origin = start.xyz;
         ray.direction = l.direction.xyz;
         ray.flux = l.radiance.rgb * (start.w * share);
-        ray.finite = false;
+        ray.source = vec4<f32>(-ray.direction, 1.0);
         return ray;
     }
     ray.origin = l.position.xyz;
@@ -172,6 +173,7 @@ fn emit(rng: ptr<function, u32>) -> Ray {
             let u = uniform_sphere(vec2<f32>(random(rng), random(rng)));
             ray.origin += l.position.w * select(-u, u, dot(u, ray.direction) >= 0.0);
         }
+        ray.source = vec4<f32>(ray.origin, 0.0);
         return ray;
     }
     if l.position.w > 0.0 {
@@ -184,6 +186,7 @@ fn emit(rng: ptr<function, u32>) -> Ray {
         ray.direction = uniform_sphere(vec2<f32>(random(rng), random(rng)));
     }
     ray.flux = l.radiance.rgb * (4.0 * PI * share);
+    ray.source = vec4<f32>(ray.origin, 0.0);
     return ray;
 }
 
@@ -226,8 +229,8 @@ fn trace(@builtin(global_invocation_id) id: vec3<u32>, @builtin(local_invocation
     var medium = vec3<f32>(0.0);
 #endif
 #ifdef PANES
-    // Light through panes is direct light, the shadow rays' (panes.wgsl), except where Bevy
-    // or photons give direct light.
+    // Light through panes is direct light, the shadow rays' (common/panes.wgsl), except where
+    // Bevy or photons give direct light.
     let panes = params.indirect_only == 0u && params.direct_photons == 0u;
     var walk = pane_walk();
 #endif
@@ -263,7 +266,17 @@ fn trace(@builtin(global_invocation_id) id: vec3<u32>, @builtin(local_invocation
             var indirect = depth > 0u;
 #ifdef PANES
             walk = pane_segment(walk, hit.t);
-            indirect = indirect && !(panes && pane_direct(walk, ray.finite));
+            let far = ray.source.w > 0.0;
+            if indirect && panes && pane_direct(walk) && stores_photons(m) && (far || !pane_too_thick(walk)) {
+                // Shadow rays bring its light where they find the way back to its source: a
+                // sun's or the sky's always (the way is the photon's own, reversed).
+                indirect = false;
+                if !far {
+                    let to = ray.source.xyz - x;
+                    let lit = through_panes(x, normalize(to), length(to), hit.triangle, t_min, true);
+                    indirect = all(lit <= vec3<f32>(0.0));
+                }
+            }
 #endif
             if (indirect || direct_only) && stores_photons(m) {
                 store(x, ray, interpolated);

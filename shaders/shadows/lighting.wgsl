@@ -12,10 +12,7 @@
 #ifdef TRACED_SHADOWS
 #import bevy_rppm::cubemap::occluded
 #ifdef PANES
-#import bevy_rppm::cubemap::{trace_ray, NO_HIT}
-#import bevy_rppm::scene::{interpolated_normal, normal_at}
-#import bevy_rppm::bsdf::fresnel_dielectric
-#import bevy_rppm::panes::{is_pane, PANE_COS, PANE_SHARE, MAX_PANES}
+#import bevy_rppm::pane_rays::through_panes
 #endif
 #ifdef IMPORTONS
 #import bevy_rppm::mis::{path_f, drawn_pdf, power_heuristic}
@@ -67,80 +64,19 @@ fn cube_visibility(view_base: u32, layer: u32, eye: vec3<f32>, x: vec3<f32>, n: 
 #ifdef TRACED_SHADOWS
 // What reaches x (on triangle `origin_triangle`) from the light `distance` along `dir` (1e30:
 // a direction): 1 where nothing lies between, 0 otherwise; with PANES, light through panes
-// too where `through` (`through_panes`; `finite`: the light is not a sun or the sky).
-fn visibility(x: vec3<f32>, dir: vec3<f32>, distance: f32, origin_triangle: u32, finite: bool, through: bool) -> vec3<f32> {
+// too where `through` (`through_panes`).
+fn visibility(x: vec3<f32>, dir: vec3<f32>, distance: f32, origin_triangle: u32, through: bool) -> vec3<f32> {
+    let t_min = params.scene_sphere.w * 1e-6;
 #ifdef PANES
     // One ray walk for both: a scene with panes finds the nearest hit of every shadow ray.
-    return through_panes(x, dir, distance, origin_triangle, finite, through);
+    return through_panes(x, dir, distance, origin_triangle, t_min, through);
 #else
-    let t_min = params.scene_sphere.w * 1e-6;
     let t_max = select(distance * (1.0 - 1e-4), 1.0e30, distance >= 1.0e30);
     return vec3<f32>(select(1.0, 0.0, occluded(x, dir, t_min, t_max, origin_triangle)));
 #endif
 }
 
-#ifdef PANES
-// What reaches x from the light `distance` along dir (1e30: a direction) through panes
-// (panes.wgsl): the way the light comes, refracted into each pane and out of its parallel face
-// (along dir again), dimmed by Fresnel at both faces and by absorption inside; 0 where anything
-// else is in the way. `finite`: a light at a finite distance, which a path mostly inside panes
-// does not reach this way (`PANE_SHARE`, as photons count it). One ray walk in the code for
-// every segment, in a pane or between panes.
-fn through_panes(x: vec3<f32>, dir: vec3<f32>, distance: f32, origin_triangle: u32, finite: bool, through: bool) -> vec3<f32> {
-    let t_min = params.scene_sphere.w * 1e-6;
-    var o = x;
-    var d = dir;
-    var ignore = origin_triangle;
-    var kept = vec3<f32>(1.0);
-    var inside = 0.0;
-    // In a pane: its entry face's normal (outward) and ior; w = 0 between panes.
-    var entry = vec4<f32>(0.0);
-    for (var k = 0u; k <= 2u * MAX_PANES; k += 1u) {
-        let in_pane = entry.w > 0.0;
-        // Toward a finite light, a pane is looked through only as far as PANE_SHARE allows.
-        let between = select((distance - dot(o - x, dir)) * (1.0 - 1e-4), 1.0e30, distance >= 1.0e30);
-        let t_max = select(between, select(1.0e30, PANE_SHARE * distance - inside, finite), in_pane);
-        let hit = trace_ray(o, d, t_min, t_max, ignore);
-        if hit.triangle == NO_HIT {
-            if in_pane {
-                break;
-            }
-            return kept;
-        }
-        // Between panes, in at a pane's front face; in one, out at its parallel face.
-        let p = o + d * hit.t;
-        let t = triangle_at(hit.triangle);
-        let front = dot(cross(t.position_b - t.position_a, t.position_c - t.position_a), d) < 0.0;
-        let m = material_at(hit.triangle, hit.uv, 0.0);
-        if !through || front == in_pane || !is_pane(m) || k == 2u * MAX_PANES {
-            break;
-        }
-        let n = normal_at(hit.triangle, hit.uv, interpolated_normal(t, hit.uv), 0.0);
-        if in_pane {
-            if m.ior != entry.w || dot(-n, entry.xyz) < PANE_COS {
-                break;
-            }
-            kept *= 1.0 - fresnel_dielectric(dot(n, d), m.ior);
-#ifdef ABSORPTION
-            kept *= exp(-m.absorption.rgb * hit.t);
-#endif
-            inside += hit.t;
-            entry = vec4<f32>(0.0);
-            d = dir;
-        } else {
-            d = refract(dir, n, 1.0 / m.ior);
-            if all(d == vec3<f32>(0.0)) {
-                break;
-            }
-            kept *= 1.0 - fresnel_dielectric(dot(n, -dir), 1.0 / m.ior);
-            entry = vec4<f32>(n, m.ior);
-        }
-        o = p;
-        ignore = hit.triangle;
-    }
-    return vec3<f32>(0.0);
-}
-#endif
+
 #endif
 
 // Past this many punctual lights, traced shadows draw this many of them by power per pixel
@@ -384,11 +320,11 @@ fn surface_light(m: Material, x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, front: 
         // No shadow ray where nothing would arrive (behind an opaque surface, outside a
         // cone, a delta lobe).
         if any(lit > vec3<f32>(0.0)) {
-            // Through panes too (PANES), unless a camera path that goes on from here finds
-            // this light through them (a rough vertex's emitters and spheres, weighed by MIS,
-            // are met by its path), or Bevy or photons give direct light.
+            // A sun's or the sky's light through panes too (PANES), unless a camera path that
+            // goes on from here finds it through them (MIS at a rough vertex), or Bevy or
+            // photons give direct light.
             let through = params.indirect_only == 0u && params.direct_photons == 0u && !(mis && s.density > 0.0);
-            let seen = visibility(x, s.wi, s.distance, origin_triangle, s.distance < 1.0e30, through);
+            let seen = visibility(x, s.wi, s.distance, origin_triangle, through);
             if all(seen == vec3<f32>(0.0)) && k < punctual && light < 32u {
                 *blocked |= 1u << light;
             }

@@ -3,14 +3,14 @@
 //! a transform and a material. The GPU makes the world-space triangles from both
 //! (shaders/scene/place.wgsl), so a moved entity costs one instance, not its triangles.
 
-use std::collections::HashSet;
+use std::collections::HashMap;
 use std::sync::{Arc, OnceLock};
 
 use bevy::math::Affine3A;
 use bevy::prelude::*;
 use bytemuck::{Pod, Zeroable};
 
-use super::{GpuTriangle, GpuTriangleAttributes, SceneData};
+use super::{GpuTriangle, GpuTriangleAttributes, LightKind, SceneData};
 
 /// One mesh's triangles in its own space (a skinned mesh's: posed, in world space).
 #[derive(Clone, Debug, Default)]
@@ -21,8 +21,16 @@ pub struct SceneMesh {
     pub attributes: Arc<Vec<GpuTriangleAttributes>>,
     /// Whether the mesh has vertex colours.
     pub colored: bool,
-    /// `has_parallel_faces`, found when first asked.
-    pub parallel_faces: OnceLock<bool>,
+    /// `thinnest_slab`, found when first asked.
+    pub slab: OnceLock<Option<Slab>>,
+}
+
+/// Two flat faces of a mesh that face opposite ways: their normal (of the first) and the
+/// distance between their planes, in the mesh's space.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Slab {
+    pub normal: Vec3,
+    pub thickness: f32,
 }
 
 impl PartialEq for SceneMesh {
@@ -35,20 +43,53 @@ impl PartialEq for SceneMesh {
 }
 
 impl SceneMesh {
-    /// Whether two of its flat-shaded triangles face opposite ways (a slab, a box, a window
-    /// pane): made of clear glass, light may cross it straight through (`ScatterPaths::PANES`).
-    /// A transform keeps parallel faces parallel, so the mesh's own space tells.
-    pub fn has_parallel_faces(&self) -> bool {
-        *self
-            .parallel_faces
-            .get_or_init(|| parallel_faces(&self.triangles))
+    /// Its two flat-shaded faces facing opposite ways that lie closest together (a slab, a box,
+    /// a window pane): made of clear glass, light may cross it straight through
+    /// (`ScatterPaths::PANES`).
+    pub fn thinnest_slab(&self) -> Option<Slab> {
+        *self.slab.get_or_init(|| thinnest_slab(&self.triangles))
     }
 }
 
-/// `SceneMesh::has_parallel_faces` of these triangles: their face normals, where every corner's
-/// normal is the face's, on a grid of 1/512 (an exact opposite lands on the opposite cell).
-fn parallel_faces(triangles: &[GpuTriangle]) -> bool {
-    let mut seen = HashSet::new();
+impl SceneData {
+    /// Whether clear glass of the scene is a pane (`ScatterPaths::PANES`): a sun's and the
+    /// sky's light pass a slab whatever its thickness, a nearer light's only glass under 2 %
+    /// of the scene's radius (PANE_SHARE in shaders/common/panes.wgsl).
+    pub(super) fn has_panes(&self) -> bool {
+        let sun = LightKind::Directional as u32;
+        let parallel = self.sky[3] > 0.0 || self.lights.iter().any(|l| l.kind == sun);
+        let thin = 0.02 * self.bounding_sphere().1;
+        self.instances.iter().any(|i| {
+            let material = self.materials.get(i.material as usize);
+            let slab = self
+                .meshes
+                .get(i.mesh as usize)
+                .and_then(|m| m.thinnest_slab());
+            material.is_some_and(|m| m.is_pane())
+                && slab.is_some_and(|s| parallel || i.slab_thickness(s) <= thin)
+        })
+    }
+}
+
+impl GpuInstance {
+    /// How thick `slab` of its mesh is once placed (a transform keeps parallel faces
+    /// parallel; the distance between them scales by 1/|M⁻ᵀn|).
+    pub fn slab_thickness(&self, slab: Slab) -> f32 {
+        let rows = self.normal_rows.map(|r| Vec3::new(r[0], r[1], r[2]));
+        let n = Vec3::new(
+            rows[0].dot(slab.normal),
+            rows[1].dot(slab.normal),
+            rows[2].dot(slab.normal),
+        );
+        slab.thickness / n.length().max(f32::MIN_POSITIVE)
+    }
+}
+
+/// `SceneMesh::thinnest_slab` of these triangles: their face normals, where every corner's
+/// normal is the face's, on a grid of 1/512 (an exact opposite lands on the opposite cell),
+/// each with the offsets of its planes.
+fn thinnest_slab(triangles: &[GpuTriangle]) -> Option<Slab> {
+    let mut planes: HashMap<IVec3, (Vec3, Vec<f32>)> = HashMap::new();
     for t in triangles {
         let [a, b, c] = [t.position_a, t.position_b, t.position_c].map(Vec3::from);
         let Some(n) = (b - a).cross(c - a).try_normalize() else {
@@ -61,13 +102,33 @@ fn parallel_faces(triangles: &[GpuTriangle]) -> bool {
         {
             continue;
         }
-        let cell = (n * 512.0).round().as_ivec3();
-        if seen.contains(&-cell) {
-            return true;
+        let offset = n.dot(a);
+        let entry = planes
+            .entry((n * 512.0).round().as_ivec3())
+            .or_insert((n, Vec::new()));
+        if !entry.1.contains(&offset) {
+            entry.1.push(offset);
         }
-        seen.insert(cell);
     }
-    false
+    let mut thinnest: Option<Slab> = None;
+    for (cell, (normal, offsets)) in &planes {
+        let Some((_, opposite)) = planes.get(&-*cell) else {
+            continue;
+        };
+        // Planes n·p = a and −n·p = b lie a + b apart (positive where they bound a solid).
+        for a in offsets {
+            for b in opposite {
+                let thickness = (a + b).abs();
+                if thickness > 0.0 && thinnest.is_none_or(|s| thickness < s.thickness) {
+                    thinnest = Some(Slab {
+                        normal: *normal,
+                        thickness,
+                    });
+                }
+            }
+        }
+    }
+    thinnest
 }
 
 /// One placed mesh (128 bytes), mirrored by `Instance` in shaders/scene/place.wgsl.
@@ -221,10 +282,8 @@ mod tests {
     #[test]
     fn slabs_have_parallel_faces_and_spheres_and_single_quads_do_not() {
         let flat = |a: [f32; 3], b: [f32; 3], c: [f32; 3]| {
-            let n = (Vec3::from(b) - Vec3::from(a))
-                .cross(Vec3::from(c) - Vec3::from(a))
-                .normalize();
-            let n = n.to_array();
+            let n = (Vec3::from(b) - Vec3::from(a)).cross(Vec3::from(c) - Vec3::from(a));
+            let n = n.normalize().to_array();
             GpuTriangle {
                 position_a: a,
                 position_b: b,
@@ -235,15 +294,21 @@ mod tests {
                 ..default()
             }
         };
-        let top = flat([0.0, 1.0, 0.0], [0.0, 1.0, 1.0], [1.0, 1.0, 0.0]);
+        // A slab 0.25 thick: its top faces +y at 0.25, its bottom −y at 0.
+        let top = flat([0.0, 0.25, 0.0], [0.0, 0.25, 1.0], [1.0, 0.25, 0.0]);
         let bottom = flat([0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]);
         let side = flat([0.0, 0.0, 0.0], [0.0, 1.0, 0.0], [1.0, 0.0, 0.0]);
-        assert!(parallel_faces(&[top, side, bottom]));
-        assert!(!parallel_faces(&[top, side]));
+        let slab = thinnest_slab(&[top, side, bottom]).unwrap();
+        assert!((slab.thickness - 0.25).abs() < 1e-6, "{slab:?}");
+        assert!(thinnest_slab(&[top, side]).is_none());
         // Opposite faces with smooth normals (a sphere's) are curved, not parallel.
         let mut round = bottom;
         round.normal_a = Vec3::new(0.3, -1.0, 0.0).normalize().to_array();
-        assert!(!parallel_faces(&[top, round]));
+        assert!(thinnest_slab(&[top, round]).is_none());
+        // Placed scaled by 4 along y, the slab is 1 thick.
+        let placed = Affine3A::from_scale(Vec3::new(1.0, 4.0, 1.0));
+        let instance = GpuInstance::new(placed, 0, 0).unwrap();
+        assert!((instance.slab_thickness(slab) - 1.0).abs() < 1e-5);
     }
 
     #[test]

@@ -402,14 +402,7 @@ impl SceneData {
         paths.set(ScatterPaths::SKY, self.sky[3] > 0.0);
         paths.set(ScatterPaths::CLEARCOAT, clearcoat);
         paths.set(ScatterPaths::DIFFUSE_TRANSMISSION, translucent);
-        let panes = self.instances.iter().any(|i| {
-            let pane = self
-                .materials
-                .get(i.material as usize)
-                .is_some_and(|m| m.is_pane());
-            pane && (self.meshes.get(i.mesh as usize)).is_some_and(|m| m.has_parallel_faces())
-        });
-        paths.set(ScatterPaths::PANES, panes);
+        paths.set(ScatterPaths::PANES, self.has_panes());
         paths.set(
             ScatterPaths::ABSORPTION,
             absorption && (refraction || rough_refraction),

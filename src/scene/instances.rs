@@ -87,7 +87,8 @@ impl GpuInstance {
 
 /// `SceneMesh::thinnest_slab` of these triangles: their face normals, where every corner's
 /// normal is the face's, on a grid of 1/512 (an exact opposite lands on the opposite cell),
-/// each with the offsets of its planes.
+/// each with the offsets of its planes, sorted, so that each plane finds its nearest opposite
+/// by bisection (a mesh of many parallel facets stays O(n log n)).
 fn thinnest_slab(triangles: &[GpuTriangle]) -> Option<Slab> {
     let mut planes: HashMap<IVec3, (Vec3, Vec<f32>)> = HashMap::new();
     for t in triangles {
@@ -102,22 +103,27 @@ fn thinnest_slab(triangles: &[GpuTriangle]) -> Option<Slab> {
         {
             continue;
         }
-        let offset = n.dot(a);
-        let entry = planes
-            .entry((n * 512.0).round().as_ivec3())
-            .or_insert((n, Vec::new()));
-        if !entry.1.contains(&offset) {
-            entry.1.push(offset);
-        }
+        let cell = (n * 512.0).round().as_ivec3();
+        planes
+            .entry(cell)
+            .or_insert((n, Vec::new()))
+            .1
+            .push(n.dot(a));
+    }
+    for (_, offsets) in planes.values_mut() {
+        offsets.sort_by(f32::total_cmp);
+        offsets.dedup();
     }
     let mut thinnest: Option<Slab> = None;
     for (cell, (normal, offsets)) in &planes {
         let Some((_, opposite)) = planes.get(&-*cell) else {
             continue;
         };
-        // Planes n·p = a and −n·p = b lie a + b apart (positive where they bound a solid).
+        // Planes n·p = a and −n·p = b lie |a + b| apart: the b nearest −a, either side (and
+        // past one at 0, the same plane faced both ways).
         for a in offsets {
-            for b in opposite {
+            let at = opposite.partition_point(|&b| b < -a);
+            for b in opposite[at.saturating_sub(1)..(at + 2).min(opposite.len())].iter() {
                 let thickness = (a + b).abs();
                 if thickness > 0.0 && thinnest.is_none_or(|s| thickness < s.thickness) {
                     thinnest = Some(Slab {

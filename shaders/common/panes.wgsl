@@ -5,7 +5,7 @@
 // one with open windows. Light through any other glass stays the photons' (caustics).
 #define_import_path bevy_rppm::panes
 
-#import bevy_rppm::common::{Material, DELTA_ROUGHNESS, MATERIAL_ALPHA_MASK, MATERIAL_ALPHA_HASHED}
+#import bevy_rppm::common::{Material, IterationParams, DELTA_ROUGHNESS, MATERIAL_ALPHA_MASK, MATERIAL_ALPHA_HASHED}
 
 // Two faces count as parallel when their normals are within ~0.8° (light leaves within
 // ~0.4° of the way it came for glass of ior 1.5).
@@ -21,6 +21,12 @@ const PANE_SHARE: f32 = 0.01;
 
 // At most this many panes between a surface and a light (double glazing is two).
 const MAX_PANES: u32 = 4u;
+
+// Whether shadow rays look through panes and photons leave that light to them: not where Bevy
+// gives the first hit's direct light (`indirect_only`) or photons give all of it.
+fn panes_on(p: IterationParams) -> bool {
+    return p.indirect_only == 0u && p.direct_photons == 0u;
+}
 
 // Clear, smooth glass and nothing else: no colour of its own, no coat, no cut-outs.
 fn is_pane(m: Material) -> bool {

@@ -10,7 +10,7 @@
 #import bevy_rppm::scene::medium_after
 #endif
 #ifdef PANES
-#import bevy_rppm::panes::{PaneWalk, pane_walk, pane_segment, pane_scatter, pane_direct, pane_too_thick}
+#import bevy_rppm::panes::{PaneWalk, panes_on, pane_walk, pane_segment, pane_scatter, pane_direct, pane_too_thick}
 #import bevy_rppm::pane_rays::through_panes
 #endif
 
@@ -229,9 +229,8 @@ fn trace(@builtin(global_invocation_id) id: vec3<u32>, @builtin(local_invocation
     var medium = vec3<f32>(0.0);
 #endif
 #ifdef PANES
-    // Light through panes is direct light, the shadow rays' (common/panes.wgsl), except where
-    // Bevy or photons give direct light.
-    let panes = params.indirect_only == 0u && params.direct_photons == 0u;
+    // Light through panes is direct light, the shadow rays' (common/panes.wgsl).
+    let panes = panes_on(params);
     var walk = pane_walk();
 #endif
     // Segments this invocation may trace: its photons × the depth each may reach.

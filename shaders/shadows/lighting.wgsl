@@ -13,6 +13,7 @@
 #import bevy_rppm::cubemap::occluded
 #ifdef PANES
 #import bevy_rppm::pane_rays::through_panes
+#import bevy_rppm::panes::panes_on
 #endif
 #ifdef IMPORTONS
 #import bevy_rppm::mis::{path_f, drawn_pdf, power_heuristic}
@@ -75,8 +76,6 @@ fn visibility(x: vec3<f32>, dir: vec3<f32>, distance: f32, origin_triangle: u32,
     return vec3<f32>(select(1.0, 0.0, occluded(x, dir, t_min, t_max, origin_triangle)));
 #endif
 }
-
-
 #endif
 
 // Past this many punctual lights, traced shadows draw this many of them by power per pixel
@@ -320,10 +319,12 @@ fn surface_light(m: Material, x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, front: 
         // No shadow ray where nothing would arrive (behind an opaque surface, outside a
         // cone, a delta lobe).
         if any(lit > vec3<f32>(0.0)) {
-            // A sun's or the sky's light through panes too (PANES), unless a camera path that
-            // goes on from here finds it through them (MIS at a rough vertex), or Bevy or
-            // photons give direct light.
-            let through = params.indirect_only == 0u && params.direct_photons == 0u && !(mis && s.density > 0.0);
+            // Light through panes too (PANES), unless a camera path that goes on from here
+            // finds it through them (MIS at a rough vertex), or panes are off (`panes_on`).
+            var through = !(mis && s.density > 0.0);
+#ifdef PANES
+            through = through && panes_on(params);
+#endif
             let seen = visibility(x, s.wi, s.distance, origin_triangle, through);
             if all(seen == vec3<f32>(0.0)) && k < punctual && light < 32u {
                 *blocked |= 1u << light;

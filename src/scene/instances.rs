@@ -71,20 +71,6 @@ impl SceneData {
     }
 }
 
-impl GpuInstance {
-    /// How thick `slab` of its mesh is once placed (a transform keeps parallel faces
-    /// parallel; the distance between them scales by 1/|M⁻ᵀn|).
-    pub fn slab_thickness(&self, slab: Slab) -> f32 {
-        let rows = self.normal_rows.map(|r| Vec3::new(r[0], r[1], r[2]));
-        let n = Vec3::new(
-            rows[0].dot(slab.normal),
-            rows[1].dot(slab.normal),
-            rows[2].dot(slab.normal),
-        );
-        slab.thickness / n.length().max(f32::MIN_POSITIVE)
-    }
-}
-
 /// `SceneMesh::thinnest_slab` of these triangles: their face normals, where every corner's
 /// normal is the face's, on a grid of 1/512 (an exact opposite lands on the opposite cell),
 /// each with the offsets of its planes, sorted, so that each plane finds its nearest opposite
@@ -186,8 +172,22 @@ impl GpuInstance {
     }
 
     fn normal(&self, n: [f32; 3]) -> Vec3 {
-        let n = Vec3::from(n);
-        Vec3::from(self.normal_rows.map(|r| Vec4::from(r).truncate().dot(n))).normalize_or_zero()
+        self.normal_transform(Vec3::from(n)).normalize_or_zero()
+    }
+
+    /// M⁻ᵀn, unnormalised: its length is how much the transform shrinks distances along n.
+    fn normal_transform(&self, n: Vec3) -> Vec3 {
+        Vec3::from(self.normal_rows.map(|r| Vec4::from(r).truncate().dot(n)))
+    }
+
+    /// How thick `slab` of its mesh is once placed (a transform keeps parallel faces
+    /// parallel; the distance between them scales by 1/|M⁻ᵀn|).
+    pub fn slab_thickness(&self, slab: Slab) -> f32 {
+        slab.thickness
+            / self
+                .normal_transform(slab.normal)
+                .length()
+                .max(f32::MIN_POSITIVE)
     }
 
     /// A local triangle's three corner values (positions, normals, UVs, colours) in the order

@@ -534,7 +534,7 @@ def main():
             json.dump(
                 {"scene": os.path.basename(args.scene), "width": args.width, "height": args.height, "spp": args.spp,
                  "variant": variant, "integrator": args.integrator, "metal": METAL, "max_depth": args.max_depth, "rr_depth": 8, "seed": args.seed, "mapping": mapping,
-                 "time_render_s": round(seconds, 1)},
+                 "time_render_s": round(seconds, 4)},
                 f,
                 indent=1,
             )

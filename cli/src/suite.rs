@@ -156,12 +156,12 @@ pub fn run_scene(
         settings: settings.clone(),
     };
     let ours = render_gltf(&request, |_| {}).map_err(anyhow::Error::msg)?;
-    let path = match mitsuba {
-        Some((tool, variant)) => Some(path_tracer(
-            tool, scene, &reference, seconds, variant, scratch,
-        )?),
-        None => None,
-    };
+    // A failed Mitsuba run leaves its cells empty rather than the whole table unwritten.
+    let path = mitsuba.and_then(|(tool, variant)| {
+        path_tracer(tool, scene, &reference, seconds, variant, scratch)
+            .map_err(|e| eprintln!("rppm: {}: Mitsuba failed: {e:#}", scene.name))
+            .ok()
+    });
     Ok(SuiteRow {
         name: scene.name.clone(),
         width: reference.width as u32,
@@ -226,10 +226,25 @@ fn path_tracer(
     };
     // The first run also compiles Mitsuba's kernels: time a second one.
     run(4)?;
-    let probe = 16;
-    let per_spp = run(probe)?.max(1e-3) / probe as f64;
-    let spp = ((seconds / per_spp) as u32).max(1);
-    let took = run(spp)?;
+    // A probe too short to time (a GPU's 16 spp) is run again, longer.
+    let mut probe = 16;
+    let mut probe_s = run(probe)?;
+    if probe_s < 0.2 {
+        probe = (f64::from(probe) * (0.5 / probe_s.max(1e-4))).min(65536.0) as u32;
+        probe_s = run(probe)?;
+    }
+    let per_spp = probe_s.max(1e-4) / f64::from(probe);
+    let mut spp = ((seconds / per_spp) as u32).max(1);
+    let mut took = run(spp)?;
+    // Time is not linear in spp where a fixed cost dominates the probe (on a GPU the budget's
+    // run took a quarter of it): scale to the time taken until within 20 % of the budget.
+    for _ in 0..2 {
+        if took >= 0.8 * seconds {
+            break;
+        }
+        spp = (f64::from(spp) * seconds / took.max(1e-3)).min(1e7) as u32;
+        took = run(spp)?;
+    }
     let image = read_exr(&exr).map_err(anyhow::Error::msg)?;
     Ok((spp, took, Score::of(&image, reference)?))
 }
@@ -237,20 +252,21 @@ fn path_tracer(
 /// The table, in Markdown.
 pub fn table(rows: &[SuiteRow], seconds: f64) -> String {
     let mut out = format!(
-        "| scene | size | iterations | photons / it. | relMSE | energy | bad px | path spp ({seconds} s) | path relMSE | path / ours |\n\
-         |---|---|---:|---:|---:|---:|---:|---:|---:|---:|\n"
+        "| scene | size | iterations | photons / it. | relMSE | energy | bad px | path spp ({seconds} s) | path s | path relMSE | path / ours |\n\
+         |---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n"
     );
     for r in rows {
-        let (spp, path, ratio) = match r.path {
-            Some((spp, _, s)) => (
+        let (spp, took, path, ratio) = match r.path {
+            Some((spp, took, s)) => (
                 spp.to_string(),
+                format!("{took:.1}"),
                 format!("{:.4}", s.relmse),
                 format!("{:.2}", s.relmse / r.ours.relmse.max(1e-12)),
             ),
-            None => ("–".into(), "–".into(), "–".into()),
+            None => ("–".into(), "–".into(), "–".into(), "–".into()),
         };
         out += &format!(
-            "| {} | {}×{} | {} | {} | {:.4} | {:.3} | {} | {spp} | {path} | {ratio} |\n",
+            "| {} | {}×{} | {} | {} | {:.4} | {:.3} | {} | {spp} | {took} | {path} | {ratio} |\n",
             r.name,
             r.width,
             r.height,

@@ -21,7 +21,7 @@ use bevy_rppm::{PhotonCount, PhotonMapping, RppmMode, RppmPlugin, RppmStats};
 use clap::Parser;
 
 /// Command-line options every example takes.
-#[derive(Parser, Resource, Clone, Debug, Default)]
+#[derive(Parser, Resource, Clone, Debug)]
 pub struct ExampleArgs {
     /// Render offscreen instead of in a window.
     #[arg(long)]
@@ -32,6 +32,11 @@ pub struct ExampleArgs {
     /// Where the headless view is saved (PNG).
     #[arg(long)]
     pub out: Option<PathBuf>,
+    /// Headless view size in pixels.
+    #[arg(long, default_value_t = 320, value_parser = clap::value_parser!(u32).range(1..=8192))]
+    pub width: u32,
+    #[arg(long, default_value_t = 240, value_parser = clap::value_parser!(u32).range(1..=8192))]
+    pub height: u32,
     /// Animated examples hold their animation at this time (seconds).
     #[arg(long, value_parser = finite_seconds)]
     pub time: Option<f32>,
@@ -233,11 +238,22 @@ fn offscreen_camera(
     mut commands: Commands,
     cameras: Query<Entity, Added<ExampleCamera>>,
     mut images: ResMut<Assets<Image>>,
+    args: Res<ExampleArgs>,
 ) {
     for camera in &cameras {
-        let target = bevy_rppm_cli::headless::offscreen_target(&mut images, 320, 240);
+        let target =
+            bevy_rppm_cli::headless::offscreen_target(&mut images, args.width, args.height);
         commands.entity(camera).insert(target);
     }
+}
+
+/// Where a headless run is: frames since the first iteration, frames waited for it, and when
+/// it came.
+#[derive(Default)]
+struct HeadlessClock {
+    frame: u32,
+    waited: u32,
+    since: Option<std::time::Instant>,
 }
 
 fn save_and_exit(
@@ -245,34 +261,45 @@ fn save_and_exit(
     args: Res<ExampleArgs>,
     cameras: Query<(Entity, &RenderTarget), With<ExampleCamera>>,
     stats: Res<RppmStats>,
-    mut frame: Local<u32>,
-    mut waited: Local<u32>,
+    mut clock: Local<HeadlessClock>,
     mut exit: MessageWriter<AppExit>,
 ) {
     // Frames count from the camera's first iteration (or after 600 frames without one): a
     // scene still loading, or pipelines still compiling on a busy machine, would otherwise be
     // saved black.
-    let started = cameras
+    let iteration = cameras
         .iter()
         .next()
         .and_then(|(camera, _)| stats.views.get(&camera))
-        .is_some_and(|s| s.iteration > 0);
-    *waited += 1;
-    if !started && *frame == 0 && *waited < 600 {
+        .map_or(0, |s| s.iteration);
+    clock.waited += 1;
+    if iteration == 0 && clock.frame == 0 && clock.waited < 600 {
         return;
     }
-    *frame += 1;
-    if *frame == args.frames
-        && let (Some(out), Some((_, RenderTarget::Image(image)))) =
+    clock.frame += 1;
+    let since = *clock.since.get_or_insert_with(std::time::Instant::now);
+    let frame = clock.frame;
+    if frame == args.frames {
+        // Frames per second from the first iteration on, for the README's numbers.
+        let seconds = since.elapsed().as_secs_f64();
+        println!(
+            "{} frames in {seconds:.2} s: {:.1} fps at {}×{} (iteration {iteration})",
+            args.frames - 1,
+            f64::from(args.frames - 1) / seconds.max(1e-9),
+            args.width,
+            args.height,
+        );
+        if let (Some(out), Some((_, RenderTarget::Image(image)))) =
             (&args.out, cameras.iter().next())
-    {
-        commands
-            .spawn(Screenshot::image(image.handle.clone()))
-            .observe(save_to_disk(out.clone()));
+        {
+            commands
+                .spawn(Screenshot::image(image.handle.clone()))
+                .observe(save_to_disk(out.clone()));
+        }
     }
     // The screenshot is written a few frames later.
     let written = args.out.as_ref().is_none_or(|out| out.exists());
-    if *frame >= args.frames && (written || *frame > args.frames + 120) {
+    if frame >= args.frames && (written || frame > args.frames + 120) {
         exit.write(AppExit::Success);
     }
 }

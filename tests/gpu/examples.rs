@@ -6,13 +6,14 @@ fn examples_run_headless_and_save_their_view() {
     let translucent = Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/suite/translucent.gltf");
     let scene = translucent.to_str().unwrap();
     for (name, frames, extra) in [
-        ("toggle", "12", None),
-        ("cornell", "12", None),
-        ("bunny", "12", None),
-        ("pool", "3", None),
-        ("fox", "3", None),
+        ("toggle", "12", &[][..]),
+        ("cornell", "12", &[]),
+        ("bunny", "12", &[]),
+        // The size the README's frames per second are measured at, scaled down.
+        ("pool", "3", &["--width", "128", "--height", "72"]),
+        ("fox", "3", &[]),
         // Lit only through diffuse transmission, which the example reads as rppm does.
-        ("scene", "12", Some(scene)),
+        ("scene", "12", &[scene]),
     ] {
         let out = temp(&format!("example_{name}.png"));
         let run = Command::new(example_binary(name))
@@ -38,6 +39,17 @@ fn examples_run_headless_and_save_their_view() {
         eprintln!(
             "{name}: {}x{}, {lit} lit channel values",
             info.width, info.height
+        );
+        let size = if extra.len() == 4 {
+            (128, 72)
+        } else {
+            (320, 240)
+        };
+        assert_eq!((info.width, info.height), size, "{name}: the view's size");
+        let stdout = String::from_utf8_lossy(&run.stdout);
+        assert!(
+            stdout.contains(&format!(" fps at {}×{}", size.0, size.1)),
+            "{name}: no frames per second in {stdout:?}"
         );
         assert!(
             lit > pixels.len() / 10,

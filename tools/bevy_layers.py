@@ -20,7 +20,7 @@ import math
 
 import numpy as np
 
-from bevy_metal import TABLE, directional_albedo, ggx_pdf, ggx_reflect, ggx_terms, table_at
+from bevy_metal import TABLE, as_table, directional_albedo, ggx_pdf, ggx_reflect, ggx_terms, table_at
 
 DELTA_ROUGHNESS = 0.02
 F0 = 0.04
@@ -43,7 +43,7 @@ def register():
                 albedo = F0 + (1 - F0) * np.power(1 - mus, 5)
             else:
                 albedo = np.minimum(directional_albedo(self.roughness, mus, f0=F0), 1.0)
-            self.albedo = mi.Float((self.strength * albedo).astype(np.float32))
+            self.albedo = as_table(mi, self.strength * albedo)
             lobe = mi.BSDFFlags.DeltaReflection if self.mirror else mi.BSDFFlags.GlossyReflection
             self.m_flags = self.base.flags() | lobe | mi.BSDFFlags.FrontSide
             self.m_components = [self.m_flags]
@@ -93,9 +93,11 @@ def register():
             active = active & (mi.Frame3f.cos_theta(wi) > 0)
             p = self.albedo_at(mi.Frame3f.cos_theta(wi))
             coat = sample1 < p
+            # `~` of a scalar variant's Python bool is an int (~True == -2).
+            base = (not coat) if isinstance(coat, bool) else ~coat
             # The base's own sample, with sample1 stretched back over 0..1.
             bs, base_weight = self.base.sample(ctx, si, dr.clamp((sample1 - p) / dr.maximum(1 - p, 1e-6), 0, 1),
-                                               sample2, active & ~coat)
+                                               sample2, active & base)
             if self.mirror:
                 wo = mi.Vector3f(-wi.x, -wi.y, wi.z)
                 bs.wo = dr.select(coat, wo, bs.wo)
@@ -107,7 +109,7 @@ def register():
                 weight = dr.select(coat, mi.Color3f(1.0), base_weight * out)
                 return bs, dr.select(active & (bs.pdf > 0), weight, 0.0)
             reflected = ggx_reflect(dr, mi, wi, sample2, self.alpha)
-            base_delta = mi.has_flag(bs.sampled_type, mi.BSDFFlags.Delta) & ~coat
+            base_delta = mi.has_flag(bs.sampled_type, mi.BSDFFlags.Delta) & base
             bs.wo = dr.select(coat, reflected, bs.wo)
             bs.eta = dr.select(coat, 1.0, bs.eta)
             bs.sampled_type = dr.select(coat, mi.UInt32(+mi.BSDFFlags.GlossyReflection), bs.sampled_type)

@@ -84,9 +84,20 @@ def ggx_reflect(dr, mi, wi, u, alpha):
     return 2 * dr.dot(wi, h) * h - wi
 
 
+def as_table(mi, values):
+    """TABLE values as `table_at` reads them: a JIT array, or a list in the scalar variants
+    (where `mi.Float` is Python's float, and `reference.py` falls back without an LLVM)."""
+    if mi.variant().startswith("scalar"):
+        return [float(v) for v in values]
+    return mi.Float(values.astype("float32"))
+
+
 def table_at(dr, mi, table, mu):
     """A table of TABLE values at cosines (k + ½)/TABLE, read linearly at mu."""
     x = dr.clamp(mu * TABLE - 0.5, 0, TABLE - 1)
+    if isinstance(table, list):
+        i = min(int(x), TABLE - 2)
+        return dr.lerp(table[i], table[i + 1], x - i)
     i = dr.minimum(mi.UInt32(x), TABLE - 2)
     f = x - mi.Float(i)
     return dr.lerp(dr.gather(mi.Float, table, i), dr.gather(mi.Float, table, i + 1), f)
@@ -107,7 +118,7 @@ def register():
             mus = (np.arange(TABLE) + 0.5) / TABLE
             lost = np.clip(1 - directional_albedo(self.roughness, mus), 0, 1)
             self.lost_avg = max(float(np.sum(2 * lost * mus) / TABLE), 1e-3)
-            self.lost = mi.Float(lost.astype(np.float32))
+            self.lost = as_table(mi, lost)
             # Half the lobes by GGX, half by cosine: every direction either draws is sampled.
             self.m_flags = mi.BSDFFlags.GlossyReflection | mi.BSDFFlags.DiffuseReflection | mi.BSDFFlags.FrontSide
             self.m_components = [self.m_flags]

@@ -2,15 +2,16 @@
 # The GPU numbers the issues ask for, in one run on a lent GPU machine (no network there):
 #   tools/gpu_checks.sh pack   here: release builds (stripped), Mitsuba 3 for Python 3.12 cut to
 #                              the RGB variants, the Vulkan loader's .debs, ../shared/scenes,
-#                              into .gpu/ (about 40 MB; add /.gpu/ to .git/info/exclude)
+#                              into .gpu/ (about 40 MB, ignored by git)
 #   tools/gpu_checks.sh run    there, from the checkout (carry .gpu), with OUT set:
 #     1. a sanity render naming the adapter;
 #     2. GPU ms per stage at 1024², 262 144 photons, depth 3 (tools/stage_times.sh), every
 #        scene of assets/suite and ../shared/scenes;
 #     3. the pool example headless at 1280×720, frames per second;
 #     4. `rppm bench suite` against Mitsuba's CUDA path tracer on SUB, BUDGET s each;
-#     5. ours alone on REST.
-#   STEPS (default "2 3 4 5"), SUB, REST, BUDGET (4) and LIMIT (seconds, 560) trim it; each
+#     5. ours alone on REST;
+#     6. (after 3) the stage times again under the BVH, to check RppmTracer::Auto's choice.
+#   STEPS (default "2 3 6 4 5"), SUB, REST, BUDGET (4) and LIMIT (seconds, 560) trim it; each
 #   step is skipped when the time left would not hold it. Results: $OUT/{stage_times,suite}.md,
 #   pool.txt, log.txt. The numbers of 2026-11-26 are in the README's GPU section.
 set -u
@@ -55,7 +56,7 @@ run() {
     t0=$(date +%s)
     mkdir -p "$out"
     exec > >(tee "$out/log.txt") 2>&1
-    want() { [[ " ${STEPS:-2 3 4 5} " == *" $1 "* ]]; }
+    want() { [[ " ${STEPS:-2 3 6 4 5} " == *" $1 "* ]]; }
     left() { echo $((limit - ($(date +%s) - t0))); }
     log() { echo "=== [$(($(date +%s) - t0)) s] $*"; }
     local b=/tmp/gpu_bin
@@ -89,6 +90,12 @@ run() {
         timeout 120 $b/pool.s --headless --width 1280 --height 720 --frames 240 2>&1 |
             grep fps | tee "$out/pool.txt"
     fi
+    if want 6; then
+        log "6. stage times under the BVH (RppmTracer::Auto picks the deep cubemap on a GPU)"
+        RPPM=$b/rppm ITERATIONS=16 tools/stage_times.sh /tmp/gpu_stages_bvh assets/suite/*.gltf \
+            .gpu/shared/*.gltf -- --tracer bvh >"$out/stage_times_bvh.md" 2>&1
+        cat "$out/stage_times_bvh.md"
+    fi
     wait $unpacking
     export PYTHONPATH=/tmp/gpu_mitsuba
     one() { # scene, then bench suite's flags
@@ -121,7 +128,7 @@ case ${1:-} in
 pack) pack ;;
 run) run ;;
 *)
-    sed -n 2,15p "$0"
+    sed -n 2,16p "$0"
     exit 2
     ;;
 esac

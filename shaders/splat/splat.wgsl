@@ -96,10 +96,32 @@ fn disc_view(k: Kernel, q: vec3<f32>) -> u32 {
     if g.w == 0.0 || height < -slack {
         return OFF_EDGE;
     }
-    if height <= slack || distance(g.xyz, q) > k.radius {
+    if height <= slack || !behind_what_meets(k, q, g, at) {
         return ON_SURFACE;
     }
     return select(INSIDE, UNDER_GLASS, glass_share(gbuffer_material(g, 0.0)) > 0.0);
+}
+
+// Whether q lies inside what the G-buffer shows at `at` (g, in front of the kernel's plane):
+// within the radius of it, or behind its surface where that surface is near the kernel (a
+// corner seen at a slant puts the wall more than a radius before the disc points past it).
+fn behind_what_meets(k: Kernel, q: vec3<f32>, g: vec4<f32>, at: vec2<i32>) -> bool {
+    if distance(g.xyz, q) <= k.radius {
+        return true;
+    }
+    let n = textureLoad(gbuffer_normal, at, 0);
+    let plane = plane_at(at, g, n.xyz);
+    return distance(g.xyz, k.position) <= 2.0 * max(k.radius, n.w) && dot(q - g.xyz, plane) < 0.0;
+}
+
+// The plane of the surface the G-buffer shows at `at` (its normal map left out: bumps are
+// not creases).
+fn plane_at(at: vec2<i32>, g: vec4<f32>, shading: vec3<f32>) -> vec3<f32> {
+#ifdef TEXTURED
+    return resolved_kernel_normal(surfaces[u32(at.y) * params.size.x + u32(at.x)], shading);
+#else
+    return kernel_normal(g, shading);
+#endif
 }
 
 // The share of the kernel's disc that lies on surface, as the G-buffer shows it: the photons
@@ -112,9 +134,47 @@ fn disc_on_surface(k: Kernel) -> f32 {
     var on = 0.0;
     for (var i = 0u; i < DISC_POINTS; i += 1u) {
         let q = k.position + disc_point(frame, k.radius, i, DISC_POINTS);
-        on += select(0.0, 1.0, disc_view(k, q) == ON_SURFACE);
+        on += select(0.0, 1.0, disc_view(k, q) == ON_SURFACE && !past_crease(k, q));
     }
     return disc_share(on, DISC_POINTS);
+}
+
+// The normals of two surfaces that meet at a crease are further apart than this (~25°).
+const CREASE_COS: f32 = 0.9;
+
+// A point q that projects into the kernel's own pixel: the G-buffer cannot show a corner or
+// an edge inside it, so q is tested against the surface the neighbouring pixel toward q sees,
+// where that surface meets this one at a crease: q is off surface on the other side of its
+// plane from the kernel's centre (past a concave corner or a convex edge). The jitter moves
+// the centre over the pixel, so the share averages to the disc's.
+fn past_crease(k: Kernel, q: vec3<f32>) -> bool {
+    let clip = params.clip_from_world * vec4<f32>(q, 1.0);
+    if clip.w <= 0.0 {
+        return false;
+    }
+    let size = vec2<i32>(params.size);
+    let centre = vec2<i32>(i32(k.index % params.size.x), i32(k.index / params.size.x));
+    let p = (vec2<f32>(0.5, -0.5) * clip.xy / clip.w + 0.5) * vec2<f32>(size);
+    if any(vec2<i32>(floor(p)) != centre) {
+        return false;
+    }
+    let d = p - vec2<f32>(centre) - 0.5;
+    let toward = select(vec2<i32>(0, i32(sign(d.y))), vec2<i32>(i32(sign(d.x)), 0), abs(d.x) >= abs(d.y));
+    let at = centre + toward;
+    if all(toward == vec2<i32>(0)) || any(at < vec2<i32>(0)) || any(at >= size) {
+        return false;
+    }
+    let g = textureLoad(gbuffer_position, at, 0);
+    let n = textureLoad(gbuffer_normal, at, 0);
+    if g.w == 0.0 {
+        return false;
+    }
+    let plane = plane_at(at, g, n.xyz);
+    // Another surface a few footprints away is an occluder's edge, not a crease.
+    if dot(plane, k.plane) > CREASE_COS || distance(g.xyz, k.position) > 3.0 * n.w {
+        return false;
+    }
+    return dot(q - g.xyz, plane) * dot(k.position - g.xyz, plane) < 0.0;
 }
 
 @compute @workgroup_size(8, 8, 1)

@@ -25,6 +25,7 @@ pack() {
     cp "$target/release/rppm" /tmp/rppm.s
     cp "$target/release/examples/pool" /tmp/pool.s
     strip /tmp/rppm.s /tmp/pool.s
+    pwd >.gpu/built_in
     # One dictionary over both: they share most of their code.
     tar -C /tmp -cf - rppm.s pool.s | xz --lzma2=preset=6,dict=192MiB -T1 >.gpu/bins.tar.xz
     # Mitsuba for the machine's Python 3.12, without the variants and plugins no suite scene
@@ -65,7 +66,9 @@ run() {
     local icd=/usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json
     [ -f $icd ] && export VK_DRIVER_FILES=$icd
     # The binaries find assets by the path they were built in.
-    [ -e /work/main ] || { mkdir -p /work && ln -s "$here" /work/main; }
+    local built
+    built=$(cat .gpu/built_in)
+    [ -e "$built" ] || { mkdir -p "$(dirname "$built")" && ln -s "$here" "$built"; }
     [ -x $b/rppm.s ] || { mkdir -p $b && tar -C $b -xJf .gpu/bins.tar.xz; }
     [ -d /tmp/gpu_mitsuba/mitsuba ] ||
         (mkdir -p /tmp/gpu_mitsuba && tar -C /tmp/gpu_mitsuba -xJf .gpu/mi.tar.xz) &

@@ -85,10 +85,14 @@ fn disc_view(k: Kernel, q: vec3<f32>) -> u32 {
     if clip.w <= 0.0 {
         return ON_SURFACE;
     }
-    let uv = vec2<f32>(0.5, -0.5) * clip.xy / clip.w + 0.5;
-    let at = vec2<i32>(floor(uv * vec2<f32>(params.size)));
+    let p = (vec2<f32>(0.5, -0.5) * clip.xy / clip.w + 0.5) * vec2<f32>(params.size);
+    let at = vec2<i32>(floor(p));
     if any(at < vec2<i32>(0)) || any(at >= vec2<i32>(params.size)) {
         return ON_SURFACE;
+    }
+    let centre = vec2<i32>(i32(k.index % params.size.x), i32(k.index / params.size.x));
+    if all(at == centre) {
+        return select(ON_SURFACE, OFF_EDGE, past_crease(k, q, centre, p - vec2<f32>(centre) - 0.5));
     }
     let g = textureLoad(gbuffer_position, at, 0);
     let height = dot(g.xyz - k.position, k.plane);
@@ -134,7 +138,7 @@ fn disc_on_surface(k: Kernel) -> f32 {
     var on = 0.0;
     for (var i = 0u; i < DISC_POINTS; i += 1u) {
         let q = k.position + disc_point(frame, k.radius, i, DISC_POINTS);
-        on += select(0.0, 1.0, disc_view(k, q) == ON_SURFACE && !past_crease(k, q));
+        on += select(0.0, 1.0, disc_view(k, q) == ON_SURFACE);
     }
     return disc_share(on, DISC_POINTS);
 }
@@ -142,23 +146,13 @@ fn disc_on_surface(k: Kernel) -> f32 {
 // The normals of two surfaces that meet at a crease are further apart than this (~25°).
 const CREASE_COS: f32 = 0.9;
 
-// A point q that projects into the kernel's own pixel: the G-buffer cannot show a corner or
-// an edge inside it, so q is tested against the surface the neighbouring pixel toward q sees,
-// where that surface meets this one at a crease: q is off surface on the other side of its
-// plane from the kernel's centre (past a concave corner or a convex edge). The jitter moves
-// the centre over the pixel, so the share averages to the disc's.
-fn past_crease(k: Kernel, q: vec3<f32>) -> bool {
-    let clip = params.clip_from_world * vec4<f32>(q, 1.0);
-    if clip.w <= 0.0 {
-        return false;
-    }
+// A point q that projects into the kernel's own pixel `centre` (`d` from its middle): the
+// G-buffer cannot show a corner or an edge inside it, so q is tested against the surface the
+// neighbouring pixel toward q sees, where that surface meets this one at a crease: q is off
+// surface on the other side of its plane from the kernel's centre (past a concave corner or a
+// convex edge). The jitter moves the centre over the pixel, so the share averages to the disc's.
+fn past_crease(k: Kernel, q: vec3<f32>, centre: vec2<i32>, d: vec2<f32>) -> bool {
     let size = vec2<i32>(params.size);
-    let centre = vec2<i32>(i32(k.index % params.size.x), i32(k.index / params.size.x));
-    let p = (vec2<f32>(0.5, -0.5) * clip.xy / clip.w + 0.5) * vec2<f32>(size);
-    if any(vec2<i32>(floor(p)) != centre) {
-        return false;
-    }
-    let d = p - vec2<f32>(centre) - 0.5;
     let toward = select(vec2<i32>(0, i32(sign(d.y))), vec2<i32>(i32(sign(d.x)), 0), abs(d.x) >= abs(d.y));
     let at = centre + toward;
     if all(toward == vec2<i32>(0)) || any(at < vec2<i32>(0)) || any(at >= size) {

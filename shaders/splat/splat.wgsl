@@ -31,6 +31,13 @@ struct Kernel {
     // shading normal).
     plane: vec3<f32>,
     index: u32,
+    // Planes of surfaces beside the kernel that meet its plane at a crease (`creases_around`),
+    // as (n, d) with n·x + d > 0 on the kernel centre's side; bit c of `convex` set where the
+    // centre lies behind crease c's surface (a convex edge), bit c of `glass` where it is glass.
+    creases: array<vec4<f32>, 2>,
+    crease_count: u32,
+    convex: u32,
+    glass: u32,
 }
 
 // The photons of run `run` of the map inside pixel kernel `k`: Σ f(wo, wi) Φ on material `m`
@@ -44,6 +51,11 @@ fn gather_run(k: Kernel, m: Material, out: Outgoing, shading: vec3<f32>, wo: vec
     while i < run.y {
         let p = photons[i];
         i = next_in_kernel(i + 1u, run.y, params, k.position, k.plane, k.radius, k.index, both_sides);
+        // Past a crease beside the kernel the disc's area is left out, and so are its photons
+        // there (a thin screen standing on the floor has other light behind it).
+        if past_creases(k, p.position) {
+            continue;
+        }
 #ifdef GLASS
         // Under glass or water that meets the surface (a wall below the water line), other
         // light arrives than on the surface the camera sees: the disc's area leaves it out too.
@@ -81,6 +93,15 @@ const UNDER_GLASS: u32 = 3u;
 
 // Seen past a farther occluder, or off the image, q is on surface.
 fn disc_view(k: Kernel, q: vec3<f32>) -> u32 {
+    // Past a crease beside the kernel, q is off surface, whatever the pixel it projects
+    // into shows: the crease runs through pixels whose one sample shows either surface.
+    let past = crease_past(k, q);
+    if past < k.crease_count {
+        if (k.convex & (1u << past)) != 0u {
+            return OFF_EDGE;
+        }
+        return select(INSIDE, UNDER_GLASS, (k.glass & (1u << past)) != 0u);
+    }
     let clip = params.clip_from_world * vec4<f32>(q, 1.0);
     if clip.w <= 0.0 {
         return ON_SURFACE;
@@ -92,30 +113,70 @@ fn disc_view(k: Kernel, q: vec3<f32>) -> u32 {
     }
     let centre = vec2<i32>(i32(k.index % params.size.x), i32(k.index / params.size.x));
     if all(at == centre) {
-        return select(ON_SURFACE, OFF_EDGE, past_crease(k, q, centre, p - vec2<f32>(centre) - 0.5));
+        return ON_SURFACE;
     }
     let g = textureLoad(gbuffer_position, at, 0);
-    let height = dot(g.xyz - k.position, k.plane);
-    let slack = params.kernel_flattening * k.radius;
-    if g.w == 0.0 || height < -slack {
+    if g.w == 0.0 {
         return OFF_EDGE;
     }
-    if height <= slack || !behind_what_meets(k, q, g, at) {
+    let height = dot(g.xyz - k.position, k.plane);
+    let slack = params.kernel_flattening * k.radius;
+    if abs(height) <= slack {
+        return ON_SURFACE;
+    }
+    let n = textureLoad(gbuffer_normal, at, 0);
+    let plane = plane_at(at, g, n.xyz);
+    if crease_near(k, g, plane, n.w) {
+        // On the centre's side of a surface that meets the plane near the kernel (its pixel
+        // may show either surface), q is on surface; past it, as past the creases beside.
+        let side = dot(k.position - g.xyz, plane);
+        if dot(q - g.xyz, plane) * side >= 0.0 {
+            return ON_SURFACE;
+        }
+        if side < 0.0 {
+            return OFF_EDGE;
+        }
+    } else if height < 0.0 {
+        return OFF_EDGE;
+    } else if !behind_what_meets(k, q, g, plane, n.w) {
         return ON_SURFACE;
     }
     return select(INSIDE, UNDER_GLASS, glass_share(gbuffer_material(g, 0.0)) > 0.0);
 }
 
+// The first of kernel k's creases that q lies past, or its crease count if none.
+fn crease_past(k: Kernel, q: vec3<f32>) -> u32 {
+    for (var c = 0u; c < k.crease_count; c += 1u) {
+        if dot(k.creases[c].xyz, q) + k.creases[c].w < 0.0 {
+            return c;
+        }
+    }
+    return k.crease_count;
+}
+
+fn past_creases(k: Kernel, q: vec3<f32>) -> bool {
+    return crease_past(k, q) < k.crease_count;
+}
+
+// How far from the kernel a surface may lie and still be taken for one that meets the
+// kernel's plane at a crease, in radii (or footprints): a corner seen at a slant puts the
+// wall that hides the disc points past it a few radii before them.
+const CREASE_REACH: f32 = 4.0;
+
+// Whether the surface at g (plane normal `plane`, footprint `footprint`) meets the kernel's
+// plane at a crease near the kernel.
+fn crease_near(k: Kernel, g: vec4<f32>, plane: vec3<f32>, footprint: f32) -> bool {
+    return dot(plane, k.plane) <= CREASE_COS && distance(g.xyz, k.position) <= CREASE_REACH * max(k.radius, footprint);
+}
+
 // Whether q lies inside what the G-buffer shows at `at` (g, in front of the kernel's plane):
 // within the radius of it, or behind its surface where that surface is near the kernel (a
 // corner seen at a slant puts the wall more than a radius before the disc points past it).
-fn behind_what_meets(k: Kernel, q: vec3<f32>, g: vec4<f32>, at: vec2<i32>) -> bool {
+fn behind_what_meets(k: Kernel, q: vec3<f32>, g: vec4<f32>, plane: vec3<f32>, footprint: f32) -> bool {
     if distance(g.xyz, q) <= k.radius {
         return true;
     }
-    let n = textureLoad(gbuffer_normal, at, 0);
-    let plane = plane_at(at, g, n.xyz);
-    return distance(g.xyz, k.position) <= 2.0 * max(k.radius, n.w) && dot(q - g.xyz, plane) < 0.0;
+    return distance(g.xyz, k.position) <= 2.0 * max(k.radius, footprint) && dot(q - g.xyz, plane) < 0.0;
 }
 
 // The plane of the surface the G-buffer shows at `at` (its normal map left out: bumps are
@@ -146,29 +207,34 @@ fn disc_on_surface(k: Kernel) -> f32 {
 // The normals of two surfaces that meet at a crease are further apart than this (~25°).
 const CREASE_COS: f32 = 0.9;
 
-// A point q that projects into the kernel's own pixel `centre` (`d` from its middle): the
-// G-buffer cannot show a corner or an edge inside it, so q is tested against the surface the
-// neighbouring pixel toward q sees, where that surface meets this one at a crease: q is off
-// surface on the other side of its plane from the kernel's centre (past a concave corner or a
-// convex edge). The jitter moves the centre over the pixel, so the share averages to the disc's.
-fn past_crease(k: Kernel, q: vec3<f32>, centre: vec2<i32>, d: vec2<f32>) -> bool {
-    let size = vec2<i32>(params.size);
-    let toward = select(vec2<i32>(0, i32(sign(d.y))), vec2<i32>(i32(sign(d.x)), 0), abs(d.x) >= abs(d.y));
-    let at = centre + toward;
-    if all(toward == vec2<i32>(0)) || any(at < vec2<i32>(0)) || any(at >= size) {
-        return false;
+// The creases beside kernel k: the planes its eight neighbouring pixels show that meet its
+// plane (`crease_near`), two at most (a room's corner), each oriented towards the centre. A
+// crease inside the kernel's own pixel is where its neighbours show the other surface.
+fn creases_around(k_in: Kernel, pixel: vec2<i32>) -> Kernel {
+    var k = k_in;
+    for (var j = 0; j < 9; j += 1) {
+        let at = pixel + vec2<i32>(j % 3 - 1, j / 3 - 1);
+        if j == 4 || any(at < vec2<i32>(0)) || any(at >= vec2<i32>(params.size)) || k.crease_count == 2u {
+            continue;
+        }
+        let g = textureLoad(gbuffer_position, at, 0);
+        if g.w == 0.0 {
+            continue;
+        }
+        let n = textureLoad(gbuffer_normal, at, 0);
+        let plane = plane_at(at, g, n.xyz);
+        if !crease_near(k, g, plane, n.w) || (k.crease_count == 1u && abs(dot(plane, k.creases[0].xyz)) > CREASE_COS) {
+            continue;
+        }
+        let side = dot(k.position - g.xyz, plane);
+        let facing = select(-1.0, 1.0, side >= 0.0);
+        let c = k.crease_count;
+        k.creases[c] = vec4<f32>(plane * facing, -dot(plane, g.xyz) * facing);
+        k.convex |= select(0u, 1u << c, side < 0.0);
+        k.glass |= select(0u, 1u << c, glass_share(gbuffer_material(g, 0.0)) > 0.0);
+        k.crease_count += 1u;
     }
-    let g = textureLoad(gbuffer_position, at, 0);
-    let n = textureLoad(gbuffer_normal, at, 0);
-    if g.w == 0.0 {
-        return false;
-    }
-    let plane = plane_at(at, g, n.xyz);
-    // Another surface a few footprints away is an occluder's edge, not a crease.
-    if dot(plane, k.plane) > CREASE_COS || distance(g.xyz, k.position) > 3.0 * n.w {
-        return false;
-    }
-    return dot(q - g.xyz, plane) * dot(k.position - g.xyz, plane) < 0.0;
+    return k;
 }
 
 @compute @workgroup_size(8, 8, 1)
@@ -194,7 +260,7 @@ fn gather(@builtin(global_invocation_id) id: vec3<u32>) {
 #else
     let plane = kernel_normal(gp, gn.xyz);
 #endif
-    let k = Kernel(gp.xyz, gather_radius(params, params.splat_radius, gn.w), plane, index);
+    var k = Kernel(gp.xyz, gather_radius(params, params.splat_radius, gn.w), plane, index, array<vec4<f32>, 2>(), 0u, 0u, 0u);
 #ifdef TEXTURED
     let m = resolved_material(gp, surfaces[index]);
 #else
@@ -207,6 +273,7 @@ fn gather(@builtin(global_invocation_id) id: vec3<u32>) {
         textureStore(splats, texel, vec4<f32>(0.0));
         return;
     }
+    k = creases_around(k, pixel);
     let wo = toward_eye(params, gp.xyz);
     let out = bsdf_from(m, gn.xyz, wo);
     var sum = vec3<f32>(0.0);

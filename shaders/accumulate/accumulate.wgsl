@@ -19,9 +19,10 @@
 @group(1) @binding(5) var gbuffer_position: texture_2d<f32>;
 @group(1) @binding(6) var gbuffer_normal: texture_2d<f32>;
 #ifdef HISTORY
-// Per pixel, in two blocks of one vec4 a pixel: the surface it saw, and the running mean of its
-// direct light (local illumination; w its count). `radiance` holds their total: direct plus
-// indirect (w the indirect count).
+// Per pixel, in three blocks of one vec4 a pixel: the surface it saw, the running mean of its
+// direct light (local illumination; w its count), and the mean of its indirect samples since
+// the last change (w their count). `radiance` holds the total: direct plus indirect (w the
+// indirect count).
 @group(1) @binding(7) var<storage, read_write> history: array<vec4<f32>>;
 // Last frame's estimate and history, for reprojection.
 @group(1) @binding(8) var<storage, read> previous_radiance: array<vec4<f32>>;
@@ -147,11 +148,12 @@ fn surface_nearby(kept: vec4<f32>, pixel: vec2<u32>) -> bool {
 }
 
 // The neighbourhood of each pixel whose samples bound its history while a scene change
-// settles: (2 RADIUS + 1)² pixels, read from a workgroup tile of this iteration's, direct
-// light ([0]) and indirect ([1]) apart.
+// settles: (2 RADIUS + 1)² pixels, read from a workgroup tile of this iteration's direct
+// light ([0]) and indirect light ([1]), and each pixel's mean indirect light since the last
+// change ([2]: the bound tightens as that mean converges).
 const RADIUS: u32 = 2u;
 const TILE: u32 = 8u + 2u * RADIUS;
-var<workgroup> tile: array<array<vec3<f32>, 2>, TILE * TILE>;
+var<workgroup> tile: array<array<vec3<f32>, 3>, TILE * TILE>;
 
 // Width of the box history is clamped to, in standard deviations of the neighbourhood's
 // samples (variance clipping, Salvi 2016): light that left or came is clamped to this
@@ -165,17 +167,29 @@ fn fill_tile(group: vec2<u32>, thread: u32) {
     for (var k = thread; k < TILE * TILE; k += 64u) {
         let at = origin + vec2<i32>(i32(k % TILE), i32(k / TILE));
         let pixel = vec2<u32>(clamp(at, vec2<i32>(0), vec2<i32>(params.size) - 1));
-        let direct = samples[pixel.y * params.size.x + pixel.x].rgb;
-        tile[k] = array<vec3<f32>, 2>(direct, iteration_sample(pixel) - direct);
+        let index = pixel.y * params.size.x + pixel.x;
+        let direct = samples[index].rgb;
+        let indirect = iteration_sample(pixel) - direct;
+        tile[k] = array<vec3<f32>, 3>(direct, indirect, fresh_after(index, indirect).rgb);
     }
+}
+
+// Pixel `index`'s mean indirect light since the last change, this iteration's `indirect`
+// sample included (w: their count).
+fn fresh_after(index: u32, indirect: vec3<f32>) -> vec4<f32> {
+    let restart = params.iteration == 0u || (params.history_flags & CHECK_SURFACE) != 0u;
+    let fresh = select(previous_history[2u * params.size.x * params.size.y + index], vec4<f32>(0.0), restart);
+    return vec4<f32>(fresh.rgb + (indirect - fresh.rgb) / (fresh.w + 1.0), fresh.w + 1.0);
 }
 
 fn tile_index(local: vec2<u32>) -> u32 {
     return (local.y + RADIUS) * TILE + local.x + RADIUS;
 }
 
-// Direct (part 0) or indirect (1) history clamped to mean ± GAMMA σ of the neighbourhood's
-// samples of it, per channel.
+// Direct (part 0) history clamped to mean ± GAMMA σ of the neighbourhood's samples of it, per
+// channel, or indirect history (2) to that of the neighbourhood's means since the last change:
+// one iteration's photon noise comes in blotches wider than the neighbourhood, which the
+// means lose as they converge, so a change's ghost is cut closer every iteration.
 fn clamped(history: vec3<f32>, local: vec2<u32>, part: u32) -> vec3<f32> {
     var sum = vec3<f32>(0.0);
     var squares = vec3<f32>(0.0);
@@ -372,7 +386,7 @@ fn main(
     let view_dependent = (shown & SHOWS_VIEW) != 0u;
     let bright_edges = near_emitter || view_dependent;
     if settling || view_dependent {
-        indirect = clamped(indirect, local.xy, 1u);
+        indirect = clamped(indirect, local.xy, 2u);
     }
     // When only objects moved (no light, emitter or material changed), a still surface's
     // direct light changes only where their shadows move: it keeps its history within what
@@ -395,6 +409,7 @@ fn main(
     direct += (direct_sample - direct) / (kept_direct.w + 1.0);
     history[index] = packed_surface(position, normal.xyz, marks);
     history[pixels + index] = vec4<f32>(direct, kept_direct.w + 1.0);
+    history[2u * pixels + index] = fresh_after(index, indirect_sample);
     radiance[index] = vec4<f32>(direct + indirect, kept.w + 1.0);
 #else
     let previous = select(kept.rgb, vec3<f32>(0.0), params.iteration == 0u);

@@ -7,8 +7,9 @@ use bevy::render::render_resource::*;
 use bevy::render::renderer::RenderDevice;
 
 pub struct History {
-    /// Two blocks of one vec4 a pixel: surface (position, packed normal) and direct light
-    /// (mean, count) (`shaders/accumulate/`).
+    /// Three blocks of one vec4 a pixel: surface (position, packed normal), direct light
+    /// (mean, count) and indirect light since the last change (mean, count)
+    /// (`shaders/accumulate/`).
     pub history: Buffer,
     pub previous_radiance: Buffer,
     pub previous_history: Buffer,
@@ -26,9 +27,9 @@ impl History {
             })
         };
         Self {
-            history: buffer("rppm_history", 32, BufferUsages::COPY_SRC),
+            history: buffer("rppm_history", 48, BufferUsages::COPY_SRC),
             previous_radiance: buffer("rppm_previous_radiance", 16, BufferUsages::COPY_DST),
-            previous_history: buffer("rppm_previous_history", 32, BufferUsages::COPY_DST),
+            previous_history: buffer("rppm_previous_history", 48, BufferUsages::COPY_DST),
         }
     }
 
@@ -40,6 +41,19 @@ impl History {
         ] {
             encoder.copy_buffer_to_buffer(from, 0, to, 0, to.size());
         }
+    }
+
+    /// Copies the means since the last change to last iteration's, which the neighbourhoods
+    /// of this one read (its own writes would race with them).
+    pub fn encode_keep_fresh(&self, encoder: &mut CommandEncoder) {
+        let block = self.history.size() / 3;
+        encoder.copy_buffer_to_buffer(
+            &self.history,
+            2 * block,
+            &self.previous_history,
+            2 * block,
+            block,
+        );
     }
 
     pub fn bytes(&self) -> u64 {

@@ -223,6 +223,9 @@ impl Estimate {
         timer: &mut StageTimer,
     ) {
         let Some(group) = &self.group else { return };
+        if let Some(h) = &self.history {
+            h.encode_keep_fresh(encoder);
+        }
         let mut pass = encoder.begin_compute_pass(&ComputePassDescriptor {
             label: Some("rppm_accumulate"),
             timestamp_writes: timer.compute_pass(Stage::Accumulate),

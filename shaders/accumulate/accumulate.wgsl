@@ -170,15 +170,17 @@ fn fill_tile(group: vec2<u32>, thread: u32) {
         let index = pixel.y * params.size.x + pixel.x;
         let direct = samples[index].rgb;
         let indirect = iteration_sample(pixel) - direct;
-        tile[k] = array<vec3<f32>, 3>(direct, indirect, fresh_after(index, indirect).rgb);
+        // A neighbour's mean from last iteration's copy: its own pixel's write would race.
+        let kept = previous_history[2u * params.size.x * params.size.y + index];
+        tile[k] = array<vec3<f32>, 3>(direct, indirect, fresh_after(kept, indirect).rgb);
     }
 }
 
-// Pixel `index`'s mean indirect light since the last change, this iteration's `indirect`
-// sample included (w: their count).
-fn fresh_after(index: u32, indirect: vec3<f32>) -> vec4<f32> {
+// A pixel's mean indirect light since the last change (`kept`, w: its count) with this
+// iteration's `indirect` sample.
+fn fresh_after(kept: vec4<f32>, indirect: vec3<f32>) -> vec4<f32> {
     let restart = params.iteration == 0u || (params.history_flags & CHECK_SURFACE) != 0u;
-    let fresh = select(previous_history[2u * params.size.x * params.size.y + index], vec4<f32>(0.0), restart);
+    let fresh = select(kept, vec4<f32>(0.0), restart);
     return vec4<f32>(fresh.rgb + (indirect - fresh.rgb) / (fresh.w + 1.0), fresh.w + 1.0);
 }
 
@@ -409,7 +411,7 @@ fn main(
     direct += (direct_sample - direct) / (kept_direct.w + 1.0);
     history[index] = packed_surface(position, normal.xyz, marks);
     history[pixels + index] = vec4<f32>(direct, kept_direct.w + 1.0);
-    history[2u * pixels + index] = fresh_after(index, indirect_sample);
+    history[2u * pixels + index] = fresh_after(history[2u * pixels + index], indirect_sample);
     radiance[index] = vec4<f32>(direct + indirect, kept.w + 1.0);
 #else
     let previous = select(kept.rgb, vec3<f32>(0.0), params.iteration == 0u);

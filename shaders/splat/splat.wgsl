@@ -53,7 +53,7 @@ fn gather_run(k: Kernel, m: Material, out: Outgoing, shading: vec3<f32>, wo: vec
         i = next_in_kernel(i + 1u, run.y, params, k.position, k.plane, k.radius, k.index, both_sides);
         // Past a crease beside the kernel the disc's area is left out, and so are its photons
         // there (a thin screen standing on the floor has other light behind it).
-        if past_creases(k, p.position) {
+        if crease_past(k, p.position) < k.crease_count {
             continue;
         }
 #ifdef GLASS
@@ -106,8 +106,8 @@ fn disc_view(k: Kernel, q: vec3<f32>) -> u32 {
     if clip.w <= 0.0 {
         return ON_SURFACE;
     }
-    let p = (vec2<f32>(0.5, -0.5) * clip.xy / clip.w + 0.5) * vec2<f32>(params.size);
-    let at = vec2<i32>(floor(p));
+    let uv = vec2<f32>(0.5, -0.5) * clip.xy / clip.w + 0.5;
+    let at = vec2<i32>(floor(uv * vec2<f32>(params.size)));
     if any(at < vec2<i32>(0)) || any(at >= vec2<i32>(params.size)) {
         return ON_SURFACE;
     }
@@ -129,11 +129,11 @@ fn disc_view(k: Kernel, q: vec3<f32>) -> u32 {
     if crease_near(k, g, plane, n.w) {
         // On the centre's side of a surface that meets the plane near the kernel (its pixel
         // may show either surface), q is on surface; past it, as past the creases beside.
-        let side = dot(k.position - g.xyz, plane);
-        if dot(q - g.xyz, plane) * side >= 0.0 {
+        let crease = crease_of(k, g.xyz, plane);
+        if dot(crease.plane.xyz, q) + crease.plane.w >= 0.0 {
             return ON_SURFACE;
         }
-        if side < 0.0 {
+        if crease.convex {
             return OFF_EDGE;
         }
     } else if height < 0.0 {
@@ -154,8 +154,18 @@ fn crease_past(k: Kernel, q: vec3<f32>) -> u32 {
     return k.crease_count;
 }
 
-fn past_creases(k: Kernel, q: vec3<f32>) -> bool {
-    return crease_past(k, q) < k.crease_count;
+// The plane of a surface at g (normal `plane`) that meets the kernel's at a crease, as
+// (n, d) with n·x + d >= 0 on the kernel centre's side; convex where the centre lies behind
+// that surface (an edge), not in front of it (a corner).
+struct Crease {
+    plane: vec4<f32>,
+    convex: bool,
+}
+
+fn crease_of(k: Kernel, g: vec3<f32>, plane: vec3<f32>) -> Crease {
+    let side = dot(k.position - g, plane);
+    let facing = select(-1.0, 1.0, side >= 0.0);
+    return Crease(vec4<f32>(plane * facing, -dot(plane, g) * facing), side < 0.0);
 }
 
 // How far from the kernel a surface may lie and still be taken for one that meets the
@@ -226,11 +236,10 @@ fn creases_around(k_in: Kernel, pixel: vec2<i32>) -> Kernel {
         if !crease_near(k, g, plane, n.w) || (k.crease_count == 1u && abs(dot(plane, k.creases[0].xyz)) > CREASE_COS) {
             continue;
         }
-        let side = dot(k.position - g.xyz, plane);
-        let facing = select(-1.0, 1.0, side >= 0.0);
+        let crease = crease_of(k, g.xyz, plane);
         let c = k.crease_count;
-        k.creases[c] = vec4<f32>(plane * facing, -dot(plane, g.xyz) * facing);
-        k.convex |= select(0u, 1u << c, side < 0.0);
+        k.creases[c] = crease.plane;
+        k.convex |= select(0u, 1u << c, crease.convex);
         k.glass |= select(0u, 1u << c, glass_share(gbuffer_material(g, 0.0)) > 0.0);
         k.crease_count += 1u;
     }

@@ -23,6 +23,14 @@ bitflags::bitflags! {
     }
 }
 
+impl HistoryFlags {
+    /// The iteration clamps history to its pixels' neighbourhoods (the accumulate shader's
+    /// `clamping`), reading each neighbour's mean since the change from last iteration's copy.
+    pub fn clamps(self) -> bool {
+        self.intersects(Self::CHECK_LIGHT | Self::REPROJECT)
+    }
+}
+
 /// What changed since a view's last frame.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct Changes {
@@ -182,6 +190,19 @@ mod tests {
         // Settled: the estimate grows again as a still scene's does.
         assert_eq!(clock.next(Some(8)), (u32::MAX, HistoryFlags::empty()));
         assert_eq!((clock.iteration, clock.held), (28, 8));
+    }
+
+    #[test]
+    fn a_settling_change_clamps_and_a_still_estimate_does_not() {
+        let mut clock = HistoryClock::default();
+        run(&mut clock, 10);
+        assert!(!clock.next(Some(8)).1.clamps());
+        assert!(!clock.begin_frame(SCENE, Some(8)));
+        assert!(clock.next(Some(8)).1.clamps());
+        run(&mut clock, 8);
+        assert!(!clock.next(Some(8)).1.clamps());
+        assert!(!clock.begin_frame(MOVED, Some(8)));
+        assert!(clock.next(Some(8)).1.clamps());
     }
 
     #[test]

@@ -212,6 +212,14 @@ impl Estimate {
         }
     }
 
+    /// Keeps the pixels' means since the change as last iteration's, for an iteration that
+    /// clamps history to its neighbourhoods (`HistoryFlags::clamps`).
+    pub fn encode_keep_fresh(&self, encoder: &mut CommandEncoder) {
+        if let Some(h) = &self.history {
+            h.encode_keep_fresh(encoder);
+        }
+    }
+
     /// Adds the splats to the local sample and folds it into the running estimate.
     pub fn encode(
         &self,
@@ -223,9 +231,6 @@ impl Estimate {
         timer: &mut StageTimer,
     ) {
         let Some(group) = &self.group else { return };
-        if let Some(h) = &self.history {
-            h.encode_keep_fresh(encoder);
-        }
         let mut pass = encoder.begin_compute_pass(&ComputePassDescriptor {
             label: Some("rppm_accumulate"),
             timestamp_writes: timer.compute_pass(Stage::Accumulate),

@@ -253,6 +253,9 @@ fn encode_estimate(
         crate::indirect_splat::encode(encoder, indirect, groups, group, &state.eye_paths, timer);
         mark(checkpoints, encoder, Stage::IndirectSplat);
     }
+    if state.clamps {
+        state.estimate.encode_keep_fresh(encoder);
+    }
     state.estimate.encode(
         encoder,
         node.accumulate,

@@ -433,6 +433,7 @@ fn prepare_view(
     };
     let (_, first_flags) = state.clock.next(window);
     state.reprojects = count > 0 && first_flags.contains(HistoryFlags::REPROJECT);
+    state.clamps = false;
     for slot in 0..count.max(1) {
         let iteration = base + slot;
         // Under `Reuse` the jitter goes on through a scene's motion: a pixel's history
@@ -452,6 +453,7 @@ fn prepare_view(
         let (cap, flags) = state.clock.next(window);
         params.history_cap = cap;
         params.history_flags = flags.bits();
+        state.clamps |= slot < count && flags.clamps();
         params.previous_clip_from_world = state.previous_clip_from_world.to_cols_array_2d();
         params.area_view = state.shadows.area_view_base(slot);
         params.area_layer = state.shadows.light_layers;

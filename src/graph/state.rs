@@ -80,6 +80,9 @@ pub struct RppmViewState {
     pub previous_clip_from_world: Mat4,
     /// This frame's first iteration reprojects last frame's history.
     pub reprojects: bool,
+    /// Some iteration of this frame clamps history to its neighbourhoods, which read last
+    /// iteration's copy of the pixels' means since the change (`HistoryFlags::clamps`).
+    pub clamps: bool,
     /// First iteration and count run this frame.
     pub frame: (u32, u32),
     /// Squared gather radius in pixels for the next iteration (Knaus–Zwicker sequence).
@@ -207,6 +210,7 @@ impl RppmViewState {
             scene_shape: scene.data.shape(),
             previous_clip_from_world: Mat4::IDENTITY,
             reprojects: false,
+            clamps: false,
             frame: (0, 0),
             radius2: 0.0,
             fast_forward: None,

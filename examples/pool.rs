@@ -11,7 +11,7 @@ use bevy::asset::RenderAssetUsages;
 use bevy::core_pipeline::tonemapping::Tonemapping;
 use bevy::mesh::{Indices, PrimitiveTopology, VertexAttributeValues};
 use bevy::prelude::*;
-use bevy_rppm::{PhotonCount, PhotonMapping, RppmHistory};
+use bevy_rppm::{IterationsPerFrame, PhotonCount, PhotonMapping, RppmHistory};
 use common::{ExampleArgs, ExampleCamera, example_app};
 
 /// Water grid cells along each side, and the pool's half width and depth in metres.
@@ -90,6 +90,11 @@ fn setup(
             photons_per_iteration: PhotonCount::Fixed(131_072),
             // The moving water changes the caustics every frame: keep 8 iterations of them.
             history: RppmHistory::Reuse { iterations: 8 },
+            // A game's GI budget: as many iterations a frame as fit 12 GPU ms (one on a CPU).
+            iterations_per_frame: IterationsPerFrame::GpuMilliseconds {
+                milliseconds: 12.0,
+                max: 8,
+            },
             ..default()
         },
         // A tonemapper that needs no lookup table (the crate leaves out Bevy's LUTs).

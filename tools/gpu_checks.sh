@@ -5,8 +5,8 @@
 #                              into .gpu/ (about 40 MB, ignored by git)
 #   tools/gpu_checks.sh run    there, from the checkout (carry .gpu), with OUT set:
 #     1. a sanity render naming the adapter;
-#     2. GPU ms per stage at 1024², 262 144 photons, depth 3 (tools/stage_times.sh), every
-#        scene of assets/suite and ../shared/scenes;
+#     2. GPU ms per stage at 1024², 262 144 photons, depth 3 (tools/stage_times.sh), through
+#        the deep cubemap, every scene of assets/suite and ../shared/scenes;
 #     3. the pool example headless at 1280×720, frames per second;
 #     4. `rppm bench suite` against Mitsuba's CUDA path tracer on SUB, BUDGET s each;
 #     5. ours alone on REST;
@@ -48,7 +48,8 @@ pack() {
     cp ../shared/scenes/*.gltf ../shared/scenes/*.ref.exr .gpu/shared/
     local o="-oAPT::Architecture=amd64 -oAPT::Architectures=amd64 -oDir::State::Lists=/tmp/gpu_apt"
     mkdir -p /tmp/gpu_apt/partial && apt-get $o update -qq
-    (cd .gpu/debs && apt-get $o download -qq libvulkan1)
+    # The NVIDIA ICD (libGLX_nvidia) needs glvnd's dispatch libraries, absent on some machines.
+    (cd .gpu/debs && apt-get $o download -qq libvulkan1 libglvnd0 libglx0 libegl1 libgl1 libopengl0)
     du -sh .gpu
 }
 
@@ -85,7 +86,7 @@ run() {
     if want 2; then
         log "2. stage times"
         RPPM=$b/rppm ITERATIONS=16 tools/stage_times.sh /tmp/gpu_stages assets/suite/*.gltf \
-            .gpu/shared/*.gltf >"$out/stage_times.md" 2>&1
+            .gpu/shared/*.gltf -- --tracer deep-cubemap >"$out/stage_times.md" 2>&1
         cat "$out/stage_times.md"
     fi
     if want 3; then
@@ -94,7 +95,7 @@ run() {
             grep fps | tee "$out/pool.txt"
     fi
     if want 6; then
-        log "6. stage times under the BVH (RppmTracer::Auto picks the deep cubemap on a GPU)"
+        log "6. stage times under the BVH (RppmTracer::Auto's choice up to 32 768 triangles)"
         RPPM=$b/rppm ITERATIONS=16 tools/stage_times.sh /tmp/gpu_stages_bvh assets/suite/*.gltf \
             .gpu/shared/*.gltf -- --tracer bvh >"$out/stage_times_bvh.md" 2>&1
         cat "$out/stage_times_bvh.md"
@@ -108,7 +109,8 @@ run() {
         cp assets/suite/$name.gltf assets/suite/$name.ref.exr $dir/ 2>/dev/null ||
             cp .gpu/shared/$name.gltf .gpu/shared/$name.ref.exr $dir/
         timeout 150 $b/rppm.s bench suite $dir --budget "${BUDGET:-4}" --out /tmp/gpu_suite \
-            --table $dir.md "$@" 2>&1 | grep "Mitsuba failed"
+            --table $dir.md "$@" >$dir.log 2>&1 || tail -5 $dir.log
+        grep -A8 "Mitsuba failed" $dir.log
         [ -f "$out/suite.md" ] || head -2 $dir.md >"$out/suite.md"
         tail -1 $dir.md | tee -a "$out/suite.md"
     }

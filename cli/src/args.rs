@@ -3,7 +3,9 @@
 
 use std::path::{Path, PathBuf};
 
-use bevy_rppm::{PhotonCount, PhotonMapping, RppmDebugView, RppmPreset, RppmTracer};
+use bevy_rppm::{
+    IterationsPerFrame, PhotonCount, PhotonMapping, RppmDebugView, RppmPreset, RppmTracer,
+};
 use bevy_rppm_cli::headless::{Budget, RenderRequest};
 use clap::{Args, Parser, Subcommand, ValueEnum};
 
@@ -94,9 +96,15 @@ pub struct SuiteArgs {
     /// Only our renders, without Mitsuba.
     #[arg(long)]
     pub no_path_tracer: bool,
-    /// What traces our rays (default: auto, the BVH on a software adapter).
+    /// What traces our rays (default: auto, the BVH on a software adapter and for scenes of up
+    /// to 32 768 triangles on a GPU).
     #[arg(long, value_enum, default_value_t = Tracer::Auto)]
     pub tracer: Tracer,
+    /// GPU milliseconds a frame's iterations may take together: on a fast GPU several
+    /// iterations run a frame instead of each waiting on a frame's CPU work and read-back
+    /// (a software adapter, whose iterations are slower, runs one). 0: one a frame.
+    #[arg(long, default_value_t = FRAME_MS, value_parser = non_negative_number)]
+    pub frame_ms: f32,
     /// Mitsuba's variant (`llvm_ad_rgb`, the fastest on a CPU, needs an LLVM that drjit accepts:
     /// `tools/reference.py` falls back to `scalar_rgb` without one).
     #[arg(long, default_value = "llvm_ad_rgb")]
@@ -229,6 +237,11 @@ pub struct RenderArgs {
     /// this many milliseconds (at most `--photons`, else 262 144).
     #[arg(long, value_parser = positive_number)]
     pub iteration_ms: Option<f32>,
+    /// GPU milliseconds a frame's iterations may take together: on a fast GPU several
+    /// iterations run a frame instead of each waiting on a frame's CPU work and read-back
+    /// (a software adapter, whose iterations are slower, runs one). 0: one a frame.
+    #[arg(long, default_value_t = FRAME_MS, value_parser = non_negative_number)]
+    pub frame_ms: f32,
     /// Bounces a photon may take.
     #[arg(long)]
     pub photon_depth: Option<u32>,
@@ -270,15 +283,15 @@ pub struct RenderArgs {
     /// seeds are independent.
     #[arg(long, default_value_t = 0)]
     pub seed: u32,
-    /// What traces the rays (default: auto, the BVH on a software adapter, else the deep
-    /// cubemap).
+    /// What traces the rays (default: auto, the BVH on a software adapter and for scenes of up
+    /// to 32 768 triangles on a GPU, else the deep cubemap).
     #[arg(long, value_enum, default_value_t = Tracer::Auto)]
     pub tracer: Tracer,
     /// Pose the scene by its glTF animation of this index (skins, morph weights, nodes).
     #[arg(long)]
     pub animation: Option<usize>,
     /// The instant of `--animation` to pose and hold, in seconds (wraps around the clip).
-    #[arg(long, default_value_t = 0.0, requires = "animation", value_parser = non_negative_seconds)]
+    #[arg(long, default_value_t = 0.0, requires = "animation", value_parser = non_negative_number)]
     pub animation_time: f32,
 }
 
@@ -346,10 +359,25 @@ fn positive_number(text: &str) -> Result<f32, String> {
     }
 }
 
-fn non_negative_seconds(text: &str) -> Result<f32, String> {
+fn non_negative_number(text: &str) -> Result<f32, String> {
     match text.parse::<f32>() {
         Ok(s) if s.is_finite() && s >= 0.0 => Ok(s),
-        _ => Err(format!("'{text}' is not a number of seconds ≥ 0")),
+        _ => Err(format!("'{text}' is not a finite number ≥ 0")),
+    }
+}
+
+/// The default of `--frame-ms`: a frame of this many GPU milliseconds of iterations.
+pub const FRAME_MS: f32 = 25.0;
+
+/// `--frame-ms`: iterations a frame fitted to `ms` of GPU time (up to 64), or one (0).
+pub fn frame_budget(ms: f32) -> IterationsPerFrame {
+    if ms > 0.0 {
+        IterationsPerFrame::GpuMilliseconds {
+            milliseconds: ms,
+            max: 64,
+        }
+    } else {
+        IterationsPerFrame::Fixed(1)
     }
 }
 
@@ -420,6 +448,7 @@ impl RenderArgs {
         s.profile_stages |= self.profile;
         s.seed = self.seed;
         s.tracer = self.tracer.into();
+        s.iterations_per_frame = frame_budget(self.frame_ms);
         if let Some(view) = self.debug_view {
             s.debug_view = match view {
                 DebugView::GbufferNormals => RppmDebugView::GBufferNormals,

@@ -8,7 +8,7 @@ use std::process::ExitCode;
 
 use anyhow::{Context, Result, bail};
 use bevy_rppm::cubemap::CubemapConfig;
-use bevy_rppm::{PhotonCount, PhotonMapping, ViewStats};
+use bevy_rppm::{IterationsPerFrame, PhotonCount, PhotonMapping, ViewStats};
 use bevy_rppm_cli::animation;
 use bevy_rppm_cli::bench::{print_table, sweep_configs};
 use bevy_rppm_cli::headless::{
@@ -403,6 +403,7 @@ fn suite(args: &SuiteArgs) -> Result<()> {
         eprintln!("rppm: {} ({} s each)", scene.name, args.budget);
         let settings = PhotonMapping {
             tracer: args.tracer.into(),
+            iterations_per_frame: args::frame_budget(args.frame_ms),
             ..PhotonMapping::default()
         };
         rows.push(run_scene(
@@ -443,7 +444,7 @@ fn motion(args: &MotionArgs) -> Result<()> {
         height: args.height,
         settings: PhotonMapping {
             photons_per_iteration: PhotonCount::Fixed(args.photons),
-            iterations_per_frame: args.iterations_per_frame,
+            iterations_per_frame: IterationsPerFrame::Fixed(args.iterations_per_frame),
             ..PhotonMapping::default()
         },
         window: args.window,

@@ -2,6 +2,7 @@
 //! frame ([`prepare`]), recorded ([`node`]) and reported back ([`report`]).
 
 mod node;
+pub mod pace;
 mod prepare;
 mod report;
 pub mod state;

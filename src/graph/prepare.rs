@@ -227,19 +227,22 @@ pub(crate) fn prepare_views(
         };
         let settings = &rppm.settings;
         // A state made anew below keeps the controller and the store's counts.
-        let mut photon_count = existing
+        let (mut photon_count, iterations, store_fit, store_now) = existing
             .as_deref()
-            .map(|s| s.photon_count)
-            .unwrap_or_default();
-        let (store_fit, store_now) = existing
-            .as_deref()
-            .map(|s| (s.store_fit, s.key.photon_capacity))
+            .map(|s| {
+                (
+                    s.photon_count,
+                    s.iterations,
+                    s.store_fit,
+                    s.key.photon_capacity,
+                )
+            })
             .unwrap_or_default();
         let photons =
             photon_count.count(device_photon_count(settings.photons_per_iteration, &device));
         let key = ResourceKey {
             size,
-            slots: settings.iterations_per_frame,
+            slots: settings.iterations_per_frame.max(),
             shadow_resolution: settings.shadow_map_resolution,
             photon_capacity: store_capacity(
                 settings, photons, scene, &device, &store_fit, store_now,
@@ -249,10 +252,10 @@ pub(crate) fn prepare_views(
             subsampling: settings.indirect_subsampling,
             history: settings.history.window().is_some(),
             // A hierarchy too large for this device's textures gives way to the cubemap.
-            bvh: settings
-                .tracer
-                .uses_bvh(adapter.device_type == wgpu::DeviceType::Cpu)
-                && cubemap::bvh::fits(&device, scene.triangle_count()),
+            bvh: settings.tracer.uses_bvh(
+                adapter.device_type == wgpu::DeviceType::Cpu,
+                scene.triangle_count() as usize,
+            ) && cubemap::bvh::fits(&device, scene.triangle_count()),
             textured: scene.lookups.contains(Lookups::TEXTURED),
             photons_per_lane: crate::photons::photons_per_lane(
                 adapter.device_type == wgpu::DeviceType::Cpu,
@@ -293,6 +296,7 @@ pub(crate) fn prepare_views(
             }
         }
         state.photon_count = photon_count;
+        state.iterations = iterations;
         state.store_fit = store_fit;
         if state.scene_epoch != scene.epoch {
             state.rebind_scene(
@@ -427,7 +431,10 @@ fn prepare_view(
         .max_iterations
         .map_or(u32::MAX, |m| m.saturating_sub(state.clock.held));
     let count = if ready {
-        settings.iterations_per_frame.min(budget)
+        state
+            .iterations
+            .count(settings.iterations_per_frame)
+            .min(budget)
     } else {
         0
     };

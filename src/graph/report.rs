@@ -136,6 +136,14 @@ pub(crate) fn report_views(
                     state.photon_count.count, state.photon_count.before.ms
                 );
             }
+            let setting = rppm.map_or(default(), |r| r.settings.iterations_per_frame);
+            state.iterations.observe(
+                setting,
+                cost.ms.iter().sum(),
+                cost.work.iterations,
+                cost.wall_ms_per_iteration,
+                adapter.device_type == wgpu::DeviceType::Cpu,
+            );
         }
         if waiting && let Some(bytes) = read_back(&device, &queue, &state.estimate.radiance) {
             let pixels = bytemuck::cast_slice(&bytes).to_vec();

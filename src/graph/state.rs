@@ -6,6 +6,7 @@ use bevy::render::render_resource::*;
 use bevy::render::renderer::{RenderDevice, RenderQueue};
 use bevy::render::texture::TextureCache;
 
+use super::pace::IterationController;
 use crate::accumulate::{AccumulatePipeline, Estimate, EstimateInputs, HistoryClock};
 use crate::cubemap::ViewCubemap;
 use crate::gbuffer::GBuffer;
@@ -93,6 +94,8 @@ pub struct RppmViewState {
     pub photons: u32,
     /// Where the photon count's controller stands.
     pub photon_count: PhotonController,
+    /// Where the iterations-per-frame controller stands.
+    pub iterations: IterationController,
     /// The stores counted, which size the photon store.
     pub store_fit: StoreFit,
     /// When the view's last frame was reported (its interval times an iteration).
@@ -216,6 +219,7 @@ impl RppmViewState {
             fast_forward: None,
             photons: 0,
             photon_count: PhotonController::default(),
+            iterations: IterationController::default(),
             store_fit: StoreFit::default(),
             last_report: None,
             importons: false,

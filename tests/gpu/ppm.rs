@@ -157,3 +157,52 @@ fn a_seed_picks_independent_random_numbers() {
     let ratio = energy_ratio(&c, &a).unwrap();
     assert!((ratio - 1.0).abs() < 0.02, "energy ratio {ratio}");
 }
+
+/// `IterationsPerFrame::GpuMilliseconds` runs as many iterations a frame as its budget holds
+/// (a software adapter's wall clock counted), up to `max`; the image is the one a frame at a
+/// time renders, as every iteration draws by its own number. A budget under one iteration
+/// runs one.
+#[test]
+fn a_frame_budget_runs_the_iterations_it_holds_and_the_same_image() {
+    use bevy_rppm::IterationsPerFrame;
+    let render = |iterations_per_frame| {
+        let mut app = gpu_app();
+        let settings = PhotonMapping {
+            photons_per_iteration: PhotonCount::Fixed(4096),
+            iterations_per_frame,
+            max_iterations: Some(24),
+            ..default()
+        };
+        let (camera, _) = plane_scene(&mut app, point_light_above(1000.0, 2.0), 24, settings);
+        let mut most = 0;
+        for _ in 0..100 {
+            if iteration(&app, camera) >= 24 {
+                break;
+            }
+            app.update();
+            let stats = app.world().resource::<RppmStats>();
+            most = most.max(
+                stats
+                    .views
+                    .get(&camera)
+                    .map_or(0, |s| s.iterations_this_frame),
+            );
+        }
+        let image = radiance(&app, camera);
+        assert_eq!(image.iteration, 24);
+        (
+            most,
+            RgbImage::from_rgba(image.width, image.height, &image.pixels),
+        )
+    };
+    let (one, single) = render(IterationsPerFrame::Fixed(1));
+    let budget = |milliseconds| IterationsPerFrame::GpuMilliseconds {
+        milliseconds,
+        max: 4,
+    };
+    let (most, batched) = render(budget(60_000.0));
+    let (least, tight) = render(budget(0.1));
+    assert_eq!((one, most, least), (1, 4, 1), "iterations a frame");
+    assert_eq!(single, batched, "4 iterations a frame against 1");
+    assert_eq!(single, tight);
+}

@@ -3,6 +3,10 @@
 
 use bevy::prelude::*;
 
+mod counts;
+
+pub use counts::{IterationsPerFrame, PhotonCount};
+
 /// What the photon-mapped image does to the view.
 #[derive(Reflect, Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 #[reflect(Default, Clone, PartialEq, Hash)]
@@ -32,40 +36,6 @@ pub enum RppmDebugView {
     /// maps: it should match the estimate with no photons (`PhotonCount::Fixed(0)`), which checks
     /// photon flux against the local stage.
     DirectPhotons,
-}
-
-/// How many photons each iteration emits, split between lights by power.
-#[derive(Reflect, Clone, Copy, Debug, PartialEq)]
-#[reflect(Default, Clone, PartialEq)]
-pub enum PhotonCount {
-    /// Exactly this many every iteration. Range 0..=2^24.
-    Fixed(u32),
-    /// As many as the device affords (default, `max` 262 144): the photon stages (tracing,
-    /// splatting, indirect splatting) are kept at about twice the GPU time of the rest of the
-    /// iteration, measured by timestamps, so a CPU rasteriser and a big GPU both run many
-    /// iterations a minute. The count starts at 16 384 (or `max`) and moves in powers of two
-    /// between 1024 and `max` (range 1024..=2^24); a change of count keeps the estimate.
-    /// Without timestamp queries it stays at its start.
-    Auto { max: u32 },
-    /// As many as keep a whole iteration near `milliseconds` of GPU time (range 0.1..=60 000),
-    /// between 1024 and `max`: for a game's per-frame budget.
-    GpuMilliseconds { milliseconds: f32, max: u32 },
-}
-
-impl Default for PhotonCount {
-    fn default() -> Self {
-        Self::Auto { max: 262_144 }
-    }
-}
-
-impl PhotonCount {
-    /// The most photons an iteration may emit.
-    pub fn max(self) -> u32 {
-        match self {
-            Self::Fixed(n) => n,
-            Self::Auto { max } | Self::GpuMilliseconds { max, .. } => max,
-        }
-    }
 }
 
 /// What a change in the scene or a camera move does to the progressive estimate. A change of
@@ -99,13 +69,21 @@ impl RppmHistory {
     }
 }
 
+/// The most triangles for which [`RppmTracer::Auto`] builds a BVH on a GPU: its CPU build
+/// (about 5 ms at 10⁴ triangles on two cores, linear in them) stays a few of the deep
+/// cubemap's GPU builds, which every iteration pays, even where the scene changes every frame.
+pub const AUTO_BVH_TRIANGLES: usize = 1 << 15;
+
 /// What traces the rays of photons, camera paths and shadows. Both are exact: they find the
 /// same hits (the DIRT bench checks every ray against brute force), so the choice is speed.
 #[derive(Reflect, Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 #[reflect(Default, Clone, PartialEq, Hash)]
 pub enum RppmTracer {
-    /// The BVH on a software adapter (a CPU emulating a GPU, such as llvmpipe), where it was
-    /// measured faster on every scene; the deep cubemap, as the paper, on a GPU (default).
+    /// The BVH on a software adapter (a CPU emulating a GPU, such as llvmpipe), and on a GPU
+    /// for scenes of up to [`AUTO_BVH_TRIANGLES`]: measured faster on every suite scene on
+    /// both (2× the iterations a second on an H200). Bigger scenes on a GPU take the deep
+    /// cubemap, whose build is rasterisation on the GPU where the BVH's is the CPU's, paid
+    /// again at every change (default).
     #[default]
     Auto,
     /// The camera-centred deep cubemap, rebuilt by rasterisation every iteration (DIRT, as the
@@ -119,10 +97,11 @@ pub enum RppmTracer {
 }
 
 impl RppmTracer {
-    /// Whether rays go through the BVH on an adapter that is (`software`) or is not a CPU.
-    pub fn uses_bvh(self, software: bool) -> bool {
+    /// Whether rays go through the BVH on an adapter that is (`software`) or is not a CPU,
+    /// for a scene of `triangles`.
+    pub fn uses_bvh(self, software: bool, triangles: usize) -> bool {
         match self {
-            Self::Auto => software,
+            Self::Auto => software || triangles <= AUTO_BVH_TRIANGLES,
             Self::DeepCubemap => false,
             Self::Bvh => true,
         }
@@ -169,8 +148,9 @@ pub struct PhotonMapping {
     pub cubemap_tile_size: u32,
     /// Depth bins per cubemap tile. Range 1..=64, default 12.
     pub bins: u32,
-    /// PPM iterations run per rendered frame. Range 1..=1024, default 1.
-    pub iterations_per_frame: u32,
+    /// PPM iterations run per rendered frame: a fixed count, or as many as fit a GPU time
+    /// budget. Default [`IterationsPerFrame::Fixed`]`(1)`.
+    pub iterations_per_frame: IterationsPerFrame,
     /// Stop accumulating after this many iterations (the image then stays as it is until
     /// something changes). `None` (default) accumulates forever.
     pub max_iterations: Option<u32>,
@@ -231,7 +211,7 @@ impl Default for PhotonMapping {
             cubemap_resolution: 256,
             cubemap_tile_size: 1,
             bins: 12,
-            iterations_per_frame: 1,
+            iterations_per_frame: IterationsPerFrame::default(),
             max_iterations: None,
             splat_russian_roulette: false,
             shadow_map_resolution: 512,
@@ -334,13 +314,19 @@ impl PhotonMapping {
             "kernel_flattening",
             &mut notes,
         );
-        clamp_u32(
-            &mut out.iterations_per_frame,
-            1,
-            1024,
-            "iterations_per_frame",
-            &mut notes,
-        );
+        match &mut out.iterations_per_frame {
+            IterationsPerFrame::Fixed(n) => clamp_u32(n, 1, 64, "iterations_per_frame", &mut notes),
+            IterationsPerFrame::GpuMilliseconds { milliseconds, max } => {
+                clamp_f32(
+                    milliseconds,
+                    0.1,
+                    60_000.0,
+                    "frame milliseconds",
+                    &mut notes,
+                );
+                clamp_u32(max, 1, 64, "iterations_per_frame max", &mut notes);
+            }
+        }
         clamp_u32(
             &mut out.shadow_map_resolution,
             16,
@@ -461,25 +447,36 @@ mod tests {
             alpha: f32::NAN,
             bins: 0,
             cubemap_resolution: 1 << 20,
-            iterations_per_frame: 0,
+            iterations_per_frame: IterationsPerFrame::GpuMilliseconds {
+                milliseconds: f32::INFINITY,
+                max: 0,
+            },
             ..default()
         };
         let (v, notes) = s.validated();
-        assert_eq!(notes.len(), 4, "{notes:?}");
+        assert_eq!(notes.len(), 5, "{notes:?}");
         assert!(v.alpha > 0.0 && v.alpha <= 1.0);
         assert_eq!(v.bins, 1);
         assert_eq!(v.cubemap_resolution, 4096);
-        assert_eq!(v.iterations_per_frame, 1);
+        assert_eq!(
+            v.iterations_per_frame,
+            IterationsPerFrame::GpuMilliseconds {
+                milliseconds: 60_000.0,
+                max: 1
+            }
+        );
     }
 
     #[test]
-    fn auto_traces_through_the_bvh_only_on_a_software_adapter() {
+    fn auto_traces_big_scenes_on_a_gpu_through_the_cubemap() {
         let auto = PhotonMapping::default().tracer;
         assert_eq!(auto, RppmTracer::Auto);
-        assert!(auto.uses_bvh(true) && !auto.uses_bvh(false));
+        let big = AUTO_BVH_TRIANGLES + 1;
+        assert!(auto.uses_bvh(true, big) && !auto.uses_bvh(false, big));
+        assert!(auto.uses_bvh(false, AUTO_BVH_TRIANGLES) && auto.uses_bvh(false, 24));
         for software in [true, false] {
-            assert!(RppmTracer::Bvh.uses_bvh(software));
-            assert!(!RppmTracer::DeepCubemap.uses_bvh(software));
+            assert!(RppmTracer::Bvh.uses_bvh(software, big));
+            assert!(!RppmTracer::DeepCubemap.uses_bvh(software, 24));
         }
     }
 }

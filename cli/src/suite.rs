@@ -249,6 +249,17 @@ fn path_tracer(
     Ok((spp, took, Score::of(&image, reference)?))
 }
 
+/// An error with three significant digits and at least four decimals (0.0160, 0.000412):
+/// a GPU's renders come within 10⁻⁴ of each other and of the references' own noise.
+pub fn three_digits(x: f64) -> String {
+    let decimals = if x > 0.0 && x.is_finite() {
+        (2 - x.log10().floor() as i32).clamp(4, 12) as usize
+    } else {
+        4
+    };
+    format!("{x:.decimals$}")
+}
+
 /// The table, in Markdown.
 pub fn table(rows: &[SuiteRow], seconds: f64) -> String {
     let mut out = format!(
@@ -260,19 +271,19 @@ pub fn table(rows: &[SuiteRow], seconds: f64) -> String {
             Some((spp, took, s)) => (
                 spp.to_string(),
                 format!("{took:.1}"),
-                format!("{:.4}", s.relmse),
+                three_digits(s.relmse),
                 format!("{:.2}", s.relmse / r.ours.relmse.max(1e-12)),
             ),
             None => ("–".into(), "–".into(), "–".into(), "–".into()),
         };
         out += &format!(
-            "| {} | {}×{} | {} | {} | {:.4} | {:.3} | {} | {spp} | {took} | {path} | {ratio} |\n",
+            "| {} | {}×{} | {} | {} | {} | {:.3} | {} | {spp} | {took} | {path} | {ratio} |\n",
             r.name,
             r.width,
             r.height,
             r.iterations,
             r.photons,
-            r.ours.relmse,
+            three_digits(r.ours.relmse),
             r.ours.energy_ratio,
             r.ours.bad_pixels
         );
@@ -299,5 +310,14 @@ mod tests {
         assert_eq!(blocks.energy[0][1], 1.5);
         assert_eq!(blocks.energy[1][1], 1.0);
         assert!(Blocks::of(&image, &reference, 5).is_err());
+    }
+
+    #[test]
+    fn errors_keep_three_digits() {
+        assert_eq!(three_digits(0.016), "0.0160");
+        assert_eq!(three_digits(0.000412), "0.000412");
+        assert_eq!(three_digits(1.49), "1.4900");
+        assert_eq!(three_digits(0.0), "0.0000");
+        assert_eq!(three_digits(f64::NAN), "NaN");
     }
 }

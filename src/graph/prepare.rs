@@ -226,17 +226,14 @@ pub(crate) fn prepare_views(
             continue; // a zero-sized target renders nothing; keep the state for when it returns
         };
         let settings = &rppm.settings;
-        // A state made anew below keeps the controller and the store's counts.
+        let (software, triangles) = (
+            adapter.device_type == wgpu::DeviceType::Cpu,
+            scene.triangle_count(),
+        );
+        // A state made anew below keeps the controllers and the store's counts.
         let (mut photon_count, iterations, store_fit, store_now) = existing
             .as_deref()
-            .map(|s| {
-                (
-                    s.photon_count,
-                    s.iterations,
-                    s.store_fit,
-                    s.key.photon_capacity,
-                )
-            })
+            .map(RppmViewState::kept)
             .unwrap_or_default();
         let photons =
             photon_count.count(device_photon_count(settings.photons_per_iteration, &device));
@@ -252,14 +249,10 @@ pub(crate) fn prepare_views(
             subsampling: settings.indirect_subsampling,
             history: settings.history.window().is_some(),
             // A hierarchy too large for this device's textures gives way to the cubemap.
-            bvh: settings.tracer.uses_bvh(
-                adapter.device_type == wgpu::DeviceType::Cpu,
-                scene.triangle_count() as usize,
-            ) && cubemap::bvh::fits(&device, scene.triangle_count()),
+            bvh: settings.tracer.uses_bvh(software, triangles as usize)
+                && cubemap::bvh::fits(&device, triangles),
             textured: scene.lookups.contains(Lookups::TEXTURED),
-            photons_per_lane: crate::photons::photons_per_lane(
-                adapter.device_type == wgpu::DeviceType::Cpu,
-            ),
+            photons_per_lane: crate::photons::photons_per_lane(software),
         };
         let fresh = |pipelines: &Pipelines, textures: &mut TextureCache| {
             RppmViewState::new(

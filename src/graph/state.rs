@@ -151,6 +151,17 @@ pub struct StagePipelines<'a> {
 }
 
 impl RppmViewState {
+    /// What a state made anew for the view keeps: the controllers and the store's counts.
+    pub fn kept(&self) -> (PhotonController, IterationController, StoreFit, u32) {
+        let key = &self.key;
+        (
+            self.photon_count,
+            self.iterations,
+            self.store_fit,
+            key.photon_capacity,
+        )
+    }
+
     /// Invocations that trace this frame's photons, each taking `photons_per_lane` in turn.
     pub fn photon_lanes(&self) -> u32 {
         self.photons.div_ceil(self.key.photons_per_lane)

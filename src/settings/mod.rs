@@ -70,8 +70,9 @@ impl RppmHistory {
 }
 
 /// The most triangles for which [`RppmTracer::Auto`] builds a BVH on a GPU: its CPU build
-/// (about 5 ms at 10⁴ triangles on two cores, linear in them) stays a few of the deep
-/// cubemap's GPU builds, which every iteration pays, even where the scene changes every frame.
+/// (about 5 ms at 10⁴ triangles on two cores, linear in them; a move refits what moved) stays
+/// within a few of the deep cubemap's GPU builds, which every iteration pays, even where
+/// every mesh deforms every frame.
 pub const AUTO_BVH_TRIANGLES: usize = 1 << 15;
 
 /// What traces the rays of photons, camera paths and shadows. Both are exact: they find the

@@ -53,9 +53,11 @@ pub enum RppmHistory {
     /// history (an exponential window) for `iterations` more iterations. After a camera move
     /// the history is reprojected to where each pixel's surface was, and dropped where the
     /// pixel sees another surface (disocclusion). After a change in the scene, indirect light
-    /// is clamped to mean ± σ of this iteration's samples around the pixel, so a caustic that
-    /// moved does not linger, and direct light starts again (shadows follow at once). A still
-    /// scene converges as with `Reset`. Range of `iterations` 1..=1024.
+    /// is clamped to mean ± σ of the neighbouring pixels' means since the change, so a caustic
+    /// that moved does not linger, and direct light starts again (shadows follow at once). A
+    /// still scene converges as with `Reset`. The window counts iterations, not frames: with
+    /// several a frame ([`IterationsPerFrame`]) it spans fewer frames. Range of `iterations`
+    /// 1..=1024.
     Reuse { iterations: u32 },
 }
 

@@ -54,8 +54,8 @@ pub struct ReadmeDoctests;
 pub use ppm::{next_radius2, radius2_after};
 pub use scene::{RppmScene, RppmSky, SceneData};
 pub use settings::{
-    AUTO_BVH_TRIANGLES, IterationsPerFrame, PhotonCount, PhotonMapping, RppmDebugView,
-    RppmFastForward, RppmHistory, RppmMode, RppmPreset, RppmReadback, RppmTracer, ViewEpoch,
+    IterationsPerFrame, PhotonCount, PhotonMapping, RppmDebugView, RppmFastForward, RppmHistory,
+    RppmMode, RppmPreset, RppmReadback, RppmTracer, ViewEpoch,
 };
 pub use stats::{RadianceImage, RppmRadiance, RppmStats, ViewStats};
 

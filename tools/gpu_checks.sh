@@ -95,7 +95,7 @@ run() {
             grep fps | tee "$out/pool.txt"
     fi
     if want 6; then
-        log "6. stage times under the BVH (RppmTracer::Auto's choice up to 32 768 triangles)"
+        log "6. stage times under the BVH (RppmTracer::Auto's choice)"
         RPPM=$b/rppm ITERATIONS=16 tools/stage_times.sh /tmp/gpu_stages_bvh assets/suite/*.gltf \
             .gpu/shared/*.gltf -- --tracer bvh >"$out/stage_times_bvh.md" 2>&1
         cat "$out/stage_times_bvh.md"

@@ -96,8 +96,7 @@ pub struct SuiteArgs {
     /// Only our renders, without Mitsuba.
     #[arg(long)]
     pub no_path_tracer: bool,
-    /// What traces our rays (default: auto, the BVH on a software adapter and for scenes of up
-    /// to 32 768 triangles on a GPU).
+    /// What traces our rays (default: auto, today the BVH).
     #[arg(long, value_enum, default_value_t = Tracer::Auto)]
     pub tracer: Tracer,
     /// GPU milliseconds a frame's iterations may take together: on a fast GPU several
@@ -283,8 +282,8 @@ pub struct RenderArgs {
     /// seeds are independent.
     #[arg(long, default_value_t = 0)]
     pub seed: u32,
-    /// What traces the rays (default: auto, the BVH on a software adapter and for scenes of up
-    /// to 32 768 triangles on a GPU, else the deep cubemap).
+    /// What traces the rays (default: auto, today the BVH; the deep cubemap where the
+    /// hierarchy is too big for the device).
     #[arg(long, value_enum, default_value_t = Tracer::Auto)]
     pub tracer: Tracer,
     /// Pose the scene by its glTF animation of this index (skins, morph weights, nodes).

@@ -249,8 +249,7 @@ pub(crate) fn prepare_views(
             subsampling: settings.indirect_subsampling,
             history: settings.history.window().is_some(),
             // A hierarchy too large for this device's textures gives way to the cubemap.
-            bvh: settings.tracer.uses_bvh(software, triangles as usize)
-                && cubemap::bvh::fits(&device, triangles),
+            bvh: settings.tracer.uses_bvh() && cubemap::bvh::fits(&device, triangles),
             textured: scene.lookups.contains(Lookups::TEXTURED),
             photons_per_lane: crate::photons::photons_per_lane(software),
         };

@@ -99,11 +99,8 @@ pub struct SuiteArgs {
     /// What traces our rays (default: auto, today the BVH).
     #[arg(long, value_enum, default_value_t = Tracer::Auto)]
     pub tracer: Tracer,
-    /// GPU milliseconds a frame's iterations may take together: on a fast GPU several
-    /// iterations run a frame instead of each waiting on a frame's CPU work and read-back
-    /// (a software adapter, whose iterations are slower, runs one). 0: one a frame.
-    #[arg(long, default_value_t = FRAME_MS, value_parser = non_negative_number)]
-    pub frame_ms: f32,
+    #[command(flatten)]
+    pub frame: FrameArgs,
     /// Mitsuba's variant (`llvm_ad_rgb`, the fastest on a CPU, needs an LLVM that drjit accepts:
     /// `tools/reference.py` falls back to `scalar_rgb` without one).
     #[arg(long, default_value = "llvm_ad_rgb")]
@@ -236,11 +233,8 @@ pub struct RenderArgs {
     /// this many milliseconds (at most `--photons`, else 262 144).
     #[arg(long, value_parser = positive_number)]
     pub iteration_ms: Option<f32>,
-    /// GPU milliseconds a frame's iterations may take together: on a fast GPU several
-    /// iterations run a frame instead of each waiting on a frame's CPU work and read-back
-    /// (a software adapter, whose iterations are slower, runs one). 0: one a frame.
-    #[arg(long, default_value_t = FRAME_MS, value_parser = non_negative_number)]
-    pub frame_ms: f32,
+    #[command(flatten)]
+    pub frame: FrameArgs,
     /// Bounces a photon may take.
     #[arg(long)]
     pub photon_depth: Option<u32>,
@@ -365,18 +359,28 @@ fn non_negative_number(text: &str) -> Result<f32, String> {
     }
 }
 
-/// The default of `--frame-ms`: a frame of this many GPU milliseconds of iterations.
-pub const FRAME_MS: f32 = 25.0;
+/// How many iterations a frame runs, for `render` and `bench suite`.
+#[derive(Args)]
+pub struct FrameArgs {
+    /// GPU milliseconds a frame's iterations may take together: on a fast GPU several
+    /// iterations run a frame instead of each waiting on a frame's CPU work and read-back
+    /// (a software adapter, whose iterations are slower, runs one). 0: one a frame.
+    #[arg(long, default_value_t = 25.0, value_parser = non_negative_number)]
+    pub frame_ms: f32,
+}
 
-/// `--frame-ms`: iterations a frame fitted to `ms` of GPU time (up to 64), or one (0).
-pub fn frame_budget(ms: f32) -> IterationsPerFrame {
-    if ms > 0.0 {
-        IterationsPerFrame::GpuMilliseconds {
-            milliseconds: ms,
-            max: 64,
+impl FrameArgs {
+    /// Iterations a frame fitted to `--frame-ms` of GPU time (up to the most a frame runs),
+    /// or one (0).
+    pub fn iterations_per_frame(&self) -> IterationsPerFrame {
+        if self.frame_ms > 0.0 {
+            IterationsPerFrame::GpuMilliseconds {
+                milliseconds: self.frame_ms,
+                max: IterationsPerFrame::MOST,
+            }
+        } else {
+            IterationsPerFrame::Fixed(1)
         }
-    } else {
-        IterationsPerFrame::Fixed(1)
     }
 }
 
@@ -447,7 +451,7 @@ impl RenderArgs {
         s.profile_stages |= self.profile;
         s.seed = self.seed;
         s.tracer = self.tracer.into();
-        s.iterations_per_frame = frame_budget(self.frame_ms);
+        s.iterations_per_frame = self.frame.iterations_per_frame();
         if let Some(view) = self.debug_view {
             s.debug_view = match view {
                 DebugView::GbufferNormals => RppmDebugView::GBufferNormals,

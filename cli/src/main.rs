@@ -403,7 +403,7 @@ fn suite(args: &SuiteArgs) -> Result<()> {
         eprintln!("rppm: {} ({} s each)", scene.name, args.budget);
         let settings = PhotonMapping {
             tracer: args.tracer.into(),
-            iterations_per_frame: args::frame_budget(args.frame_ms),
+            iterations_per_frame: args.frame.iterations_per_frame(),
             ..PhotonMapping::default()
         };
         rows.push(run_scene(

@@ -137,13 +137,19 @@ pub(crate) fn report_views(
                 );
             }
             let setting = rppm.map_or(default(), |r| r.settings.iterations_per_frame);
-            state.iterations.observe(
+            let before = state.iterations.count;
+            if state.iterations.observe(
                 setting,
                 cost.ms.iter().sum(),
                 cost.work.iterations,
                 cost.wall_ms_per_iteration,
                 adapter.device_type == wgpu::DeviceType::Cpu,
-            );
+            ) {
+                debug!(
+                    "bevy_rppm: {} iterations a frame (was {before}, {:.2} ms an iteration)",
+                    state.iterations.count, state.iterations.ms
+                );
+            }
         }
         if waiting && let Some(bytes) = read_back(&device, &queue, &state.estimate.radiance) {
             let pixels = bytemuck::cast_slice(&bytes).to_vec();

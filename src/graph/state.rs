@@ -153,13 +153,8 @@ pub struct StagePipelines<'a> {
 impl RppmViewState {
     /// What a state made anew for the view keeps: the controllers and the store's counts.
     pub fn kept(&self) -> (PhotonController, IterationController, StoreFit, u32) {
-        let key = &self.key;
-        (
-            self.photon_count,
-            self.iterations,
-            self.store_fit,
-            key.photon_capacity,
-        )
+        let (photons, store) = (self.photon_count, self.store_fit);
+        (photons, self.iterations, store, self.key.photon_capacity)
     }
 
     /// Invocations that trace this frame's photons, each taking `photons_per_lane` in turn.

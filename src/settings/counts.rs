@@ -40,10 +40,10 @@ impl PhotonCount {
 #[derive(Reflect, Clone, Copy, Debug, PartialEq)]
 #[reflect(Default, Clone, PartialEq)]
 pub enum IterationsPerFrame {
-    /// Exactly this many (range 1..=64; default 1).
+    /// Exactly this many (range 1..=[`Self::MOST`], 64; default 1).
     Fixed(u32),
     /// As many as keep a frame's GPU time, all stages by timestamps, near `milliseconds`
-    /// (range 0.1..=60 000), between 1 and `max` (range 1..=64): a game's GI budget a frame,
+    /// (range 0.1..=60 000), between 1 and `max` (range 1..=[`Self::MOST`]): a game's GI budget a frame,
     /// or a fast GPU kept busy while the CPU prepares the next frame (an iteration of a few
     /// milliseconds otherwise waits on a frame's CPU work). On a software adapter the
     /// wall-clock time of an iteration counts too (its timestamps see part of the work).
@@ -58,6 +58,10 @@ impl Default for IterationsPerFrame {
 }
 
 impl IterationsPerFrame {
+    /// The most iterations any frame runs: a frame's timestamp queries hold about this many
+    /// iterations' passes.
+    pub const MOST: u32 = 64;
+
     /// The most iterations a frame may run.
     pub fn max(self) -> u32 {
         match self {

@@ -310,7 +310,13 @@ impl PhotonMapping {
             &mut notes,
         );
         match &mut out.iterations_per_frame {
-            IterationsPerFrame::Fixed(n) => clamp_u32(n, 1, 64, "iterations_per_frame", &mut notes),
+            IterationsPerFrame::Fixed(n) => clamp_u32(
+                n,
+                1,
+                IterationsPerFrame::MOST,
+                "iterations_per_frame",
+                &mut notes,
+            ),
             IterationsPerFrame::GpuMilliseconds { milliseconds, max } => {
                 clamp_f32(
                     milliseconds,
@@ -319,7 +325,8 @@ impl PhotonMapping {
                     "frame milliseconds",
                     &mut notes,
                 );
-                clamp_u32(max, 1, 64, "iterations_per_frame max", &mut notes);
+                let most = IterationsPerFrame::MOST;
+                clamp_u32(max, 1, most, "iterations_per_frame max", &mut notes);
             }
         }
         clamp_u32(

@@ -10,7 +10,9 @@
 #     3. the pool example headless at 1280×720, frames per second;
 #     4. `rppm bench suite` against Mitsuba's CUDA path tracer on SUB, BUDGET s each;
 #     5. ours alone on REST;
-#     6. (after 3) the stage times again under the BVH, to check RppmTracer::Auto's choice.
+#     6. (after 3) the stage times again under the BVH, to check RppmTracer::Auto's choice;
+#     7. `rppm bench motion` (Reset against Reuse) on the pool's waves, a slide, an orbit, a
+#        moving light and the fox, at k iterations a frame and window w (MOTION: name:k:w …).
 #   STEPS (default "2 3 6 4 5"), SUB, REST, BUDGET (4) and LIMIT (seconds, 560) trim it; each
 #   step is skipped when the time left would not hold it. Results: $OUT/{stage_times,suite}.md,
 #   pool.txt, log.txt. The numbers of 2026-11-26 are in the README's GPU section.
@@ -30,22 +32,29 @@ pack() {
     tar -C /tmp -cf - rppm.s pool.s | xz --lzma2=preset=6,dict=192MiB -T1 >.gpu/bins.tar.xz
     # Mitsuba for the machine's Python 3.12, without the variants and plugins no suite scene
     # uses (the wheel is 63 MB, the checkout's carry limit 64 MiB).
-    rm -rf $mi && mkdir -p $mi/whl
-    python3 -m pip download -q --no-deps --only-binary=:all: --python-version 3.12 \
-        --implementation cp --platform manylinux_2_28_x86_64 -d $mi/whl mitsuba==3.9.1 drjit==1.5.0
-    (cd $mi && for w in whl/*.whl; do unzip -q -o "$w"; done && rm -rf whl share \
-        mitsuba/{include,cmake,pkgconfig,mitsuba_stubs} drjit/include mitsuba/data/{sunsky,srgb.coeff} \
-        mitsuba/llvm_* mitsuba/cuda_ad_{mono,spectral}* mitsuba/scalar_{mono,spectral}* &&
-        find . -name '*.pyi' -delete)
-    for p in aov batch blackbody blender blendphase bumpmap catmullrom checkerboard circular depth \
-        direct directionalarea distant gridvolume hair heterogeneous instance irradiancemeter \
-        irregular lanczos ldsampler measured measured_polarized mitchell moment multijitter \
-        orthogonal plastic polarizer pplastic principled principledthin projector radiancemeter \
-        rawconstant rayleigh retarder roughplastic sggx shapegroup specfilm stokes stratified \
-        sunsky tabphase thinlens volpathmis ellipsoids ellipsoidsmesh bsplinecurve linearcurve \
-        sdfgrid timed_sunsky volprim_rf_basic; do rm -f $mi/mitsuba/plugins/$p.so; done
-    tar -C $mi -cf - . | xz --lzma2=preset=6,dict=64MiB -T1 >.gpu/mi.tar.xz
+    # (kept from an earlier pack: the same pinned versions)
+    if [ ! -f .gpu/mi.tar.xz ]; then
+        rm -rf $mi && mkdir -p $mi/whl
+        python3 -m pip download -q --no-deps --only-binary=:all: --python-version 3.12 \
+            --implementation cp --platform manylinux_2_28_x86_64 -d $mi/whl mitsuba==3.9.1 drjit==1.5.0
+        (cd $mi && for w in whl/*.whl; do unzip -q -o "$w"; done && rm -rf whl share \
+            mitsuba/{include,cmake,pkgconfig,mitsuba_stubs} drjit/include mitsuba/data/{sunsky,srgb.coeff} \
+            mitsuba/llvm_* mitsuba/cuda_ad_{mono,spectral}* mitsuba/scalar_{mono,spectral}* &&
+            find . -name '*.pyi' -delete)
+        for p in aov batch blackbody blender blendphase bumpmap catmullrom checkerboard circular depth \
+            direct directionalarea distant gridvolume hair heterogeneous instance irradiancemeter \
+            irregular lanczos ldsampler measured measured_polarized mitchell moment multijitter \
+            orthogonal plastic polarizer pplastic principled principledthin projector radiancemeter \
+            rawconstant rayleigh retarder roughplastic sggx shapegroup specfilm stokes stratified \
+            sunsky tabphase thinlens volpathmis ellipsoids ellipsoidsmesh bsplinecurve linearcurve \
+            sdfgrid timed_sunsky volprim_rf_basic; do rm -f $mi/mitsuba/plugins/$p.so; done
+        tar -C $mi -cf - . | xz --lzma2=preset=6,dict=64MiB -T1 >.gpu/mi.tar.xz
+    fi
     cp ../shared/scenes/*.gltf ../shared/scenes/*.ref.exr .gpu/shared/
+    # Step 7's animations: the pool's waves and the staged fox.
+    mkdir -p .gpu/motion /tmp/gpu_fox && cp assets/fox/Fox.glb /tmp/gpu_fox/
+    python3 tools/pool.py .gpu/motion/pool.gltf
+    python3 tools/stage.py /tmp/gpu_fox/Fox.glb .gpu/motion/fox/staged.gltf
     local o="-oAPT::Architecture=amd64 -oAPT::Architectures=amd64 -oDir::State::Lists=/tmp/gpu_apt"
     mkdir -p /tmp/gpu_apt/partial && apt-get $o update -qq
     # The NVIDIA ICD (libGLX_nvidia) needs glvnd's dispatch libraries, absent on some machines.
@@ -99,6 +108,38 @@ run() {
         RPPM=$b/rppm ITERATIONS=16 tools/stage_times.sh /tmp/gpu_stages_bvh assets/suite/*.gltf \
             .gpu/shared/*.gltf -- --tracer bvh >"$out/stage_times_bvh.md" 2>&1
         cat "$out/stage_times_bvh.md"
+    fi
+    if want 7; then
+        log "7. motion: Reset against Reuse, iterations a frame (k) and windows (w)"
+        mkdir -p "$out/motion"
+        local m=.gpu/motion small="--width 96 --height 96 --photons 32768 --frames 48"
+        motion() { # name, k, w, scene and flags
+            local name=$1 k=$2 w=$3
+            shift 3
+            [ "$(left)" -lt 40 ] && { echo "skip $name k$k w$w: time"; return; }
+            local dir=/tmp/gpu_motion/$name.k$k.w$w
+            echo "--- $name, $k iterations a frame, window $w"
+            timeout 90 $b/rppm.s bench motion "$@" --iterations-per-frame "$k" --window "$w" \
+                --every 8 --reference-iterations 64 --out $dir >$dir.log 2>&1 || tail -3 $dir.log
+            grep -v WARN $dir.log | tail -6
+            for f in $dir/*.csv; do cp "$f" "$out/motion/$name.k$k.w$w.$(basename "$f")"; done
+        }
+        mkdir -p /tmp/gpu_motion
+        local run
+        for run in ${MOTION:-pool:1:8 pool:4:8 pool:4:32 pool:8:8 pool:8:64 slide:4:8 orbit:4:8 \
+            light:4:8 fox:4:8 slide:4:32 orbit:4:32 light:4:32 fox:4:32}; do
+            IFS=: read -r name k w <<<"$run"
+            case $name in
+            pool) motion pool "$k" "$w" $m/pool.gltf --script animation --width 128 --height 96 \
+                --photons 32768 --frames 32 ;;
+            slide) motion slide "$k" "$w" .gpu/shared/cornell_point.gltf --script slide \
+                --object tall_box $small ;;
+            orbit) motion orbit "$k" "$w" assets/cornell_box.gltf --script orbit $small ;;
+            light) motion light "$k" "$w" assets/cornell_box.gltf --script light $small ;;
+            fox) motion fox "$k" "$w" $m/fox/staged.gltf --script animation --animation 1 \
+                --width 96 --height 96 --photons 32768 --frames 32 ;;
+            esac
+        done
     fi
     wait $unpacking
     export PYTHONPATH=/tmp/gpu_mitsuba

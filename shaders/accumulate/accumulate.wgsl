@@ -37,10 +37,12 @@ const RELIT: u32 = 16u;
 
 // Bits of a surface's marker byte (0: no surface): a surface, on a triangle that moved in
 // this frame's placement, emitting (its emissive factor, a texture only scales it, seen from
-// the front).
+// the front); and, of a kept one, that the pixel's history holds samples of another surface
+// too (an edge its jitter crossed: empty pixels keep this bit alone).
 const KEPT: u32 = 0x80u;
 const KEPT_MOVING: u32 = 1u;
 const KEPT_EMITTING: u32 = 2u;
+const KEPT_MIXED: u32 = 4u;
 
 // The marker byte of the surface at a G-buffer texel, from one read of its triangle.
 fn surface_marks(position: vec4<f32>) -> u32 {
@@ -65,7 +67,12 @@ fn emitting(marks: u32) -> bool {
 // A G-buffer texel as kept in `surface`: position, and the normal packed with its marker byte.
 fn packed_surface(position: vec4<f32>, normal: vec3<f32>, marks: u32) -> vec4<f32> {
     let packed = (pack4x8snorm(vec4<f32>(normal, 0.0)) & 0x00ffffffu) | (marks << 24u);
-    return vec4<f32>(position.xyz, bitcast<f32>(select(0u, packed, position.w != 0.0)));
+    return vec4<f32>(position.xyz, bitcast<f32>(select(marks << 24u, packed, position.w != 0.0)));
+}
+
+// Whether a kept history holds samples of more than one surface.
+fn mixed_surface(kept: vec4<f32>) -> bool {
+    return ((bitcast<u32>(kept.w) >> 24u) & KEPT_MIXED) != 0u;
 }
 
 // Whether a kept surface was on a moving object.
@@ -80,7 +87,7 @@ fn moved_surface(kept: vec4<f32>) -> bool {
 // object's pixels start again.
 fn same_surface(kept: vec4<f32>, position: vec4<f32>, normal: vec4<f32>, marks: u32) -> bool {
     let packed = bitcast<u32>(kept.w);
-    let had = (packed >> 24u) != 0u;
+    let had = ((packed >> 24u) & KEPT) != 0u;
     if !had || position.w == 0.0 {
         return had == (position.w != 0.0);
     }
@@ -361,8 +368,11 @@ fn main(
         // Under a camera move glossy metal's history (a highlight where it was) is no history
         // of this view.
         var kept_here: bool;
+        // A history of several surfaces (a silhouette's pixel, its jitter on both sides)
+        // would carry one's light onto the other as the silhouette moves.
         if reprojecting {
-            kept_here = same_surface(kept_surface, position, normal, marks) && (shown & SHOWS_BLURRED) == 0u;
+            kept_here = same_surface(kept_surface, position, normal, marks)
+                && !mixed_surface(kept_surface) && (shown & SHOWS_BLURRED) == 0u;
         } else {
             kept_here = surface_nearby(kept_surface, id.xy);
         }
@@ -409,7 +419,10 @@ fn main(
     kept_direct.w = select(min(kept_direct.w, f32(params.history_cap)), kept_direct.w, near_emitter);
     indirect += (indirect_sample - indirect) / (kept.w + 1.0);
     direct += (direct_sample - direct) / (kept_direct.w + 1.0);
-    history[index] = packed_surface(position, normal.xyz, marks);
+    // Samples of another surface than the last one's mix the history (jitter across an edge).
+    let held = kept.w > 0.0;
+    let mixed = held && (mixed_surface(kept_surface) || !same_surface(kept_surface, position, normal, marks));
+    history[index] = packed_surface(position, normal.xyz, marks | select(0u, KEPT_MIXED, mixed));
     history[pixels + index] = vec4<f32>(direct, kept_direct.w + 1.0);
     history[2u * pixels + index] = fresh_after(history[2u * pixels + index], indirect_sample);
     radiance[index] = vec4<f32>(direct + indirect, kept.w + 1.0);

@@ -12,7 +12,8 @@
 #     5. ours alone on REST;
 #     6. (after 3) the stage times again under the BVH, to check RppmTracer::Auto's choice;
 #     7. `rppm bench motion` (Reset against Reuse) on the pool's waves, a slide, an orbit, a
-#        moving light and the fox, at k iterations a frame and window w (MOTION: name:k:w …).
+#        moving light and the fox, at k iterations a frame, window w and seed s (MOTION:
+#        name:k:w[:s] …; rows of every run in motion.csv).
 #   STEPS (default "2 3 6 4 5"), SUB, REST, BUDGET (4) and LIMIT (seconds, 560) trim it; each
 #   step is skipped when the time left would not hold it. Results: $OUT/{stage_times,suite}.md,
 #   pool.txt, log.txt. The numbers of 2026-11-26 are in the README's GPU section.
@@ -111,32 +112,35 @@ run() {
     fi
     if want 7; then
         log "7. motion: Reset against Reuse, iterations a frame (k) and windows (w)"
-        mkdir -p "$out/motion"
         local m=.gpu/motion small="--width 96 --height 96 --photons 32768 --frames 48"
-        motion() { # name, k, w, scene and flags
-            local name=$1 k=$2 w=$3
-            shift 3
-            [ "$(left)" -lt 40 ] && { echo "skip $name k$k w$w: time"; return; }
-            local dir=/tmp/gpu_motion/$name.k$k.w$w
-            echo "--- $name, $k iterations a frame, window $w"
+        motion() { # name, k, w, seed, scene and flags
+            local name=$1 k=$2 w=$3 seed=$4
+            shift 4
+            [ "$(left)" -lt 40 ] && { echo "skip $name k$k w$w s$seed: time"; return; }
+            local dir=/tmp/gpu_motion/$name.k$k.w$w.s$seed
+            echo "--- $name, $k iterations a frame, window $w, seed $seed"
             timeout 90 $b/rppm.s bench motion "$@" --iterations-per-frame "$k" --window "$w" \
-                --every 8 --reference-iterations 64 --out $dir >$dir.log 2>&1 || tail -3 $dir.log
-            grep -v WARN $dir.log | tail -6
-            for f in $dir/*.csv; do cp "$f" "$out/motion/$name.k$k.w$w.$(basename "$f")"; done
+                --seed "$seed" --every 8 --reference-iterations 64 --out $dir >$dir.log 2>&1 ||
+                tail -3 $dir.log
+            grep -v WARN $dir.log | grep -E "mean relMSE|lag"
+            # One file of each run's rows (the tool brings back few files).
+            for f in $dir/*.csv; do sed "s|^|$name,$k,$w,$seed,$(basename "$f" .csv),|" "$f"; done \
+                >>"$out/motion.csv"
         }
         mkdir -p /tmp/gpu_motion
         local run
         for run in ${MOTION:-pool:1:8 pool:4:8 pool:4:32 pool:8:8 pool:8:64 slide:4:8 orbit:4:8 \
             light:4:8 fox:4:8 slide:4:32 orbit:4:32 light:4:32 fox:4:32}; do
-            IFS=: read -r name k w <<<"$run"
+            IFS=: read -r name k w seed <<<"$run"
+            set -- "$k" "$w" "${seed:-0}"
             case $name in
-            pool) motion pool "$k" "$w" $m/pool.gltf --script animation --width 128 --height 96 \
+            pool) motion pool "$@" $m/pool.gltf --script animation --width 128 --height 96 \
                 --photons 32768 --frames 32 ;;
-            slide) motion slide "$k" "$w" .gpu/shared/cornell_point.gltf --script slide \
+            slide) motion slide "$@" .gpu/shared/cornell_point.gltf --script slide \
                 --object tall_box $small ;;
-            orbit) motion orbit "$k" "$w" assets/cornell_box.gltf --script orbit $small ;;
-            light) motion light "$k" "$w" assets/cornell_box.gltf --script light $small ;;
-            fox) motion fox "$k" "$w" $m/fox/staged.gltf --script animation --animation 1 \
+            orbit) motion orbit "$@" assets/cornell_box.gltf --script orbit $small ;;
+            light) motion light "$@" assets/cornell_box.gltf --script light $small ;;
+            fox) motion fox "$@" $m/fox/staged.gltf --script animation --animation 1 \
                 --width 96 --height 96 --photons 32768 --frames 32 ;;
             esac
         done

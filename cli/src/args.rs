@@ -157,6 +157,9 @@ pub struct MotionArgs {
     /// `Reuse`'s history window (iterations).
     #[arg(long, default_value_t = 8, value_parser = clap::value_parser!(u32).range(1..=1024))]
     pub window: u32,
+    /// The runs' random numbers (`PhotonMapping::seed`; the references draw the next seed's).
+    #[arg(long, default_value_t = 0)]
+    pub seed: u32,
     /// Iterations of each converged frozen frame.
     #[arg(long, default_value_t = 256, value_parser = clap::value_parser!(u32).range(1..))]
     pub reference_iterations: u32,

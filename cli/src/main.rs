@@ -445,6 +445,7 @@ fn motion(args: &MotionArgs) -> Result<()> {
         settings: PhotonMapping {
             photons_per_iteration: PhotonCount::Fixed(args.photons),
             iterations_per_frame: IterationsPerFrame::Fixed(args.iterations_per_frame),
+            seed: args.seed,
             ..PhotonMapping::default()
         },
         window: args.window,

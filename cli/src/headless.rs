@@ -211,6 +211,8 @@ pub fn load_gltf_with(scene: &Path, access: Access) -> Result<App, String> {
         .world()
         .resource::<AssetServer>()
         .load(GltfAssetLabel::Scene(0).from_asset(file.clone()));
+    let gltf = app.world().resource::<AssetServer>().load(file.clone());
+    app.insert_resource(LoadedGltf(gltf));
     let root_entity = app.world_mut().spawn(WorldAssetRoot(handle.clone())).id();
     app.world_mut().entity_mut(root_entity).observe(
         |_: On<WorldInstanceReady>, mut commands: Commands| {
@@ -370,6 +372,12 @@ const DEFAULT_FOV: f32 = std::f32::consts::FRAC_PI_4;
 
 #[derive(Resource)]
 struct SceneReady;
+
+/// The loaded glTF itself, held so that a later request for it (its animations) finds it
+/// loaded: without a handle alive it would be loaded again, and the scene's instance spawned
+/// anew from the second load, undoing a pose set meanwhile.
+#[derive(Resource)]
+pub struct LoadedGltf(pub Handle<bevy::gltf::Gltf>);
 
 /// Renders from the scene's first camera, or from a default one: 45° vertical field of view,
 /// on the +Z side of the scene's bounds, looking down −Z at their centre, with the request's

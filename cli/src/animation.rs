@@ -13,32 +13,18 @@ pub struct Posed {
     /// The clip's name (or `#index`).
     pub name: String,
     node: AnimationNodeIndex,
-    graph: Handle<AnimationGraph>,
     /// The clip's length in seconds (0: unknown).
     duration: f32,
 }
 
 impl Posed {
     /// Holds every player at `seconds`, wrapped into the clip (a player would hold its end).
-    /// A player without this clip's graph gets it: the scene spawner may have spawned the
-    /// scene's instance anew since (seen on a busy machine), players and joints as loaded.
     pub fn seek(&self, app: &mut App, seconds: f32) {
         let seconds = self.wrapped(seconds);
         let world = app.world_mut();
-        let mut players =
-            world.query::<(Entity, &mut AnimationPlayer, Option<&AnimationGraphHandle>)>();
-        let mut without = Vec::new();
-        for (entity, mut player, graph) in players.iter_mut(world) {
-            if graph.is_none_or(|g| g.0 != self.graph) {
-                player.stop_all();
-                without.push(entity);
-            }
+        let mut players = world.query::<&mut AnimationPlayer>();
+        for mut player in players.iter_mut(world) {
             player.play(self.node).seek_to(seconds).pause();
-        }
-        for entity in without {
-            world
-                .entity_mut(entity)
-                .insert(AnimationGraphHandle(self.graph.clone()));
         }
     }
 
@@ -50,13 +36,13 @@ impl Posed {
         }
     }
 
-    /// Whether every player holds this clip's graph, paused at `seconds`.
-    fn holds(&self, app: &mut App, seconds: f32) -> bool {
+    /// Whether every player holds `graph`, paused at `seconds`.
+    fn holds(&self, app: &mut App, graph: &Handle<AnimationGraph>, seconds: f32) -> bool {
         let seconds = self.wrapped(seconds);
         let world = app.world_mut();
         let mut players = world.query::<(&AnimationPlayer, Option<&AnimationGraphHandle>)>();
-        players.iter(world).all(|(player, graph)| {
-            graph.is_some_and(|g| g.0 == self.graph)
+        players.iter(world).all(|(player, handle)| {
+            handle.is_some_and(|h| h.0 == *graph)
                 && player
                     .animation(self.node)
                     .is_some_and(|a| a.is_paused() && a.seek_time() == seconds)
@@ -134,48 +120,47 @@ pub fn pose(app: &mut App, scene: &Path, index: usize, seconds: f32) -> Result<P
         .resource_mut::<Assets<AnimationGraph>>()
         .add(graph);
     let world = app.world_mut();
-    if world
-        .query::<&AnimationPlayer>()
-        .iter(world)
-        .next()
-        .is_none()
-    {
+    let mut players = world.query::<(Entity, &mut AnimationPlayer)>();
+    let entities: Vec<Entity> = players.iter(world).map(|(e, _)| e).collect();
+    if entities.is_empty() {
         return Err(format!("{} has no animated nodes", scene.display()));
+    }
+    for entity in entities {
+        world.get_mut::<AnimationPlayer>(entity).unwrap().stop_all();
+        world
+            .entity_mut(entity)
+            .insert(AnimationGraphHandle(graph.clone()));
     }
     let posed = Posed {
         name: clip.1,
         node,
-        graph,
         duration,
     };
+    let mut epoch = app.world().resource::<RppmScene>().epoch;
+    posed.seek(app, seconds);
     // The pose reaches the transforms, and extraction sees it, within a few updates; more
     // where the clip's asset comes a little after the glTF's (a busy machine). Another change
     // (a texture arriving) may move the scene first, so the scene must move and then hold.
-    // On a busy machine the scene's instance was seen spawned anew after the pose was set
-    // (players without it, joints as loaded): then it is set again.
-    for _ in 0..10 {
-        let mut epoch = app.world().resource::<RppmScene>().epoch;
-        posed.seek(app, seconds);
-        let mut held = None;
-        for _ in 0..60 {
-            app.update();
-            let now = app.world().resource::<RppmScene>().epoch;
-            if now != epoch {
-                epoch = now;
-                held = Some(0);
-            } else if let Some(updates) = held.as_mut() {
-                *updates += 1;
-                if *updates == 3 {
-                    break;
-                }
+    let mut held = None;
+    for _ in 0..60 {
+        app.update();
+        let now = app.world().resource::<RppmScene>().epoch;
+        if now != epoch {
+            epoch = now;
+            held = Some(0);
+        } else if let Some(updates) = held.as_mut() {
+            *updates += 1;
+            if *updates == 3 {
+                break;
             }
         }
-        if posed.holds(app, seconds) {
-            return Ok(posed);
-        }
     }
-    Err(format!(
-        "{}'s animation {index} would not hold its pose at {seconds} s",
-        scene.display()
-    ))
+    // A scene instance spawned anew meanwhile (the file loaded again) would have undone it.
+    if !posed.holds(app, &graph, seconds) {
+        return Err(format!(
+            "{}'s animation {index} did not hold its pose at {seconds} s",
+            scene.display()
+        ));
+    }
+    Ok(posed)
 }

@@ -364,12 +364,11 @@ fn main(
         }
         // A still camera's jitter moves a pixel's samples across an edge, where a neighbour
         // that sees the kept surface keeps the pixel's history (its coverage). Under a
-        // camera move the samples keep one sub-pixel position: the pixel's own test.
-        // Under a camera move glossy metal's history (a highlight where it was) is no history
-        // of this view.
+        // camera move each frame starts the jitter again: the pixel's own test, and a history
+        // of several surfaces (a silhouette's pixel, a frame's samples on both sides) is
+        // dropped, as it would carry one's light onto the other as the silhouette moves.
+        // Glossy metal's history (a highlight where it was) is no history of this view.
         var kept_here: bool;
-        // A history of several surfaces (a silhouette's pixel, its jitter on both sides)
-        // would carry one's light onto the other as the silhouette moves.
         if reprojecting {
             kept_here = same_surface(kept_surface, position, normal, marks)
                 && !mixed_surface(kept_surface) && (shown & SHOWS_BLURRED) == 0u;

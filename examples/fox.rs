@@ -1,7 +1,8 @@
 //! A skinned, textured character with GI: Bevy's animated fox (`assets/fox/Fox.glb`) walks in
 //! a corner of a red and a white wall under the sun, which bounce light onto its fur. Its
-//! skin is posed by the animation every frame, so photon mapping restarts every frame while
-//! it moves. Keys: G GI on/off, P pause the animation (PPM then converges), O overlay.
+//! skin is posed by the animation every frame; the default `RppmHistory::Reuse` keeps the
+//! estimate through the walk (the fox's own pixels start again each frame, the walls keep
+//! theirs). Keys: G GI on/off, P pause the animation (PPM then converges), O overlay.
 //! `--headless --frames N --out FILE.png` renders offscreen instead; `--time T` holds the
 //! walk at T seconds.
 mod common;

@@ -267,11 +267,11 @@ fn save_and_exit(
     // Frames count from the camera's first iteration (or after 600 frames without one): a
     // scene still loading, or pipelines still compiling on a busy machine, would otherwise be
     // saved black.
-    let iteration = cameras
+    let view = cameras
         .iter()
         .next()
-        .and_then(|(camera, _)| stats.views.get(&camera))
-        .map_or(0, |s| s.iteration);
+        .and_then(|(camera, _)| stats.views.get(&camera));
+    let iteration = view.map_or(0, |s| s.iteration);
     clock.waited += 1;
     if iteration == 0 && clock.frame == 0 && clock.waited < 600 {
         return;
@@ -282,12 +282,14 @@ fn save_and_exit(
     if frame == args.frames {
         // Frames per second from the first iteration on, for the README's numbers.
         let seconds = since.elapsed().as_secs_f64();
+        let held = view.map_or(0, |s| s.memory.values().sum::<u64>());
         println!(
-            "{} frames in {seconds:.2} s: {:.1} fps at {}×{} (iteration {iteration})",
+            "{} frames in {seconds:.2} s: {:.1} fps at {}×{} (iteration {iteration}, {:.0} MiB held)",
             args.frames - 1,
             f64::from(args.frames - 1) / seconds.max(1e-9),
             args.width,
             args.height,
+            held as f64 / f64::from(1 << 20),
         );
         if let (Some(out), Some((_, RenderTarget::Image(image)))) =
             (&args.out, cameras.iter().next())

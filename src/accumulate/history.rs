@@ -6,6 +6,8 @@ use bevy::prelude::*;
 use bevy::render::render_resource::*;
 use bevy::render::renderer::RenderDevice;
 
+use crate::settings::RppmHistory;
+
 pub struct History {
     /// Three blocks of one vec4 a pixel: surface (position, packed normal), direct light
     /// (mean, count) and indirect light since the last change (mean, count)
@@ -13,6 +15,32 @@ pub struct History {
     pub history: Buffer,
     pub previous_radiance: Buffer,
     pub previous_history: Buffer,
+}
+
+/// Bytes a pixel of the largest history buffer (three vec4 blocks).
+const BLOCK_BYTES: u64 = 48;
+
+/// `Reuse`'s window where the view's history fits this device's buffers and bindings; a
+/// target too large for them runs as `Reset` (with a warning) rather than fail.
+pub fn history_window(history: RppmHistory, device: &RenderDevice, size: UVec2) -> Option<u32> {
+    let window = history.window()?;
+    let limits = device.limits();
+    let bytes = size.x as u64 * size.y as u64 * BLOCK_BYTES;
+    let most = limits
+        .max_buffer_size
+        .min(limits.max_storage_buffer_binding_size);
+    if bytes > most {
+        warn_once!(
+            "bevy_rppm: a {}x{} target's history ({} MiB) exceeds this device's {} MiB storage \
+             binding: RppmHistory::Reuse runs as Reset",
+            size.x,
+            size.y,
+            bytes >> 20,
+            most >> 20
+        );
+        return None;
+    }
+    Some(window)
 }
 
 impl History {
@@ -27,9 +55,9 @@ impl History {
             })
         };
         Self {
-            history: buffer("rppm_history", 48, BufferUsages::COPY_SRC),
+            history: buffer("rppm_history", BLOCK_BYTES, BufferUsages::COPY_SRC),
             previous_radiance: buffer("rppm_previous_radiance", 16, BufferUsages::COPY_DST),
-            previous_history: buffer("rppm_previous_history", 48, BufferUsages::COPY_DST),
+            previous_history: buffer("rppm_previous_history", BLOCK_BYTES, BufferUsages::COPY_DST),
         }
     }
 

@@ -8,7 +8,7 @@ mod clock;
 mod history;
 
 pub use clock::{Changes, HistoryClock, HistoryFlags};
-pub use history::History;
+pub use history::{History, history_window};
 
 use bevy::prelude::*;
 use bevy::render::render_resource::binding_types::{

@@ -12,7 +12,7 @@ use bevy::render::view::{ExtractedView, ViewTarget};
 use super::state::{
     ResourceKey, RppmViewState, StageIds, StagePipelines, ViewTimer, readiness, stages_ready,
 };
-use crate::accumulate::{AccumulateKey, AccumulatePipeline, Changes, HistoryFlags};
+use crate::accumulate::{AccumulateKey, AccumulatePipeline, Changes, HistoryFlags, history_window};
 use crate::cubemap::{self, BuildContext, CubemapConfig, CubemapPipelines};
 use crate::gbuffer::GBufferPipeline;
 use crate::importons::{EyePathKey, EyePathPipeline};
@@ -247,7 +247,7 @@ pub(crate) fn prepare_views(
             importons: makes_importons(settings, &scene.data),
             photon_tiles: cubemap::fitted(cubemap_config(settings), &device).tiles(),
             subsampling: settings.indirect_subsampling,
-            history: settings.history.window().is_some(),
+            history: history_window(settings.history, &device, size).is_some(),
             // A hierarchy too large for this device's textures gives way to the cubemap.
             bvh: settings.tracer.uses_bvh() && cubemap::bvh::fits(&device, triangles),
             textured: scene.lookups.contains(Lookups::TEXTURED),
@@ -343,7 +343,7 @@ fn prepare_view(
 ) {
     let settings = &frame.rppm.settings;
     let key = state.key;
-    let window = settings.history.window();
+    let window = settings.history.window().filter(|_| key.history);
     let changes = Changes {
         cut: state.view_epoch != frame.rppm.view_epoch || std::mem::take(&mut state.scene_reshaped),
         moved: state.view_moves != frame.rppm.view_moves,

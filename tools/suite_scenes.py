@@ -32,7 +32,10 @@ of failure:
 - `mirror_caustic`: a glass ball's caustic under a panel, seen again in a mirror wall, and a
   spot light clear of both;
 - `sun_spot_caustics`: caustics from a directional sun and a spot light, each through a glass
-  ball above the camera's view (reference by light tracing, as `lens_caustic`'s).
+  ball above the camera's view (reference by light tracing, as `lens_caustic`'s);
+- `lamp_globe`: a point light inside a closed globe of frosted glass above the camera's view,
+  the only light: every path from it crosses two rough interfaces, and no shadow ray reaches
+  it (reference by light tracing).
 
     python3 tools/suite_scenes.py assets/suite
     python3 tools/reference.py assets/suite/sun_room.gltf --out assets/suite/sun_room.ref.exr \
@@ -522,13 +525,36 @@ def sun_spot_caustics(path):
     g.write(path, "bevy_rppm tools/suite_scenes.py sun_spot_caustics")
 
 
+def inward(mesh):
+    """A mesh turned inside out: its faces and normals face the other way."""
+    pos, nor, idx = mesh
+    flipped = [idx[k + j] for k in range(0, len(idx), 3) for j in (0, 2, 1)]
+    return pos, [[-c for c in n] for n in nor], flipped
+
+
+def lamp_globe(path):
+    g, h, faces = open_box()
+    coloured_walls(g, faces, [0.6, 0.6, 0.58], [0.6, 0.25, 0.15], [0.2, 0.35, 0.6])
+    # A hollow globe of frosted glass (roughness 0.3, walls 1 cm) hanging above all the camera
+    # sees, with a point light inside it off its centre: the room is lit only through two
+    # rough interfaces, which photons cross and shadow rays cannot.
+    centre, glass = [0.3, 1.9, -0.5], g.rough_glass(1.5, 0.3)
+    g.mesh(*sphere(centre, 0.18), glass)
+    g.mesh(*inward(sphere(centre, 0.17)), glass)
+    g.light({"type": "point", "color": [1.0, 0.92, 0.8], "intensity": 5.0}, translation=[0.33, 1.88, -0.48])
+    g.quads([rotate_y(f, 0.5, [-0.4, 0, -0.3]) for f in box([-0.7, 0, -0.6], [-0.1, 0.5, 0.0], inward=False)],
+            g.material([0.7, 0.7, 0.7]))
+    g.camera([0.0, 1.3, 2.9], [0.0, 0.2, -0.5], yfov=0.8)
+    g.write(path, "bevy_rppm tools/suite_scenes.py lamp_globe")
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("out", help="folder for the .gltf files")
     args = parser.parse_args()
     os.makedirs(args.out, exist_ok=True)
     for make in (sun_room, glazed_room, glass_slab, tinted_glass, frosted_glass, frosted_lamp, frosted_lantern, water_pool, sky_court, lens_caustic, clearcoat, translucent,
-                 mirror_caustic, sun_spot_caustics):
+                 mirror_caustic, sun_spot_caustics, lamp_globe):
         path = os.path.join(args.out, f"{make.__name__}.gltf")
         make(path)
         print(f"wrote {path}")

@@ -7,6 +7,7 @@ use bevy::render::render_resource::*;
 use bevy::render::renderer::RenderDevice;
 
 use crate::settings::RppmHistory;
+use crate::view::per_pixel_binding_fits;
 
 pub struct History {
     /// Three blocks of one vec4 a pixel: surface (position, packed normal), direct light
@@ -24,18 +25,13 @@ const BLOCK_BYTES: u64 = 48;
 /// target too large for them runs as `Reset` (with a warning) rather than fail.
 pub fn history_window(history: RppmHistory, device: &RenderDevice, size: UVec2) -> Option<u32> {
     let window = history.window()?;
-    let limits = device.limits();
-    let bytes = size.x as u64 * size.y as u64 * BLOCK_BYTES;
-    let most = limits
-        .max_buffer_size
-        .min(limits.max_storage_buffer_binding_size);
-    if bytes > most {
+    if let Err(most) = per_pixel_binding_fits(device, size, BLOCK_BYTES) {
         warn_once!(
-            "bevy_rppm: a {}x{} target's history ({} MiB) exceeds this device's {} MiB storage \
-             binding: RppmHistory::Reuse runs as Reset",
+            "bevy_rppm: a {}x{} target's history needs {} MiB in one binding, over this \
+             device's {} MiB: RppmHistory::Reuse runs as Reset",
             size.x,
             size.y,
-            bytes >> 20,
+            (size.x as u64 * size.y as u64 * BLOCK_BYTES) >> 20,
             most >> 20
         );
         return None;

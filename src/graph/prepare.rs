@@ -15,7 +15,7 @@ use super::state::{
 use crate::accumulate::{AccumulateKey, AccumulatePipeline, Changes, HistoryFlags, history_window};
 use crate::cubemap::{self, BuildContext, CubemapConfig, CubemapPipelines};
 use crate::gbuffer::GBufferPipeline;
-use crate::importons::{EyePathKey, EyePathPipeline};
+use crate::importons::{EyePathKey, EyePathPipeline, importons_fit};
 use crate::indirect_splat::{IndirectSplatKey, IndirectSplatPipeline};
 use crate::output::{OutputPipeline, output_key};
 use crate::photons::{PhotonKey, PhotonPipeline, device_photon_count, store_capacity};
@@ -244,7 +244,7 @@ pub(crate) fn prepare_views(
             photon_capacity: store_capacity(
                 settings, photons, scene, &device, &store_fit, store_now,
             ),
-            importons: makes_importons(settings, &scene.data),
+            importons: makes_importons(settings, &scene.data) && importons_fit(&device, size),
             photon_tiles: cubemap::fitted(cubemap_config(settings), &device).tiles(),
             subsampling: settings.indirect_subsampling,
             history: history_window(settings.history, &device, size).is_some(),

@@ -19,11 +19,32 @@ use crate::scene::{Lookups, ScatterPaths, texture_defs};
 use crate::shaders::RppmShaders;
 use crate::shadows::ShadowMaps;
 use crate::stats::timing::{Stage, StageTimer};
-use crate::view::ViewLayouts;
+use crate::view::{ViewLayouts, per_pixel_binding_fits};
 
 /// Byte offset of the indirect splat's dispatch arguments (one thread a pixel) in the
 /// importon stats buffer.
 pub const GATHER_DISPATCH: u64 = 16;
+
+/// Bytes of one pixel's importon (`Importon` in `shaders/common/common.wgsl`).
+const IMPORTON_BYTES: u64 = 64;
+
+/// Whether a target of `size` can hold its importons in one binding on this device; one that
+/// cannot ends its camera paths at the first surface (with a warning) rather than fail.
+pub fn importons_fit(device: &RenderDevice, size: UVec2) -> bool {
+    let Err(most) = per_pixel_binding_fits(device, size, IMPORTON_BYTES) else {
+        return true;
+    };
+    warn_once!(
+        "bevy_rppm: a {}x{} target's importons need {} MiB in one binding, over this device's \
+         {} MiB: camera paths end at the first surface (no reflections, refraction or glossy \
+         paths)",
+        size.x,
+        size.y,
+        (size.x as u64 * size.y as u64 * IMPORTON_BYTES) >> 20,
+        most >> 20
+    );
+    false
+}
 
 pub(crate) struct ImportonsPlugin;
 
@@ -199,7 +220,7 @@ impl EyePaths {
                 usage: BufferUsages::STORAGE,
                 mapped_at_creation: false,
             }),
-            importons: storage(device, "rppm_importons", per_pixel(64)),
+            importons: storage(device, "rppm_importons", per_pixel(IMPORTON_BYTES)),
             stats: device.create_buffer_with_data(&BufferInitDescriptor {
                 label: Some("rppm_importon_stats"),
                 contents: bytemuck::cast_slice(&[0u32, 0, 0, 0, 0, 1, 1, 0]),

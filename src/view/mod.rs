@@ -10,6 +10,7 @@ use bevy::camera::visibility::VisibilitySystems;
 use bevy::prelude::*;
 use bevy::render::RenderApp;
 use bevy::render::extract_component::ExtractComponentPlugin;
+use bevy::render::renderer::RenderDevice;
 use bevy::transform::TransformSystems;
 
 pub use extract::ExtractedRppm;
@@ -42,4 +43,19 @@ impl Plugin for ViewPlugin {
             render_app.init_resource::<ViewLayouts>();
         }
     }
+}
+
+/// Whether a buffer of `bytes_per_pixel` for each of `size`'s pixels, bound whole, fits this
+/// device's buffers and storage bindings (llvmpipe binds 128 MiB). `Err` holds the limit.
+pub fn per_pixel_binding_fits(
+    device: &RenderDevice,
+    size: UVec2,
+    bytes_per_pixel: u64,
+) -> Result<(), u64> {
+    let limits = device.limits();
+    let most = limits
+        .max_buffer_size
+        .min(limits.max_storage_buffer_binding_size);
+    let bytes = size.x as u64 * size.y as u64 * bytes_per_pixel;
+    if bytes <= most { Ok(()) } else { Err(most) }
 }

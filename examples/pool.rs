@@ -1,7 +1,7 @@
 //! A pool with an animated water surface over a tiled floor: sunlight refracted by the waves
 //! makes caustics that move with the water (the RPPM paper's pool scene). The water mesh is
 //! rewritten every frame through `Assets<Mesh>`; photon mapping keeps 8 iterations of its
-//! caustics through the motion (`RppmHistory::Reuse`).
+//! caustics through the motion (`RppmHistory::Reuse`, the default, set here to show it).
 //! Keys: G GI on/off, P pause the water (PPM then converges), O overlay.
 //! `--headless --frames N --out FILE.png` renders offscreen instead; `--time T` holds the
 //! water at T seconds.
@@ -88,7 +88,8 @@ fn setup(
         Transform::from_xyz(0.0, 3.2, 4.2).looking_at(Vec3::new(0.0, -DEPTH, 0.0), Vec3::Y),
         PhotonMapping {
             photons_per_iteration: PhotonCount::Fixed(131_072),
-            // The moving water changes the caustics every frame: keep 8 iterations of them.
+            // The moving water changes the caustics every frame: keep 8 iterations of them
+            // (the default, spelled out).
             history: RppmHistory::Reuse { iterations: 8 },
             // A game's GI budget: as many iterations a frame as fit 12 GPU ms (one on a CPU).
             iterations_per_frame: IterationsPerFrame::GpuMilliseconds {

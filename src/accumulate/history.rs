@@ -6,7 +6,6 @@ use bevy::prelude::*;
 use bevy::render::render_resource::*;
 use bevy::render::renderer::RenderDevice;
 
-use crate::settings::RppmHistory;
 use crate::view::per_pixel_binding_fits;
 
 pub struct History {
@@ -18,25 +17,15 @@ pub struct History {
     pub previous_history: Buffer,
 }
 
-/// Bytes a pixel of the largest history buffer (three vec4 blocks).
-const BLOCK_BYTES: u64 = 48;
+/// Bytes a pixel of the largest history buffer (three vec4 blocks, bound whole).
+const HISTORY_BYTES: u64 = 48;
 
-/// `Reuse`'s window where the view's history fits this device's buffers and bindings; a
-/// target too large for them runs as `Reset` (with a warning) rather than fail.
-pub fn history_window(history: RppmHistory, device: &RenderDevice, size: UVec2) -> Option<u32> {
-    let window = history.window()?;
-    if let Err(most) = per_pixel_binding_fits(device, size, BLOCK_BYTES) {
-        warn_once!(
-            "bevy_rppm: a {}x{} target's history needs {} MiB in one binding, over this \
-             device's {} MiB: RppmHistory::Reuse runs as Reset",
-            size.x,
-            size.y,
-            (size.x as u64 * size.y as u64 * BLOCK_BYTES) >> 20,
-            most >> 20
-        );
-        return None;
-    }
-    Some(window)
+/// Whether the view's history fits this device's bindings; a target too large for them runs
+/// `Reuse` as `Reset` (with a warning) rather than fail.
+pub(crate) fn history_fits(device: &RenderDevice, size: UVec2) -> bool {
+    per_pixel_binding_fits(device, size, HISTORY_BYTES, "history")
+        .inspect_err(|e| warn_once!("bevy_rppm: {e}: RppmHistory::Reuse runs as Reset"))
+        .is_ok()
 }
 
 impl History {
@@ -51,9 +40,13 @@ impl History {
             })
         };
         Self {
-            history: buffer("rppm_history", BLOCK_BYTES, BufferUsages::COPY_SRC),
+            history: buffer("rppm_history", HISTORY_BYTES, BufferUsages::COPY_SRC),
             previous_radiance: buffer("rppm_previous_radiance", 16, BufferUsages::COPY_DST),
-            previous_history: buffer("rppm_previous_history", BLOCK_BYTES, BufferUsages::COPY_DST),
+            previous_history: buffer(
+                "rppm_previous_history",
+                HISTORY_BYTES,
+                BufferUsages::COPY_DST,
+            ),
         }
     }
 

@@ -8,7 +8,8 @@ mod clock;
 mod history;
 
 pub use clock::{Changes, HistoryClock, HistoryFlags};
-pub use history::{History, history_window};
+pub use history::History;
+pub(crate) use history::history_fits;
 
 use bevy::prelude::*;
 use bevy::render::render_resource::binding_types::{

@@ -12,6 +12,7 @@ use crate::scene::SceneBuffers;
 use crate::scene::place::dispatch_size;
 use crate::stats::readback::{AsyncReadback, read_back};
 use crate::stats::timing::{FrameWork, Stage, StageTimer};
+use crate::view::binding_limit;
 
 /// Byte stride of the per-level uniforms of the hierarchy reduction.
 const LEVEL_STRIDE: u64 = 256;
@@ -72,14 +73,6 @@ fn trace_group(
             &bvh.corners_view,
         )),
     )
-}
-
-/// The bytes one buffer binding of `device` may hold: the bound on every cubemap buffer.
-pub(crate) fn binding_limit(device: &RenderDevice) -> u64 {
-    let limits = device.limits();
-    limits
-        .max_storage_buffer_binding_size
-        .min(limits.max_buffer_size)
 }
 
 impl DeepCubemap {

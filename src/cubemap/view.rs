@@ -8,9 +8,9 @@ use bevy::prelude::*;
 use bevy::render::renderer::{RenderDevice, RenderQueue};
 
 use super::bvh::{BvhBuffers, Follow};
-use super::deep::binding_limit;
 use super::{BuildContext, CubemapConfig, DeepCubemap};
 use crate::ppm::grown_capacity;
+use crate::view::binding_limit;
 
 /// A view's hierarchy, and the scene epoch it was built from or checked against.
 pub struct ViewBvh {

@@ -12,7 +12,7 @@ use bevy::render::view::{ExtractedView, ViewTarget};
 use super::state::{
     ResourceKey, RppmViewState, StageIds, StagePipelines, ViewTimer, readiness, stages_ready,
 };
-use crate::accumulate::{AccumulateKey, AccumulatePipeline, Changes, HistoryFlags, history_window};
+use crate::accumulate::{AccumulateKey, AccumulatePipeline, Changes, HistoryFlags, history_fits};
 use crate::cubemap::{self, BuildContext, CubemapConfig, CubemapPipelines};
 use crate::gbuffer::GBufferPipeline;
 use crate::importons::{EyePathKey, EyePathPipeline, importons_fit};
@@ -247,7 +247,7 @@ pub(crate) fn prepare_views(
             importons: makes_importons(settings, &scene.data) && importons_fit(&device, size),
             photon_tiles: cubemap::fitted(cubemap_config(settings), &device).tiles(),
             subsampling: settings.indirect_subsampling,
-            history: history_window(settings.history, &device, size).is_some(),
+            history: settings.history.window().is_some() && history_fits(&device, size),
             // A hierarchy too large for this device's textures gives way to the cubemap.
             bvh: settings.tracer.uses_bvh() && cubemap::bvh::fits(&device, triangles),
             textured: scene.lookups.contains(Lookups::TEXTURED),

@@ -30,20 +30,15 @@ const IMPORTON_BYTES: u64 = 64;
 
 /// Whether a target of `size` can hold its importons in one binding on this device; one that
 /// cannot ends its camera paths at the first surface (with a warning) rather than fail.
-pub fn importons_fit(device: &RenderDevice, size: UVec2) -> bool {
-    let Err(most) = per_pixel_binding_fits(device, size, IMPORTON_BYTES) else {
-        return true;
-    };
-    warn_once!(
-        "bevy_rppm: a {}x{} target's importons need {} MiB in one binding, over this device's \
-         {} MiB: camera paths end at the first surface (no reflections, refraction or glossy \
-         paths)",
-        size.x,
-        size.y,
-        (size.x as u64 * size.y as u64 * IMPORTON_BYTES) >> 20,
-        most >> 20
-    );
-    false
+pub(crate) fn importons_fit(device: &RenderDevice, size: UVec2) -> bool {
+    per_pixel_binding_fits(device, size, IMPORTON_BYTES, "importons")
+        .inspect_err(|e| {
+            warn_once!(
+                "bevy_rppm: {e}: camera paths end at the first surface (no reflections, \
+                 refraction or glossy paths)"
+            )
+        })
+        .is_ok()
 }
 
 pub(crate) struct ImportonsPlugin;

@@ -39,7 +39,8 @@ pub enum RppmDebugView {
 }
 
 /// What a change in the scene or a camera move does to the progressive estimate. A change of
-/// the settings or of the target's size always starts again.
+/// the settings or of the target's size, and an object or light added or removed, always
+/// start again.
 #[derive(Reflect, Clone, Copy, Debug, PartialEq, Eq, Hash)]
 #[reflect(Default, Clone, PartialEq, Hash)]
 pub enum RppmHistory {

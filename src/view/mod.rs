@@ -45,17 +45,34 @@ impl Plugin for ViewPlugin {
     }
 }
 
-/// Whether a buffer of `bytes_per_pixel` for each of `size`'s pixels, bound whole, fits this
-/// device's buffers and storage bindings (llvmpipe binds 128 MiB). `Err` holds the limit.
-pub fn per_pixel_binding_fits(
+/// The bytes one buffer binding of `device` may hold (llvmpipe: 128 MiB).
+pub(crate) fn binding_limit(device: &RenderDevice) -> u64 {
+    let limits = device.limits();
+    limits
+        .max_storage_buffer_binding_size
+        .min(limits.max_buffer_size)
+}
+
+/// Whether `what`, a buffer of `bytes_per_pixel` for each of `size`'s pixels bound whole,
+/// fits [`binding_limit`]; `Err` says by how much it does not.
+pub(crate) fn per_pixel_binding_fits(
     device: &RenderDevice,
     size: UVec2,
     bytes_per_pixel: u64,
-) -> Result<(), u64> {
-    let limits = device.limits();
-    let most = limits
-        .max_buffer_size
-        .min(limits.max_storage_buffer_binding_size);
-    let bytes = size.x as u64 * size.y as u64 * bytes_per_pixel;
-    if bytes <= most { Ok(()) } else { Err(most) }
+    what: &str,
+) -> Result<(), String> {
+    let (bytes, most) = (
+        size.x as u64 * size.y as u64 * bytes_per_pixel,
+        binding_limit(device),
+    );
+    if bytes <= most {
+        return Ok(());
+    }
+    Err(format!(
+        "a {}x{} target's {what} needs {} MiB in one binding, over this device's {} MiB",
+        size.x,
+        size.y,
+        bytes >> 20,
+        most >> 20
+    ))
 }

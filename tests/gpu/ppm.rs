@@ -171,6 +171,8 @@ fn a_frame_budget_runs_the_iterations_it_holds_and_the_same_image() {
             photons_per_iteration: PhotonCount::Fixed(4096),
             iterations_per_frame,
             max_iterations: Some(24),
+            // A change while the scene loads starts all three again at one iteration.
+            history: bevy_rppm::RppmHistory::Reset,
             ..default()
         };
         let (camera, _) = plane_scene(&mut app, point_light_above(1000.0, 2.0), 24, settings);

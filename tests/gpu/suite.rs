@@ -45,8 +45,9 @@ fn reference(name: &str) -> RgbImage {
 /// a glass block; a caustic from a point light through a glass ball; clearcoats over paint; a
 /// paper screen and a lamp shade lit from behind, through their diffuse transmission; a glass
 /// ball's caustic seen again in a mirror wall, and a spot light; caustics from a sun and a spot
-/// through glass balls; a room lit only by a point light inside a frosted glass globe). The goal is set at 256² with the default radius of 4 pixels; at 64² the same gather radius in the scene is
-/// 1 pixel (the start's bias grows with that radius: 4 pixels at 64² leave the pool 10 % dark
+/// through glass balls; a room lit only by a point light inside a frosted glass globe). The
+/// goal is set at 256² with the default radius of 4 pixels; at 64² the same gather radius in
+/// the scene is 1 pixel (the start's bias grows with that radius: 4 pixels at 64² leave the pool 10 % dark
 /// after 4 iterations, its corners' discs half off the floor).
 #[test]
 fn suite_energy_is_right_after_four_iterations() {

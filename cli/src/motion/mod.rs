@@ -276,6 +276,7 @@ fn run(request: &MotionRequest, history: RppmHistory, still: bool) -> Result<Run
 fn reference(request: &MotionRequest, f: u32) -> Result<RgbImage, String> {
     let settings = PhotonMapping {
         seed: request.settings.seed.wrapping_add(1),
+        history: RppmHistory::Reset,
         ..request.settings.clone()
     };
     let mut scripted = Scripted::load(request, settings.clone())?;

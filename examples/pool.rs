@@ -1,7 +1,7 @@
 //! A pool with an animated water surface over a tiled floor: sunlight refracted by the waves
 //! makes caustics that move with the water (the RPPM paper's pool scene). The water mesh is
 //! rewritten every frame through `Assets<Mesh>`; photon mapping keeps 8 iterations of its
-//! caustics through the motion (`RppmHistory::Reuse`, the default, set here to show it).
+//! caustics through the motion (`RppmHistory::Reuse`, the default).
 //! Keys: G GI on/off, P pause the water (PPM then converges), O overlay.
 //! `--headless --frames N --out FILE.png` renders offscreen instead; `--time T` holds the
 //! water at T seconds.
@@ -11,7 +11,7 @@ use bevy::asset::RenderAssetUsages;
 use bevy::core_pipeline::tonemapping::Tonemapping;
 use bevy::mesh::{Indices, PrimitiveTopology, VertexAttributeValues};
 use bevy::prelude::*;
-use bevy_rppm::{IterationsPerFrame, PhotonCount, PhotonMapping, RppmHistory};
+use bevy_rppm::{IterationsPerFrame, PhotonCount, PhotonMapping};
 use common::{ExampleArgs, ExampleCamera, example_app};
 
 /// Water grid cells along each side, and the pool's half width and depth in metres.
@@ -88,9 +88,6 @@ fn setup(
         Transform::from_xyz(0.0, 3.2, 4.2).looking_at(Vec3::new(0.0, -DEPTH, 0.0), Vec3::Y),
         PhotonMapping {
             photons_per_iteration: PhotonCount::Fixed(131_072),
-            // The moving water changes the caustics every frame: keep 8 iterations of them
-            // (the default, spelled out).
-            history: RppmHistory::Reuse { iterations: 8 },
             // A game's GI budget: as many iterations a frame as fit 12 GPU ms (one on a CPU).
             iterations_per_frame: IterationsPerFrame::GpuMilliseconds {
                 milliseconds: 12.0,

@@ -58,15 +58,13 @@ pub fn pose(app: &mut App, scene: &Path, index: usize, seconds: f32) -> Result<P
     if !seconds.is_finite() || seconds < 0.0 {
         return Err(format!("animation time {seconds} is not a time ≥ 0"));
     }
-    let file = scene
-        .file_name()
-        .map(|f| f.to_string_lossy().to_string())
-        .unwrap_or_default();
-    // The handle `load_gltf` keeps, so the file is not loaded again.
-    let gltf: Handle<Gltf> = match app.world().get_resource::<crate::headless::LoadedGltf>() {
-        Some(loaded) => loaded.0.clone(),
-        None => app.world().resource::<AssetServer>().load(file),
-    };
+    // The handle `load_gltf` keeps: asked for anew, the file would be loaded again.
+    let gltf: Handle<Gltf> = app
+        .world()
+        .get_resource::<crate::headless::LoadedGltf>()
+        .ok_or_else(|| format!("{} was not loaded by load_gltf", scene.display()))?
+        .0
+        .clone();
     // Loaded with its scene already; the handle resolves within a few updates.
     for _ in 0..100 {
         if app.world().resource::<Assets<Gltf>>().contains(&gltf) {
@@ -155,7 +153,7 @@ pub fn pose(app: &mut App, scene: &Path, index: usize, seconds: f32) -> Result<P
             }
         }
     }
-    // A scene instance spawned anew meanwhile (the file loaded again) would have undone it.
+    // A scene instance spawned anew meanwhile would have undone it: say so, not render unposed.
     if !posed.holds(app, &graph, seconds) {
         return Err(format!(
             "{}'s animation {index} did not hold its pose at {seconds} s",

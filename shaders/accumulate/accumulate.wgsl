@@ -353,15 +353,18 @@ fn main(
     if clamping {
         shown = view_shown(position, normal.w);
     }
-    if (params.history_flags & CHECK_SURFACE) != 0u && params.iteration != 0u {
-        if (params.history_flags & REPROJECT) != 0u {
-            let reprojection = reprojected(position, id.xy);
-            let source = u32(max(reprojection, 0));
-            let found = reprojection >= 0;
-            kept = select(vec4<f32>(0.0), previous_radiance[source], found);
-            kept_surface = select(vec4<f32>(0.0), previous_history[source], found);
-            kept_direct = select(vec4<f32>(0.0), previous_history[pixels + source], found);
-        }
+    let checking = (params.history_flags & CHECK_SURFACE) != 0u && params.iteration != 0u;
+    if checking && reprojecting {
+        let reprojection = reprojected(position, id.xy);
+        let source = u32(max(reprojection, 0));
+        let found = reprojection >= 0;
+        kept = select(vec4<f32>(0.0), previous_radiance[source], found);
+        kept_surface = select(vec4<f32>(0.0), previous_history[source], found);
+        kept_direct = select(vec4<f32>(0.0), previous_history[pixels + source], found);
+    }
+    // Whether this pixel sees the surface its history saw last.
+    let same = same_surface(kept_surface, position, normal, marks);
+    if checking {
         // A still camera's jitter moves a pixel's samples across an edge, where a neighbour
         // that sees the kept surface keeps the pixel's history (its coverage). Under a
         // camera move each frame starts the jitter again: the pixel's own test, and a history
@@ -370,8 +373,7 @@ fn main(
         // Glossy metal's history (a highlight where it was) is no history of this view.
         var kept_here: bool;
         if reprojecting {
-            kept_here = same_surface(kept_surface, position, normal, marks)
-                && !mixed_surface(kept_surface) && (shown & SHOWS_BLURRED) == 0u;
+            kept_here = same && !mixed_surface(kept_surface) && (shown & SHOWS_BLURRED) == 0u;
         } else {
             kept_here = surface_nearby(kept_surface, id.xy);
         }
@@ -420,7 +422,7 @@ fn main(
     direct += (direct_sample - direct) / (kept_direct.w + 1.0);
     // Samples of another surface than the last one's mix the history (jitter across an edge).
     let held = kept.w > 0.0;
-    let mixed = held && (mixed_surface(kept_surface) || !same_surface(kept_surface, position, normal, marks));
+    let mixed = held && (mixed_surface(kept_surface) || !same);
     history[index] = packed_surface(position, normal.xyz, marks | select(0u, KEPT_MIXED, mixed));
     history[pixels + index] = vec4<f32>(direct, kept_direct.w + 1.0);
     history[2u * pixels + index] = fresh_after(history[2u * pixels + index], indirect_sample);

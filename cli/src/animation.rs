@@ -51,7 +51,7 @@ impl Posed {
 }
 
 /// Plays animation `index` of the glTF `scene` (already loaded into `app` by
-/// [`load_gltf`](crate::headless::load_gltf)) on every animation player it spawned, paused at
+/// [`load_gltf`](crate::load::load_gltf)) on every animation player it spawned, paused at
 /// `seconds` (wrapped into the clip), so the estimate converges on that pose. Returns the
 /// clip, or why it cannot be played.
 pub fn pose(app: &mut App, scene: &Path, index: usize, seconds: f32) -> Result<Posed, String> {
@@ -61,7 +61,7 @@ pub fn pose(app: &mut App, scene: &Path, index: usize, seconds: f32) -> Result<P
     // The handle `load_gltf` keeps: asked for anew, the file would be loaded again.
     let gltf: Handle<Gltf> = app
         .world()
-        .get_resource::<crate::headless::LoadedGltf>()
+        .get_resource::<crate::load::LoadedGltf>()
         .ok_or_else(|| format!("{} was not loaded by load_gltf", scene.display()))?
         .0
         .clone();

@@ -6,17 +6,14 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use bevy::asset::{LoadState, RecursiveDependencyLoadState};
 use bevy::camera::RenderTarget;
 use bevy::core_pipeline::tonemapping::Tonemapping;
-use bevy::gltf::GltfAssetLabel;
 use bevy::prelude::*;
 use bevy::render::RenderPlugin;
 use bevy::render::error_handler::{RenderError, RenderErrorHandler, RenderErrorPolicy};
 use bevy::render::render_resource::{TextureFormat, TextureUsages};
 use bevy::render::settings::RenderCreation;
 use bevy::window::ExitCondition;
-use bevy::world_serialization::{WorldAssetRoot, WorldInstanceReady};
 
 use bevy_rppm::cubemap::CubemapConfig;
 use bevy_rppm::debug::bench::{
@@ -28,7 +25,7 @@ use bevy_rppm::{
 };
 
 use crate::image_io::RgbImage;
-use crate::validate::{Access, check_gltf};
+use crate::load::load_gltf;
 
 /// What to do when no GPU adapter is found.
 pub const INSTALL_HINT: &str = "no GPU adapter found. On a machine without a GPU, install Mesa's \
@@ -176,87 +173,7 @@ pub struct RenderResult {
 }
 
 /// The longest a render may go without progress before it is called stalled.
-const STALL: Duration = Duration::from_secs(120);
-
-/// Loads a glTF file into a fresh headless app and runs it until the scene is spawned and
-/// extracted. Every failure is a one-line message.
-pub fn load_gltf(scene: &Path) -> Result<App, String> {
-    load_gltf_with(scene, Access::default())
-}
-
-/// [`load_gltf`], with what the file may reach besides itself.
-pub fn load_gltf_with(scene: &Path, access: Access) -> Result<App, String> {
-    let meta =
-        std::fs::metadata(scene).map_err(|e| format!("cannot read {}: {e}", scene.display()))?;
-    if !meta.is_file() {
-        return Err(format!("{} is not a file", scene.display()));
-    }
-    let extras = check_gltf(scene, access)?;
-    check_gpu_adapter()?;
-    let absolute = std::fs::canonicalize(scene)
-        .map_err(|e| format!("cannot read {}: {e}", scene.display()))?;
-    let root = absolute.parent().unwrap_or(Path::new("/"));
-    let file = absolute
-        .file_name()
-        .map(|f| f.to_string_lossy().to_string())
-        .unwrap_or_default();
-    let mut app = headless_app(root);
-    if let Some([r, g, b]) = extras.sky {
-        app.insert_resource(bevy_rppm::RppmSky {
-            color: Color::linear_rgb(r, g, b),
-            radiance: 1.0,
-        });
-    }
-    let handle = app
-        .world()
-        .resource::<AssetServer>()
-        .load(GltfAssetLabel::Scene(0).from_asset(file.clone()));
-    let gltf = app.world().resource::<AssetServer>().load(file.clone());
-    app.insert_resource(LoadedGltf(gltf));
-    let root_entity = app.world_mut().spawn(WorldAssetRoot(handle.clone())).id();
-    app.world_mut().entity_mut(root_entity).observe(
-        |_: On<WorldInstanceReady>, mut commands: Commands| {
-            commands.insert_resource(SceneReady);
-        },
-    );
-    let start = Instant::now();
-    // Ready once spawned with every texture it names loaded: one that fails (missing,
-    // not an image) is an error, not an image without it.
-    let loaded = |app: &App| {
-        app.world().contains_resource::<SceneReady>()
-            && app
-                .world()
-                .resource::<AssetServer>()
-                .is_loaded_with_dependencies(&handle)
-    };
-    while !loaded(&app) {
-        app.update();
-        let server = app.world().resource::<AssetServer>();
-        // The error's first line: the rest is a backtrace where one is asked for.
-        let failed = |e: &dyn std::fmt::Display| {
-            let e = e.to_string();
-            let line = e.lines().next().unwrap_or_default().to_string();
-            format!("cannot load {}: {line}", scene.display())
-        };
-        if let Some(LoadState::Failed(e)) = server.get_load_state(&handle) {
-            return Err(failed(&e));
-        }
-        let dependencies = server.get_recursive_dependency_load_state(&handle);
-        if let Some(RecursiveDependencyLoadState::Failed(e)) = dependencies {
-            return Err(failed(&e));
-        }
-        if start.elapsed() > STALL {
-            return Err(format!(
-                "{} did not load within {} s",
-                scene.display(),
-                STALL.as_secs()
-            ));
-        }
-    }
-    crate::extensions::apply(app.world_mut(), &file, &extras);
-    app.update(); // let extraction see the spawned meshes
-    Ok(app)
-}
+pub(crate) const STALL: Duration = Duration::from_secs(120);
 
 /// Renders a glTF scene headless. Every failure is a one-line message.
 pub fn render_gltf(
@@ -369,15 +286,6 @@ pub fn default_camera(data: &bevy_rppm::SceneData) -> Transform {
 }
 
 const DEFAULT_FOV: f32 = std::f32::consts::FRAC_PI_4;
-
-#[derive(Resource)]
-struct SceneReady;
-
-/// The loaded glTF itself, held so that a later request for it (its animations) finds it
-/// loaded: without a handle alive it would be loaded again, and the scene's instance spawned
-/// anew from the second load, undoing a pose set meanwhile.
-#[derive(Resource)]
-pub struct LoadedGltf(pub Handle<bevy::gltf::Gltf>);
 
 /// Renders from the scene's first camera, or from a default one: 45° vertical field of view,
 /// on the +Z side of the scene's bounds, looking down −Z at their centre, with the request's

@@ -10,6 +10,7 @@ pub mod catalogue;
 pub mod extensions;
 pub mod headless;
 pub mod image_io;
+pub mod load;
 pub mod motion;
 pub mod suite;
 pub mod trade;

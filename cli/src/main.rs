@@ -12,9 +12,10 @@ use bevy_rppm::{IterationsPerFrame, PhotonCount, PhotonMapping, ViewStats};
 use bevy_rppm_cli::animation;
 use bevy_rppm_cli::bench::{print_table, sweep_configs};
 use bevy_rppm_cli::headless::{
-    Budget, Progress, RenderResult, bench_dirt, check_size, load_gltf_with, render_loaded,
+    Budget, Progress, RenderResult, bench_dirt, check_size, render_loaded,
 };
 use bevy_rppm_cli::image_io::{RgbImage, bad_pixels, read_exr, write_exr, write_png};
+use bevy_rppm_cli::load::load_gltf_with;
 use bevy_rppm_cli::trade::{
     TradeRequest, best_at, knobs, pareto_front, read_csv, run_trade, write_csv,
 };

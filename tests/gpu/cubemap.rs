@@ -154,7 +154,8 @@ fn a_scene_whose_first_lists_overflowed_renders_every_triangle_from_the_first_it
 #[test]
 fn the_bvh_tracer_renders_what_the_deep_cubemap_renders() {
     use bevy_rppm::RppmTracer;
-    use bevy_rppm_cli::headless::{load_gltf, render_loaded};
+    use bevy_rppm_cli::headless::render_loaded;
+    use bevy_rppm_cli::load::load_gltf;
     for scene in [BUNNY, "assets/suite/closed_room.gltf"] {
         let render = |tracer| {
             let request = render_request(scene, 48, 4, tracer);

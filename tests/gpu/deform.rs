@@ -268,7 +268,7 @@ fn a_posed_skin_renders_as_its_pose_baked_into_a_mesh() {
 fn the_fox_follows_its_animation_inside_bevys_skinned_bounds() {
     use bevy::camera::primitives::Aabb;
     use bevy::mesh::skinning::SkinnedMesh;
-    use bevy_rppm_cli::headless::load_gltf;
+    use bevy_rppm_cli::load::load_gltf;
     let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/fox/Fox.glb");
     let posed = |animation: Option<(usize, f32)>| -> Vec<Vec3> {
         let mut app = load_gltf(&scene).unwrap_or_else(|e| panic!("{e}"));

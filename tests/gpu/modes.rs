@@ -52,7 +52,7 @@ fn full_mode_writes_the_estimate_into_the_bevy_view() {
 fn indirect_mode_adds_our_light_to_bevys_and_off_gives_bevys_image() {
     check_gpu_adapter().unwrap_or_else(|hint| panic!("{hint}"));
     let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/cornell_box.gltf");
-    let mut app = bevy_rppm_cli::headless::load_gltf(&scene).unwrap();
+    let mut app = bevy_rppm_cli::load::load_gltf(&scene).unwrap();
     let world = app.world_mut();
     // Bevy's lights only: its default ambient term (which photon mapping replaces) would
     // saturate the view at exposure 1.

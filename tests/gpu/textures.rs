@@ -114,7 +114,7 @@ fn untextured_scenes_hold_no_texture_data() {
 #[test]
 fn textured_emitters_emit_in_proportion_to_their_texture() {
     let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/suite/textured_box.gltf");
-    let app = bevy_rppm_cli::headless::load_gltf(&scene).unwrap();
+    let app = bevy_rppm_cli::load::load_gltf(&scene).unwrap();
     let data = &app.world().resource::<RppmScene>().data;
     let panel: Vec<_> = data.emitters.iter().filter(|e| e.part != 0).collect();
     assert!(panel.len() >= 2 * 16, "{} parts", panel.len());

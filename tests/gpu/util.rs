@@ -468,7 +468,8 @@ pub fn assert_finite(image: &bevy_rppm::RadianceImage, what: &str) {
 /// multiplied by `power`.
 pub fn render_transformed_box(scale: f32, power: f32, size: u32) -> RgbImage {
     use bevy::world_serialization::WorldAssetRoot;
-    use bevy_rppm_cli::headless::{Budget, RenderRequest, load_gltf, render_loaded};
+    use bevy_rppm_cli::headless::{Budget, RenderRequest, render_loaded};
+    use bevy_rppm_cli::load::load_gltf;
     let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/cornell_box.gltf");
     let mut app = load_gltf(&scene).unwrap_or_else(|e| panic!("{e}"));
     let world = app.world_mut();

@@ -13,8 +13,9 @@ use bevy::prelude::*;
 use bevy_rppm::{PhotonMapping, RppmHistory, RppmRadiance, RppmScene, ViewEpoch};
 
 use crate::animation::{self, Posed};
-use crate::headless::{Budget, RenderRequest, attach_camera, load_gltf, render_loaded};
+use crate::headless::{Budget, RenderRequest, attach_camera, render_loaded};
 use crate::image_io::{RgbImage, relmse};
+use crate::load::load_gltf;
 
 pub use plot::write_plot;
 pub use settle::{SettleRow, Settling};

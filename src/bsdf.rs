@@ -1,5 +1,5 @@
 //! The GGX lobe's directional albedo, tabulated for the BSDF's energy compensation
-//! (`shaders/common/bsdf.wgsl`): pure maths, computed once and bound with the scene.
+//! (`shaders/common/microfacet.wgsl`): pure maths, computed once and bound with the scene.
 //!
 //! With Schlick's Fresnel the single-scattering lobe reflects `F0·A(μ, r) + F90·B(μ, r)` of
 //! the light arriving at cosine μ, at perceptual roughness r (Karis's split sum; Bevy's

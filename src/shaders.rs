@@ -16,7 +16,7 @@ macro_rules! wgsl {
 /// Handles of every stage's shader.
 #[derive(Resource, Clone)]
 pub struct RppmShaders {
-    /// Import-only libraries (`bevy_rppm::common`, `scene`, `bsdf`, `mis`, `panes`, `cubemap`, `pane_rays`, `lighting`,
+    /// Import-only libraries (`bevy_rppm::sampling`, `common`, `scene`, `microfacet`, `bsdf`, `mis`, `panes`, `cubemap`, `pane_rays`, `lighting`,
     /// `photon_map`),
     /// held so they stay loaded.
     _libraries: Vec<Handle<Shader>>,
@@ -44,7 +44,9 @@ impl RppmShaders {
     pub fn load(shaders: &mut Assets<Shader>) -> Self {
         Self {
             _libraries: vec![
+                wgsl!(shaders, "common/sampling.wgsl"),
                 wgsl!(shaders, "common/common.wgsl"),
+                wgsl!(shaders, "common/microfacet.wgsl"),
                 wgsl!(shaders, "common/bsdf.wgsl"),
                 wgsl!(shaders, "common/mis.wgsl"),
                 wgsl!(shaders, "common/panes.wgsl"),

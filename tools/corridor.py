@@ -11,7 +11,7 @@ walls dark (albedo 0.12). Rendered in full by light tracing:
 """
 import sys
 
-from suite_scenes import Gltf, box, sphere
+from gltf_kit import Gltf, box, sphere
 
 
 def corridor(path, dark=False):

@@ -10,7 +10,7 @@ the water out. Hanging above what the camera sees, it is rendered in full by lig
 """
 import sys
 
-from suite_scenes import coloured_walls, open_box, sphere
+from gltf_kit import coloured_walls, open_box, sphere
 
 
 def inward(pos, nor, idx):

@@ -14,7 +14,7 @@ import math
 import os
 import struct
 
-from suite_scenes import look
+from gltf_kit import look
 
 CELLS, HALF, DEPTH = 32, 2.0, 1.0
 # Travelling waves: amplitude (m), wave vector (rad/m) and cycles per period.

@@ -17,7 +17,8 @@ import os
 import sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from suite_scenes import Gltf, box, ceiling_panel, look, sphere, sub, water_pool  # noqa: E402
+from gltf_kit import Gltf, box, ceiling_panel, look, sphere, sub  # noqa: E402
+from suite_scenes import water_pool  # noqa: E402
 
 
 def underwater(path):

@@ -16,7 +16,7 @@ import struct
 import sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from reference import transform_point, walk  # noqa: E402
+from gltf_read import transform_point, walk  # noqa: E402
 
 
 def bounds(gltf):

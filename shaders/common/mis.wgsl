@@ -8,13 +8,16 @@
 
 #import bevy_rppm::common::{Material, PI, DELTA_ROUGHNESS, luminance}
 #ifdef LIGHT_GUIDE
-#import bevy_rppm::common::{LIGHT_DIRECTIONAL, LIGHT_SPOT, basis_around, random}
+#import bevy_rppm::common::{LIGHT_DIRECTIONAL, LIGHT_SPOT, basis_around}
+#import bevy_rppm::sampling::random
 #import bevy_rppm::scene::lights
 #import bevy_rppm::bsdf::bsdf_eval
 #endif
-#import bevy_rppm::bsdf::{specular_f0, specular_at, specular_average, cosine_lobes_energy, ggx_d, translucency, layered, visible_normal_pdf}
+#import bevy_rppm::bsdf::{cosine_lobes_energy, translucency, layered}
+#import bevy_rppm::microfacet::{specular_f0, specular_at, specular_average, ggx_d, visible_normal_pdf}
 #ifdef ROUGH_REFRACTION
-#import bevy_rppm::bsdf::{rough_glass_share, smith_g1, fresnel_dielectric}
+#import bevy_rppm::bsdf::rough_glass_share
+#import bevy_rppm::microfacet::{smith_g1, fresnel_dielectric}
 #endif
 
 // Whether a camera path going on from a surface of m samples the emitters there: its lobes

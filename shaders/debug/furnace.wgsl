@@ -1,7 +1,9 @@
 // The white furnace: what a surface reflects under uniform unit radiance, for the BSDF as the
 // splats and direct light evaluate it and as photons scatter off it. One workgroup per case.
-#import bevy_rppm::common::{Material, PI, random, pcg_hash, cosine_direction}
-#import bevy_rppm::bsdf::{bsdf_eval, scatter_photon, sample_ggx, has_glossy_lobe, visible_normal_pdf}
+#import bevy_rppm::common::{Material, PI, cosine_direction}
+#import bevy_rppm::sampling::{random, pcg_hash}
+#import bevy_rppm::bsdf::{bsdf_eval, scatter_photon}
+#import bevy_rppm::microfacet::{sample_ggx, has_glossy_lobe, visible_normal_pdf}
 
 struct Case {
     material: Material,

@@ -3,11 +3,13 @@
 // With IMPORTONS, a pixel that sees a specular surface (mirror, glass) follows the camera path
 // through the deep cubemap to the first non-specular surface, lights it the same way, and
 // leaves an importon there for indirect splatting.
-#import bevy_rppm::common::{Material, IterationParams, Importon, NO_IMPORTON, gather_radius, random, pcg_hash, stratified_draws, toward_eye}
+#import bevy_rppm::common::{Material, IterationParams, Importon, NO_IMPORTON, gather_radius, toward_eye}
+#import bevy_rppm::sampling::{random, pcg_hash, stratified_draws}
 #import bevy_rppm::scene::{triangle_at, gbuffer_material, resolve_surface, kernel_normal, material_at, as_seen_from, normal_at, interpolated_normal}
 #import bevy_rppm::lighting::{params, surface_light}
 #ifdef IMPORTONS
-#import bevy_rppm::bsdf::{fresnel_dielectric, glass_share, scatter_photon, stores_photons}
+#import bevy_rppm::bsdf::{glass_share, scatter_photon, stores_photons}
+#import bevy_rppm::microfacet::fresnel_dielectric
 #ifdef CLEARCOAT
 #import bevy_rppm::bsdf::{coat_traced, scatter_coat}
 #endif

@@ -2,7 +2,8 @@
 // cubemap; a photon is stored at every diffuse or rough-glossy hit after its first bounce
 // (direct light is the local-illumination stage's), then scattered by the material
 // (bsdf.wgsl's scatter_photon: diffuse, GGX glossy, mirror, Fresnel glass) or absorbed.
-#import bevy_rppm::common::{Light, Photon, IterationParams, PI, cubemap_tile, pack_normal, LIGHT_POINT, LIGHT_SPOT, LIGHT_DIRECTIONAL, random, pcg_hash, basis_around, cosine_direction}
+#import bevy_rppm::common::{Light, Photon, IterationParams, PI, cubemap_tile, pack_normal, LIGHT_POINT, LIGHT_SPOT, LIGHT_DIRECTIONAL, basis_around, cosine_direction}
+#import bevy_rppm::sampling::{random, pcg_hash}
 #import bevy_rppm::scene::{triangle_at, material_at, as_seen_from, normal_at, interpolated_normal, triangle_point, uniform_barycentrics, part_barycentrics, lights, emitters, light_cdf, find_source}
 #import bevy_rppm::cubemap::{cubemap, trace_ray, NO_HIT}
 #import bevy_rppm::bsdf::{stores_photons, scatter_photon}

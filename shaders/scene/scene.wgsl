@@ -2,7 +2,8 @@
 // and the material lookups that apply textures and vertex colours (src/scene/textures.rs).
 #define_import_path bevy_rppm::scene
 
-#import bevy_rppm::common::{Triangle, PackedTriangle, MATERIAL_INDEX, unpack_normal, pack_normal, Material, Light, Emitter, ShadowView, TriangleAttributes, Texture, DELTA_ROUGHNESS, MATERIAL_TEXTURED, MATERIAL_ALPHA_MASK, MATERIAL_ALPHA_HASHED, MATERIAL_DOUBLE_SIDED, MATERIAL_UNLIT, MATERIAL_FLIP_NORMAL_Y, NO_TEXTURE, pcg_hash}
+#import bevy_rppm::common::{Triangle, PackedTriangle, MATERIAL_INDEX, unpack_normal, pack_normal, Material, Light, Emitter, ShadowView, TriangleAttributes, Texture, DELTA_ROUGHNESS, MATERIAL_TEXTURED, MATERIAL_ALPHA_MASK, MATERIAL_ALPHA_HASHED, MATERIAL_DOUBLE_SIDED, MATERIAL_UNLIT, MATERIAL_FLIP_NORMAL_Y, NO_TEXTURE}
+#import bevy_rppm::sampling::pcg_hash
 
 @group(0) @binding(0) var<storage, read> triangles: array<PackedTriangle>;
 @group(0) @binding(1) var<storage, read> shadow_views: array<ShadowView>;

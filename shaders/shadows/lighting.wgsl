@@ -6,7 +6,8 @@
 // reached through specular surfaces.
 #define_import_path bevy_rppm::lighting
 
-#import bevy_rppm::common::{Material, Light, IterationParams, PI, LIGHT_SPOT, LIGHT_DIRECTIONAL, face_of, random, basis_around, cosine_direction, luminance}
+#import bevy_rppm::common::{Material, Light, IterationParams, PI, LIGHT_SPOT, LIGHT_DIRECTIONAL, face_of, basis_around, cosine_direction, luminance}
+#import bevy_rppm::sampling::random
 #import bevy_rppm::bsdf::{bsdf_eval, translucency, layered}
 #import bevy_rppm::scene::{shadow_views, lights, triangles, triangle_at, material_at, emitters, light_cdf, find_source, triangle_point, uniform_barycentrics, part_barycentrics}
 #ifdef TRACED_SHADOWS

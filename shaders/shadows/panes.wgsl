@@ -6,7 +6,7 @@
 
 #import bevy_rppm::cubemap::{trace_ray, NO_HIT}
 #import bevy_rppm::scene::{triangle_at, material_at, interpolated_normal, normal_at}
-#import bevy_rppm::bsdf::fresnel_dielectric
+#import bevy_rppm::microfacet::fresnel_dielectric
 #import bevy_rppm::panes::{is_pane, PANE_COS, PANE_SHARE, MAX_PANES}
 
 // What reaches x from the light `distance` along `dir` (1e30: a direction) through panes: the

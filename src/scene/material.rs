@@ -174,7 +174,7 @@ impl GpuMaterial {
             let delta = luminance(base) * m.metallic + m.glass_share();
             return (diffuse * luminance(base) + delta).min(1.0);
         }
-        // The tint's largest channel, as `dielectric_f0` in bsdf.wgsl.
+        // The tint's largest channel, as `dielectric_f0` in microfacet.wgsl.
         let tint = m.specular_tint[..3].iter().fold(0.0_f32, |a, &t| a.max(t));
         let dielectric = (0.16 * (m.reflectance * tint).powi(2)).min(1.0);
         let f0 = base.map(|c| dielectric + (c - dielectric) * m.metallic);

@@ -290,3 +290,103 @@ fn coloured_glass_absorbs_along_the_path_inside() {
     }
     assert!(failures.is_empty(), "{}", failures.join("\n"));
 }
+
+/// The pixel-centre radiance of the plane, averaged over the same Halton jitter as the
+/// renderer's first `iterations` iterations (so only numerical error remains). The jitter
+/// shifts the projection by (jx, jy) pixels, so a pixel sees the point (−jx, −jy) from its
+/// centre.
+fn jittered_expectation(
+    size: u32,
+    iterations: u32,
+    radiance: impl Fn(f32, f32) -> f32,
+) -> Vec<f32> {
+    let halton = |mut i: u32, base: u32| {
+        let (mut f, mut r) = (1.0f32, 0.0f32);
+        while i > 0 {
+            f /= base as f32;
+            r += f * (i % base) as f32;
+            i /= base;
+        }
+        r
+    };
+    let mut out = vec![0.0; (size * size) as usize];
+    for it in 0..iterations {
+        let (jx, jy) = (halton(it + 1, 2) - 0.5, halton(it + 1, 3) - 0.5);
+        for j in 0..size {
+            for i in 0..size {
+                let x = -2.0 + (i as f32 + 0.5 - jx) * 4.0 / size as f32;
+                let z = -2.0 + (j as f32 + 0.5 - jy) * 4.0 / size as f32;
+                out[(j * size + i) as usize] += radiance(x, z) / iterations as f32;
+            }
+        }
+    }
+    out
+}
+
+/// Renders the plane lit by `light` with local illumination only, compares it with the
+/// analytic radiance, then checks that photons carry the same direct light.
+fn check_light(light: impl Bundle + Clone, radiance: impl Fn(f32, f32) -> f32, name: &str) {
+    let (size, iterations) = (48u32, 8u32);
+    let render = |settings: PhotonMapping| {
+        let mut app = gpu_app();
+        let (camera, _) = plane_scene(&mut app, light.clone(), size, settings);
+        for _ in 0..200 {
+            app.update();
+            let done = app
+                .world()
+                .resource::<RppmRadiance>()
+                .images
+                .get(&camera)
+                .is_some_and(|i| i.iteration >= iterations);
+            if done {
+                break;
+            }
+        }
+        let image = app.world().resource::<RppmRadiance>().images[&camera].clone();
+        assert_eq!(
+            image.iteration, iterations,
+            "{name}: the estimate did not reach {iterations} iterations"
+        );
+        RgbImage::from_rgba(image.width, image.height, &image.pixels)
+    };
+    let local = render(PhotonMapping {
+        photons_per_iteration: PhotonCount::Fixed(0),
+        max_iterations: Some(iterations),
+        history: bevy_rppm::RppmHistory::Reset,
+        ..default()
+    });
+    let expected = jittered_expectation(size, iterations, radiance);
+    let mut worst = 0.0f32;
+    for (got, want) in local.pixels.iter().zip(&expected) {
+        let err = (got[1] - want).abs() / want.max(1e-3);
+        worst = worst.max(if *want > 1e-3 {
+            err
+        } else {
+            (got[1] - want).abs()
+        });
+    }
+    let photons = render(PhotonMapping {
+        photons_per_iteration: PhotonCount::Fixed(65_536),
+        max_iterations: Some(iterations),
+        debug_view: bevy_rppm::RppmDebugView::DirectPhotons,
+        history: bevy_rppm::RppmHistory::Reset,
+        ..default()
+    });
+    let energy = bevy_rppm_cli::image_io::energy_ratio(&photons, &local).unwrap();
+    bevy_rppm_cli::image_io::write_exr(Path::new(&format!("/tmp/dbg_{name}_local.exr")), &local)
+        .unwrap();
+    bevy_rppm_cli::image_io::write_exr(
+        Path::new(&format!("/tmp/dbg_{name}_photons.exr")),
+        &photons,
+    )
+    .unwrap();
+    eprintln!(
+        "{name}: local vs analytic worst relative error {worst:.4}; photon/local energy {energy:.4}"
+    );
+    assert_eq!(bad_pixels(&local) + bad_pixels(&photons), 0);
+    assert!(worst < 0.01, "{name}: local illumination off by {worst}");
+    assert!(
+        (0.97..1.03).contains(&energy),
+        "{name}: photon energy ratio {energy}"
+    );
+}

@@ -1,0 +1,106 @@
+"""Reading glTF for tools/reference.py and tools/stage.py: buffers, accessors, the node tree's
+world matrices, and PLY meshes for Mitsuba."""
+import base64
+import os
+import struct
+
+
+COMPONENTS = {5120: ("b", 1), 5121: ("B", 1), 5122: ("h", 2), 5123: ("H", 2), 5125: ("I", 4), 5126: ("f", 4)}
+SIZES = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4, "MAT4": 16}
+
+
+def load_buffers(gltf, folder):
+    buffers = []
+    for b in gltf.get("buffers", []):
+        uri = b["uri"]
+        if uri.startswith("data:"):
+            buffers.append(base64.b64decode(uri.split(",", 1)[1]))
+        else:
+            with open(os.path.join(folder, uri), "rb") as f:
+                buffers.append(f.read())
+    return buffers
+
+
+def accessor(gltf, buffers, index):
+    a = gltf["accessors"][index]
+    view = gltf["bufferViews"][a["bufferView"]]
+    fmt, size = COMPONENTS[a["componentType"]]
+    width = SIZES[a["type"]]
+    stride = view.get("byteStride", size * width)
+    start = view.get("byteOffset", 0) + a.get("byteOffset", 0)
+    data = buffers[view["buffer"]]
+    out = []
+    for i in range(a["count"]):
+        off = start + i * stride
+        out.append(struct.unpack_from("<" + fmt * width, data, off))
+    return out
+
+
+def srgb_to_linear(c):
+    return c / 12.92 if c <= 0.04045 else ((c + 0.055) / 1.055) ** 2.4
+
+
+def mat_mul(a, b):
+    return [[sum(a[i][k] * b[k][j] for k in range(4)) for j in range(4)] for i in range(4)]
+
+
+def node_matrix(node):
+    if "matrix" in node:
+        m = node["matrix"]
+        return [[m[c * 4 + r] for c in range(4)] for r in range(4)]
+    tx, ty, tz = node.get("translation", [0, 0, 0])
+    x, y, z, w = node.get("rotation", [0, 0, 0, 1])
+    sx, sy, sz = node.get("scale", [1, 1, 1])
+    r = [
+        [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+        [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+        [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
+    ]
+    return [
+        [r[0][0] * sx, r[0][1] * sy, r[0][2] * sz, tx],
+        [r[1][0] * sx, r[1][1] * sy, r[1][2] * sz, ty],
+        [r[2][0] * sx, r[2][1] * sy, r[2][2] * sz, tz],
+        [0, 0, 0, 1],
+    ]
+
+
+def walk(gltf):
+    """(node, world matrix) for every node of the default scene."""
+    identity = [[float(i == j) for j in range(4)] for i in range(4)]
+    scene = gltf["scenes"][gltf.get("scene", 0)]
+    stack = [(n, identity) for n in scene["nodes"]]
+    while stack:
+        index, parent = stack.pop()
+        node = gltf["nodes"][index]
+        world = mat_mul(parent, node_matrix(node))
+        yield node, world
+        stack.extend((c, world) for c in node.get("children", []))
+
+
+def transform_point(m, p):
+    return [sum(m[r][c] * p[c] for c in range(3)) + m[r][3] for r in range(3)]
+
+
+def transform_dir(m, d):
+    return [sum(m[r][c] * d[c] for c in range(3)) for r in range(3)]
+
+
+def write_ply(path, positions, faces, uvs=None, colors=None):
+    extra = ("property float u\nproperty float v\n" if uvs else "") + (
+        "property float r\nproperty float g\nproperty float b\n" if colors else "")
+    with open(path, "wb") as f:
+        f.write(
+            (
+                "ply\nformat binary_little_endian 1.0\n"
+                f"element vertex {len(positions)}\nproperty float x\nproperty float y\nproperty float z\n{extra}"
+                f"element face {len(faces)}\nproperty list uchar int vertex_indices\nend_header\n"
+            ).encode()
+        )
+        for i, p in enumerate(positions):
+            f.write(struct.pack("<3f", *p))
+            if uvs:
+                f.write(struct.pack("<2f", *uvs[i]))
+            if colors:
+                f.write(struct.pack("<3f", *colors[i][:3]))
+        for t in faces:
+            f.write(struct.pack("<B3i", 3, *t))

@@ -10,7 +10,8 @@ use serde_json::Value;
 /// What the file says beyond Bevy's loader.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct SceneExtras {
-    /// `scenes[0].extras.rppm_sky`: the linear RGB radiance of a uniform sky
+    /// The default scene's `extras.rppm_sky` (`scenes[scene]`, the first where the file names
+    /// none): the linear RGB radiance of a uniform sky
     /// (W·sr⁻¹·m⁻²; `bevy_rppm::RppmSky`).
     pub sky: Option<[f32; 3]>,
     /// Per glTF material index, its `KHR_materials_diffuse_transmission` factor (0..=1):
@@ -27,7 +28,8 @@ pub(crate) fn scene_extras(root: &Value) -> Result<SceneExtras, String> {
 }
 
 fn sky(root: &Value) -> Result<Option<[f32; 3]>, String> {
-    let sky = &root["scenes"][0]["extras"]["rppm_sky"];
+    let scene = root["scene"].as_u64().unwrap_or(0);
+    let sky = &root["scenes"][scene as usize]["extras"]["rppm_sky"];
     if sky.is_null() {
         return Ok(None);
     }
@@ -38,7 +40,9 @@ fn sky(root: &Value) -> Result<Option<[f32; 3]>, String> {
     });
     match rgb.as_deref() {
         Some(&[r, g, b]) => Ok(Some([r, g, b])),
-        _ => Err("scenes[0].extras.rppm_sky: expected three non-negative numbers".into()),
+        _ => Err(format!(
+            "scenes[{scene}].extras.rppm_sky: expected three non-negative numbers"
+        )),
     }
 }
 

@@ -12,8 +12,8 @@ use bevy::world_serialization::{WorldAssetRoot, WorldInstanceReady};
 use crate::headless::{STALL, check_gpu_adapter, headless_app};
 use crate::validate::{Access, check_gltf};
 
-/// Loads a glTF file into a fresh headless app and runs it until the scene is spawned and
-/// extracted. Every failure is a one-line message.
+/// Loads a glTF file into a fresh headless app and runs it until its default scene is spawned
+/// and extracted. Every failure is a one-line message.
 pub fn load_gltf(scene: &Path) -> Result<App, String> {
     load_gltf_with(scene, Access::default())
 }
@@ -52,8 +52,13 @@ pub fn load_gltf_with(scene: &Path, access: Access) -> Result<App, String> {
         let server = app.world().resource::<AssetServer>();
         server.is_loaded_with_dependencies(&gltf)
     })?;
-    let Some(handle) =
-        (app.world().resource::<Assets<Gltf>>().get(&gltf)).and_then(|g| g.scenes.first().cloned())
+    // The file's default scene (`scene`), as tools/reference.py renders it; else its first.
+    let default_scene = |g: &Gltf| {
+        g.default_scene
+            .clone()
+            .or_else(|| g.scenes.first().cloned())
+    };
+    let Some(handle) = (app.world().resource::<Assets<Gltf>>().get(&gltf)).and_then(default_scene)
     else {
         return Err(format!("{} has no scene", scene.display()));
     };

@@ -193,3 +193,41 @@ fn a_room_in_a_wide_landscape_gets_the_suns_photons() {
     );
     assert!(error < 0.02, "relMSE {error:.4}");
 }
+
+/// A file whose default scene (`scene`) is not its first renders that scene, with the sky its
+/// extras give, as `tools/reference.py` does: `sky_court` moved to a second scene behind an
+/// empty first one (before: the empty first scene was rendered, black).
+#[test]
+fn a_files_default_scene_is_the_one_rendered() {
+    let image = render_variant("sky_court", "second_scene_sky_court", |gltf, _| {
+        let court = gltf["scenes"][0].take();
+        gltf["scenes"] = json!([{ "nodes": [] }, court]);
+        gltf["scene"] = json!(1);
+    });
+    assert_close(
+        &image,
+        &reference("sky_court.ref.exr"),
+        0.03,
+        "sky_court as scene 1",
+    );
+}
+
+/// JPEG textures, which glTF allows beside PNG and real assets use most (before: "invalid image
+/// extension: jpg", no image): `textured_box` with its checker floor read from a JPEG of the
+/// same texels (`assets/suite/textures/checker.jpg`) matches the PNG scene's reference.
+#[test]
+fn a_jpeg_texture_renders_as_its_png_does() {
+    let image = render_variant("textured_box", "jpeg_textured_box", |gltf, _| {
+        let images = gltf["images"].as_array_mut().unwrap();
+        let checker = (images.iter_mut())
+            .find(|i| i["uri"] == "textures/checker.png")
+            .unwrap();
+        *checker = json!({ "uri": "textures/checker.jpg", "mimeType": "image/jpeg" });
+    });
+    assert_close(
+        &image,
+        &reference("textured_box.ref.exr"),
+        0.015,
+        "textured_box, JPEG",
+    );
+}

@@ -9,6 +9,7 @@ use std::path::{Path, PathBuf};
 use bevy::camera::{Exposure, Hdr, RenderTarget};
 use bevy::core_pipeline::tonemapping::Tonemapping;
 use bevy::diagnostic::{DiagnosticsStore, FrameTimeDiagnosticsPlugin};
+use bevy::gltf::Gltf;
 use bevy::input::mouse::AccumulatedMouseMotion;
 use bevy::light::GlobalAmbientLight;
 use bevy::prelude::*;
@@ -142,13 +143,43 @@ pub fn gltf_example_in(
         .add_systems(
             Startup,
             move |mut commands: Commands, assets: Res<AssetServer>| {
-                let handle = assets.load(GltfAssetLabel::Scene(0).from_asset(scene.clone()));
-                commands.spawn(WorldAssetRoot(handle));
+                commands.insert_resource(LoadingGltf(assets.load(scene.clone())));
             },
         )
         .add_observer(adopt_camera)
-        .add_systems(Update, (cast_shadows, gi_keys, orbit));
+        .add_systems(Update, (spawn_default_scene, cast_shadows, gi_keys, orbit));
     app
+}
+
+/// The glTF file being loaded, until its scene is spawned.
+#[derive(Resource)]
+struct LoadingGltf(Handle<Gltf>);
+
+/// Spawns the file's default scene (glTF's `scene`, else its first) once it is loaded: the
+/// file is asked for once, as asking for a labelled part too loads it again (bevy#10549).
+fn spawn_default_scene(
+    loading: Option<Res<LoadingGltf>>,
+    gltfs: Res<Assets<Gltf>>,
+    mut commands: Commands,
+    mut exit: MessageWriter<AppExit>,
+) {
+    let Some(gltf) = loading.and_then(|l| gltfs.get(&l.0)) else {
+        return;
+    };
+    commands.remove_resource::<LoadingGltf>();
+    match gltf
+        .default_scene
+        .clone()
+        .or_else(|| gltf.scenes.first().cloned())
+    {
+        Some(scene) => {
+            commands.spawn(WorldAssetRoot(scene));
+        }
+        None => {
+            eprintln!("the glTF file has no scene");
+            exit.write(AppExit::error());
+        }
+    }
 }
 
 /// glTF lights come without Bevy shadows; mode Indirect shows Bevy's direct light, so give

@@ -15,7 +15,7 @@ use std::sync::OnceLock;
 pub const SIZE: usize = 32;
 /// Quasi-random samples per cell.
 const SAMPLES: u32 = 2048;
-/// Below this perceptual roughness the lobe is a mirror (`DELTA_ROUGHNESS` in bsdf.wgsl).
+/// Below this perceptual roughness the lobe is a mirror (`DELTA_ROUGHNESS` in common.wgsl).
 pub const DELTA_ROUGHNESS: f32 = 0.02;
 /// Photons are stored at glossy surfaces at least this rough; camera paths go on through
 /// smoother ones (`GLOSSY_STORE_ROUGHNESS` in bsdf.wgsl).
@@ -46,7 +46,7 @@ pub fn ggx_albedo_table() -> &'static [[f32; 4]] {
 }
 
 /// The cosine-weighted average of what the specular lobe reflects, single and multiple
-/// scattering, per channel of `f0`: `specular_average` in bsdf.wgsl (0 for delta lobes).
+/// scattering, per channel of `f0`: `specular_average` in microfacet.wgsl (0 for delta lobes).
 pub fn specular_energy_average(roughness: f32, f0: [f32; 3]) -> [f32; 3] {
     if roughness < DELTA_ROUGHNESS {
         return [0.0; 3];

@@ -3,6 +3,7 @@ world matrices, and PLY meshes for Mitsuba."""
 import base64
 import os
 import struct
+import sys
 
 
 COMPONENTS = {5120: ("b", 1), 5121: ("B", 1), 5122: ("h", 2), 5123: ("H", 2), 5125: ("I", 4), 5126: ("f", 4)}
@@ -67,6 +68,8 @@ def node_matrix(node):
 def walk(gltf):
     """(node, world matrix) for every node of the default scene."""
     identity = [[float(i == j) for j in range(4)] for i in range(4)]
+    if not gltf.get("scenes"):
+        sys.exit("the glTF file has no scene")
     scene = gltf["scenes"][gltf.get("scene", 0)]
     stack = [(n, identity) for n in scene["nodes"]]
     while stack:

@@ -353,7 +353,9 @@ def build_scene(path, width, height, tmp, max_depth=16):
                     "texture": textures.spot_falloff(inner, outer),
                 }
             mapping.append(f"{node.get('name', 'light')}: {kind} {l.get('intensity', 1.0)} x {l.get('color', [1, 1, 1])}")
-    sky = (gltf.get("scenes") or [{}])[0].get("extras", {}).get("rppm_sky")
+    # The default scene's, as the geometry (`walk`) and rppm read it.
+    scenes = gltf.get("scenes") or [{}]
+    sky = scenes[min(gltf.get("scene", 0), len(scenes) - 1)].get("extras", {}).get("rppm_sky")
     if sky is not None:
         # A uniform sky (bevy_rppm::RppmSky): linear radiance from every direction.
         scene["sky"] = {"type": "constant", "radiance": {"type": "rgb", "value": sky}}

@@ -45,7 +45,7 @@ import argparse
 import math
 import os
 
-from gltf_kit import Gltf, box, ceiling_panel, coloured_walls, cross, inward, open_box, rotate_y, sphere, unit
+from gltf_kit import Gltf, box, ceiling_panel, coloured_walls, inward, open_box, rotate_y, sphere, unit
 
 # The air gap under every glass object standing on a floor (and the metal plate in
 # frosted_lamp): a face coplanar with the floor is a contact renderers read differently

@@ -1,5 +1,5 @@
 //! Loading a glTF file into a headless app: checked first (`validate`), loaded once, its
-//! first scene spawned, and what Bevy's loader leaves out of it set (`extensions`).
+//! default scene spawned, and what Bevy's loader leaves out of it set (`extensions`).
 
 use std::path::Path;
 use std::time::Instant;

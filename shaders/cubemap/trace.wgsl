@@ -7,7 +7,7 @@
 #define_import_path bevy_rppm::cubemap
 
 #import bevy_rppm::common::{CubemapParams, face_basis, level_offset, face_of, BIG_TRIANGLES, row_texel}
-#import bevy_rppm::scene::{triangles, triangle_at, opaque_at}
+#import bevy_rppm::scene::{triangle_at, opaque_at}
 
 @group(3) @binding(0) var<uniform> cubemap: CubemapParams;
 @group(3) @binding(1) var<storage, read> hierarchy: array<vec2<f32>>;

@@ -14,7 +14,7 @@
 @group(0) @binding(3) var<storage, read> lights: array<Light>;
 @group(0) @binding(4) var<storage, read> emitters: array<Emitter>;
 @group(0) @binding(5) var<storage, read> light_cdf: array<f32>;
-// The GGX lobe's directional albedo and its averages (src/bsdf.rs), for bsdf.wgsl: a texture,
+// The GGX lobe's directional albedo and its averages (src/bsdf.rs), for microfacet.wgsl: a texture,
 // which llvmpipe fetches for 8 lanes at once (a storage buffer it reads lane by lane).
 @group(0) @binding(6) var ggx_albedo: texture_2d<f32>;
 // Read only by the TEXTURED variants of the stages (one zeroed item otherwise), and there

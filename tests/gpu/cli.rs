@@ -138,9 +138,10 @@ fn cli_uses_a_default_camera_when_the_scene_has_none() {
 }
 
 /// A glTF is loaded once: a second load of the file (Bevy loads it again for each labelled
-/// part asked for apart from the file) landed after `load::load_gltf` had set the materials' diffuse
-/// transmission from the JSON and replaced them, in 5 of 12 renders of the suite's translucent
-/// scene (which then read 0.25 of its energy). Eight renders all shade diffuse transmission.
+/// part asked for apart from the file) landed after `load::load_gltf` had set the materials'
+/// diffuse transmission from the JSON and replaced them, in 5 of 12 renders of the suite's
+/// translucent scene (debug build; 3 of 10 in release), which then read 0.25 of its energy.
+/// Eight renders all shade diffuse transmission.
 #[test]
 fn a_scene_keeps_the_diffuse_transmission_its_json_gives() {
     let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/suite/translucent.gltf");

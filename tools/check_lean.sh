@@ -4,7 +4,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 tree=$(cargo tree -p bevy_rppm -e normal --prefix none --format '{p}')
-forbidden='^(winit|x11rb|x11-dl|bevy_winit|bevy_ui|bevy_ui_render|bevy_text|plotters|exr|png|clap|indicatif|csv|anyhow|serde_json) '
+forbidden='^(winit|x11rb|x11-dl|bevy_winit|bevy_ui|bevy_ui_render|bevy_text|plotters|exr|png|zune-jpeg|jpeg-decoder|clap|indicatif|csv|anyhow|serde_json) '
 if bad=$(grep -E "$forbidden" <<<"$tree" | sort -u) && [ -n "$bad" ]; then
     echo "check_lean: bevy_rppm depends on crates a render plugin does not need:" >&2
     echo "$bad" >&2

@@ -101,15 +101,18 @@ mod tests {
     use std::collections::{BTreeMap, BTreeSet};
     use std::path::Path;
 
-    /// Every source file under `dir`, with its path relative to `src/`.
-    fn sources(dir: &Path, out: &mut Vec<(String, String)>) {
-        let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+    /// Every file under `dir` whose extension is one of `extensions`: (path relative to
+    /// `root`, text).
+    fn sources(root: &Path, dir: &Path, extensions: &[&str], out: &mut Vec<(String, String)>) {
         for entry in std::fs::read_dir(dir).unwrap().flatten() {
             let path = entry.path();
             if path.is_dir() {
-                sources(&path, out);
-            } else if path.extension().is_some_and(|e| e == "rs") {
-                let relative = path.strip_prefix(&root).unwrap().display().to_string();
+                sources(root, &path, extensions, out);
+            } else if path
+                .extension()
+                .is_some_and(|e| extensions.iter().any(|x| e == *x))
+            {
+                let relative = path.strip_prefix(root).unwrap().display().to_string();
                 out.push((relative, std::fs::read_to_string(&path).unwrap()));
             }
         }
@@ -119,11 +122,9 @@ mod tests {
     /// `crate::` references), and no file is over 500 lines.
     #[test]
     fn modules_depend_one_way_and_files_stay_small() {
+        let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
         let mut files = Vec::new();
-        sources(
-            &Path::new(env!("CARGO_MANIFEST_DIR")).join("src"),
-            &mut files,
-        );
+        sources(&src, &src, &["rs"], &mut files);
         let mut graph: BTreeMap<String, BTreeSet<String>> = BTreeMap::new();
         for (path, text) in &files {
             assert!(
@@ -174,25 +175,8 @@ mod tests {
     /// the examples and the scripts (the library's own files are checked above too).
     #[test]
     fn no_source_file_is_over_500_lines() {
-        fn check(dir: &Path, long: &mut Vec<String>) {
-            for entry in std::fs::read_dir(dir).unwrap().flatten() {
-                let path = entry.path();
-                let source = ["rs", "wgsl", "py", "sh"];
-                if path.is_dir() {
-                    check(&path, long);
-                } else if path
-                    .extension()
-                    .is_some_and(|e| source.iter().any(|s| e == *s))
-                {
-                    let lines = std::fs::read_to_string(&path).unwrap().lines().count();
-                    if lines > 500 {
-                        long.push(format!("{} has {lines} lines", path.display()));
-                    }
-                }
-            }
-        }
         let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-        let mut long = Vec::new();
+        let mut files = Vec::new();
         for dir in [
             "src",
             "shaders",
@@ -202,8 +186,17 @@ mod tests {
             "examples",
             "tools",
         ] {
-            check(&root.join(dir), &mut long);
+            sources(
+                root,
+                &root.join(dir),
+                &["rs", "wgsl", "py", "sh"],
+                &mut files,
+            );
         }
+        let long: Vec<String> = (files.iter())
+            .filter(|(_, text)| text.lines().count() > 500)
+            .map(|(path, text)| format!("{path} has {} lines", text.lines().count()))
+            .collect();
         assert!(long.is_empty(), "{}", long.join("\n"));
     }
 

@@ -7,7 +7,7 @@ use std::time::Instant;
 use bevy::asset::{LoadState, RecursiveDependencyLoadState, UntypedAssetId};
 use bevy::gltf::Gltf;
 use bevy::prelude::*;
-use bevy::world_serialization::{WorldAssetRoot, WorldInstanceReady};
+use bevy::world_serialization::{WorldAsset, WorldAssetRoot, WorldInstanceReady};
 
 use crate::headless::{STALL, check_gpu_adapter, headless_app};
 use crate::validate::{Access, check_gltf};
@@ -52,12 +52,6 @@ pub fn load_gltf_with(scene: &Path, access: Access) -> Result<App, String> {
         let server = app.world().resource::<AssetServer>();
         server.is_loaded_with_dependencies(&gltf)
     })?;
-    // The file's default scene (`scene`), as tools/reference.py renders it; else its first.
-    let default_scene = |g: &Gltf| {
-        g.default_scene
-            .clone()
-            .or_else(|| g.scenes.first().cloned())
-    };
     let Some(handle) = (app.world().resource::<Assets<Gltf>>().get(&gltf)).and_then(default_scene)
     else {
         return Err(format!("{} has no scene", scene.display()));
@@ -76,6 +70,12 @@ pub fn load_gltf_with(scene: &Path, access: Access) -> Result<App, String> {
     crate::extensions::apply(app.world_mut(), &file, &extras);
     app.update(); // let extraction see the spawned meshes
     Ok(app)
+}
+
+/// The scene a file shows: its default (glTF's `scene`), as tools/reference.py renders it;
+/// else its first.
+pub fn default_scene(gltf: &Gltf) -> Option<Handle<WorldAsset>> {
+    (gltf.default_scene.clone()).or_else(|| gltf.scenes.first().cloned())
 }
 
 /// Updates `app` until `ready`, failing with the load error of `asset` (and of what it

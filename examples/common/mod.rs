@@ -155,7 +155,7 @@ pub fn gltf_example_in(
 #[derive(Resource)]
 struct LoadingGltf(Handle<Gltf>);
 
-/// Spawns the file's default scene (glTF's `scene`, else its first) once it is loaded: the
+/// Spawns the file's default scene (`load::default_scene`) once it is loaded: the
 /// file is asked for once, as asking for a labelled part too loads it again (bevy#10549).
 fn spawn_default_scene(
     loading: Option<Res<LoadingGltf>>,
@@ -167,11 +167,7 @@ fn spawn_default_scene(
         return;
     };
     commands.remove_resource::<LoadingGltf>();
-    match gltf
-        .default_scene
-        .clone()
-        .or_else(|| gltf.scenes.first().cloned())
-    {
+    match bevy_rppm_cli::load::default_scene(gltf) {
         Some(scene) => {
             commands.spawn(WorldAssetRoot(scene));
         }

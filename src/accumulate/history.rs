@@ -1,6 +1,6 @@
 //! A view's history kept through motion (`RppmHistory::Reuse`): each pixel's surface and the
 //! running mean of its direct light, and last frame's copies of those and of the estimate,
-//! which a camera move reprojects from.
+//! which a camera move reprojects from (made at the view's first change).
 
 use bevy::prelude::*;
 use bevy::render::render_resource::*;
@@ -13,8 +13,12 @@ pub struct History {
     /// (mean, count) and indirect light since the last change (mean, count)
     /// (`shaders/accumulate/`).
     pub history: Buffer,
-    pub previous_radiance: Buffer,
-    pub previous_history: Buffer,
+    /// Last frame's estimate and history, which a camera move reprojects from and a settling
+    /// change clamps with: made at the view's first change (`make_previous`), as a still
+    /// view reads neither.
+    previous: Option<[Buffer; 2]>,
+    /// Bound in their place until then.
+    placeholder: Buffer,
 }
 
 /// Bytes a pixel of the largest history buffer (three vec4 blocks, bound whole).
@@ -30,31 +34,56 @@ pub(crate) fn history_fits(device: &RenderDevice, size: UVec2) -> bool {
 
 impl History {
     pub fn new(device: &RenderDevice, size: UVec2) -> Self {
-        let pixels = size.x as u64 * size.y as u64;
-        let buffer = |label: &'static str, bytes: u64, usage: BufferUsages| {
-            device.create_buffer(&BufferDescriptor {
-                label: Some(label),
-                size: pixels * bytes,
-                usage: BufferUsages::STORAGE | usage,
-                mapped_at_creation: false,
-            })
-        };
         Self {
-            history: buffer("rppm_history", HISTORY_BYTES, BufferUsages::COPY_SRC),
-            previous_radiance: buffer("rppm_previous_radiance", 16, BufferUsages::COPY_DST),
-            previous_history: buffer(
-                "rppm_previous_history",
+            history: pixel_buffer(
+                device,
+                size,
+                "rppm_history",
                 HISTORY_BYTES,
-                BufferUsages::COPY_DST,
+                BufferUsages::COPY_SRC,
             ),
+            previous: None,
+            placeholder: pixel_buffer(
+                device,
+                UVec2::ONE,
+                "rppm_history_placeholder",
+                HISTORY_BYTES,
+                BufferUsages::empty(),
+            ),
+        }
+    }
+
+    /// Makes last frame's copies, unless made; returns whether they were made now.
+    pub fn make_previous(&mut self, device: &RenderDevice) -> bool {
+        if self.previous.is_some() {
+            return false;
+        }
+        let pixels = self.history.size() / HISTORY_BYTES;
+        let size = UVec2::new(pixels as u32, 1);
+        let copy = BufferUsages::COPY_DST;
+        self.previous = Some([
+            pixel_buffer(device, size, "rppm_previous_radiance", 16, copy),
+            pixel_buffer(device, size, "rppm_previous_history", HISTORY_BYTES, copy),
+        ]);
+        true
+    }
+
+    /// What binds as last frame's estimate and history.
+    pub fn previous_bindings(&self) -> [&Buffer; 2] {
+        match &self.previous {
+            Some([radiance, history]) => [radiance, history],
+            None => [&self.placeholder; 2],
         }
     }
 
     /// Copies the estimate (`radiance`) and the history to last frame's.
     pub fn encode_keep(&self, encoder: &mut CommandEncoder, radiance: &Buffer) {
+        let Some([previous_radiance, previous_history]) = &self.previous else {
+            return;
+        };
         for (from, to) in [
-            (radiance, &self.previous_radiance),
-            (&self.history, &self.previous_history),
+            (radiance, previous_radiance),
+            (&self.history, previous_history),
         ] {
             encoder.copy_buffer_to_buffer(from, 0, to, 0, to.size());
         }
@@ -63,24 +92,34 @@ impl History {
     /// Copies the means since the last change to last iteration's, which the neighbourhoods
     /// of this one read (its own writes would race with them).
     pub fn encode_keep_fresh(&self, encoder: &mut CommandEncoder) {
+        let Some([_, previous_history]) = &self.previous else {
+            return;
+        };
         let block = self.history.size() / 3;
-        encoder.copy_buffer_to_buffer(
-            &self.history,
-            2 * block,
-            &self.previous_history,
-            2 * block,
-            block,
-        );
+        encoder.copy_buffer_to_buffer(&self.history, 2 * block, previous_history, 2 * block, block);
     }
 
     pub fn bytes(&self) -> u64 {
-        [
-            &self.history,
-            &self.previous_radiance,
-            &self.previous_history,
-        ]
-        .iter()
-        .map(|b| b.size())
-        .sum()
+        let previous = self.previous.iter().flatten();
+        [&self.history, &self.placeholder]
+            .into_iter()
+            .chain(previous)
+            .map(|b| b.size())
+            .sum()
     }
+}
+
+fn pixel_buffer(
+    device: &RenderDevice,
+    size: UVec2,
+    label: &'static str,
+    bytes: u64,
+    usage: BufferUsages,
+) -> Buffer {
+    device.create_buffer(&BufferDescriptor {
+        label: Some(label),
+        size: size.x as u64 * size.y as u64 * bytes,
+        usage: BufferUsages::STORAGE | usage,
+        mapped_at_creation: false,
+    })
 }

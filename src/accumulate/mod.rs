@@ -191,10 +191,11 @@ impl Estimate {
                 &entries,
             ),
             Some(h) => {
+                let [previous_radiance, previous_history] = h.previous_bindings();
                 let history = BindGroupEntries::with_indices((
                     (7, h.history.as_entire_binding()),
-                    (8, h.previous_radiance.as_entire_binding()),
-                    (9, h.previous_history.as_entire_binding()),
+                    (8, previous_radiance.as_entire_binding()),
+                    (9, previous_history.as_entire_binding()),
                 ));
                 let all: Vec<_> = entries.iter().chain(history.iter()).cloned().collect();
                 device.create_bind_group(

@@ -5,6 +5,7 @@ mod node;
 pub mod pace;
 mod prepare;
 mod report;
+mod stages;
 pub mod state;
 
 use bevy::core_pipeline::schedule::{Core3d, Core3dSystems};

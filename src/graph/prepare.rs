@@ -1,74 +1,27 @@
 //! Each frame, per camera: make or keep the view's resources, reset accumulation on change,
-//! pick the stage variants its scene and settings need, and write the constants of this
-//! frame's iterations.
+//! pick the stage variants its scene and settings need (`stages.rs`), and write the
+//! constants of this frame's iterations.
 
 use bevy::prelude::*;
 use bevy::render::camera::ExtractedCamera;
-use bevy::render::render_resource::*;
 use bevy::render::renderer::{RenderAdapterInfo, RenderDevice, RenderQueue};
 use bevy::render::texture::TextureCache;
 use bevy::render::view::{ExtractedView, ViewTarget};
 
-use super::state::{
-    ResourceKey, RppmViewState, StageIds, StagePipelines, ViewTimer, readiness, stages_ready,
-};
-use crate::accumulate::{AccumulateKey, AccumulatePipeline, Changes, HistoryFlags, history_fits};
-use crate::cubemap::{self, BuildContext, CubemapConfig, CubemapPipelines};
-use crate::gbuffer::GBufferPipeline;
-use crate::importons::{EyePathKey, EyePathPipeline, importons_fit};
-use crate::indirect_splat::{IndirectSplatKey, IndirectSplatPipeline};
-use crate::output::{OutputPipeline, output_key};
-use crate::photons::{PhotonKey, PhotonPipeline, device_photon_count, store_capacity};
+use super::stages::{Pipelines, select_stages};
+use super::state::{ResourceKey, RppmViewState, ViewTimer, stages_ready};
+use crate::accumulate::{Changes, HistoryFlags, history_fits};
+use crate::cubemap::{self, BuildContext, CubemapConfig};
+use crate::importons::importons_fit;
+use crate::output::output_key;
+use crate::photons::{device_photon_count, store_capacity};
 use crate::ppm::{next_radius2, radius2_after};
-use crate::scene::{Lookups, ScatterPaths, SceneBuffers, SceneData};
+use crate::scene::{Lookups, SceneBuffers, SceneData};
 use crate::settings::{PhotonMapping, RppmDebugView, RppmMode};
-use crate::shadows::{ShadowPipeline, cube_views};
-use crate::splat::{SplatKey, SplatPipeline};
+use crate::shadows::cube_views;
 use crate::stats::timing::StageTimer;
 use crate::view::params::{camera_params, unjittered_clip_from_world};
-use crate::view::{ExtractedRppm, PARAMS_STRIDE, ViewLayouts};
-
-/// Every stage's pipeline resource, and the caches of their variants.
-#[derive(bevy::ecs::system::SystemParam)]
-pub(crate) struct Pipelines<'w> {
-    cache: Res<'w, PipelineCache>,
-    layouts: Res<'w, ViewLayouts>,
-    shadow: Res<'w, ShadowPipeline>,
-    gbuffer: Res<'w, GBufferPipeline>,
-    gbuffer_variants: ResMut<'w, SpecializedRenderPipelines<GBufferPipeline>>,
-    cubemap: Res<'w, CubemapPipelines>,
-    eye_paths: Res<'w, EyePathPipeline>,
-    eye_path_variants: ResMut<'w, SpecializedComputePipelines<EyePathPipeline>>,
-    photons: Res<'w, PhotonPipeline>,
-    photon_variants: ResMut<'w, SpecializedComputePipelines<PhotonPipeline>>,
-    splat: Res<'w, SplatPipeline>,
-    splat_variants: ResMut<'w, SpecializedComputePipelines<SplatPipeline>>,
-    indirect_splat: Res<'w, IndirectSplatPipeline>,
-    indirect_splat_variants: ResMut<'w, SpecializedComputePipelines<IndirectSplatPipeline>>,
-    accumulate: Res<'w, AccumulatePipeline>,
-    accumulate_variants: ResMut<'w, SpecializedComputePipelines<AccumulatePipeline>>,
-    output: Res<'w, OutputPipeline>,
-    output_variants: ResMut<'w, SpecializedRenderPipelines<OutputPipeline>>,
-}
-
-impl Pipelines<'_> {
-    fn stages(&self) -> StagePipelines<'_> {
-        StagePipelines {
-            layouts: &self.layouts,
-            eye_paths: &self.eye_paths,
-            photons: &self.photons,
-            splat: &self.splat,
-            indirect_splat: &self.indirect_splat,
-            accumulate: &self.accumulate,
-            output: &self.output,
-        }
-    }
-
-    /// Whether the pipelines every view runs are compiled, or the first that failed.
-    fn shared_ready(&self) -> Result<bool, String> {
-        readiness([self.cache.get_render_pipeline_state(self.shadow.0)])
-    }
-}
+use crate::view::{ExtractedRppm, PARAMS_STRIDE};
 
 /// Whether camera paths go past the G-buffer (importons).
 fn makes_importons(settings: &PhotonMapping, scene: &SceneData) -> bool {
@@ -80,95 +33,6 @@ fn cubemap_config(settings: &PhotonMapping) -> CubemapConfig {
         resolution: settings.cubemap_resolution,
         tile_size: settings.cubemap_tile_size,
         bins: settings.bins,
-    }
-}
-
-/// The variants of the stages this view runs: only the scattering paths its scene's
-/// materials have, importons only when camera paths go on.
-fn select_stages(
-    state: &RppmViewState,
-    scene: &SceneBuffers,
-    output: Option<crate::output::OutputKey>,
-    pipelines: &mut Pipelines,
-) -> StageIds {
-    let cache = &pipelines.cache;
-    let traced = state.photons > 0 && state.cubemap.cubemap.is_some();
-    let subsampled = state.key.subsampling > 1;
-    let lookups = scene.lookups;
-    let layers = scene.paths & ScatterPaths::LAYERS;
-    // Camera paths go on past the G-buffer and trace their shadow rays.
-    let paths_lit = state.importons && state.traced_shadows;
-    StageIds {
-        gbuffer: pipelines
-            .gbuffer_variants
-            .specialize(cache, &pipelines.gbuffer, lookups),
-        eye_paths: pipelines.eye_path_variants.specialize(
-            cache,
-            &pipelines.eye_paths,
-            EyePathKey {
-                importons: state.importons.then_some(scene.paths),
-                traced_shadows: state.traced_shadows,
-                lookups,
-                sky: scene.paths.contains(ScatterPaths::SKY),
-                layers,
-                bvh: state.key.bvh,
-                light_guide: paths_lit
-                    && scene.paths.contains(ScatterPaths::ROUGH_REFRACTION)
-                    && !scene.data.lights.is_empty(),
-                sphere_lights: paths_lit && scene.sphere_lights,
-            },
-        ),
-        trace: traced.then(|| {
-            pipelines.photon_variants.specialize(
-                cache,
-                &pipelines.photons,
-                PhotonKey {
-                    paths: scene.paths,
-                    lookups,
-                    bvh: state.key.bvh,
-                },
-            )
-        }),
-        sort: traced.then_some(pipelines.photons.sort.passes),
-        splat: traced.then(|| {
-            pipelines.splat_variants.specialize(
-                cache,
-                &pipelines.splat,
-                SplatKey {
-                    subsampled,
-                    lookups,
-                    layers,
-                    glass: scene.paths.intersects(ScatterPaths::GLASS),
-                },
-            )
-        }),
-        indirect_splat: (traced && state.importons).then(|| {
-            pipelines.indirect_splat_variants.specialize(
-                cache,
-                &pipelines.indirect_splat,
-                IndirectSplatKey {
-                    lookups,
-                    layers,
-                    bvh: state.key.bvh,
-                },
-            )
-        }),
-        accumulate: pipelines.accumulate_variants.specialize(
-            cache,
-            &pipelines.accumulate,
-            AccumulateKey {
-                subsampled,
-                importons: state.importons,
-                lookups,
-                layers,
-                history: state.key.history,
-            },
-        ),
-        output: output.map(|key| {
-            pipelines
-                .output_variants
-                .specialize(cache, &pipelines.output, key)
-        }),
     }
 }
 
@@ -350,6 +214,11 @@ fn prepare_view(
         scene: std::mem::take(&mut state.scene_changed),
         relit: std::mem::take(&mut state.scene_relit),
     };
+    // Last frame's copies are made at the first change after an iteration: a still view
+    // reads none.
+    if window.is_some() && (changes.moved || changes.scene) && state.clock.iteration > 0 {
+        state.keep_previous(device, &pipelines.cache, &pipelines.stages());
+    }
     state.view_epoch = frame.rppm.view_epoch;
     state.view_moves = frame.rppm.view_moves;
     // A radius past a quarter of the image blurs it all and makes every splat cover it.

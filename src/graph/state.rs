@@ -280,6 +280,24 @@ impl RppmViewState {
         self.bind_targets(device, cache, pipelines);
     }
 
+    /// Makes the history's copies of last frame (`RppmHistory::Reuse`, at the view's first
+    /// change: a still view reads none) and binds them.
+    pub fn keep_previous(
+        &mut self,
+        device: &RenderDevice,
+        cache: &PipelineCache,
+        pipelines: &StagePipelines,
+    ) {
+        let made = self
+            .estimate
+            .history
+            .as_mut()
+            .is_some_and(|h| h.make_previous(device));
+        if made {
+            self.bind_targets(device, cache, pipelines);
+        }
+    }
+
     /// The groups that hold the targets: eye paths, splats, accumulation.
     fn bind_targets(
         &mut self,

@@ -60,8 +60,8 @@ pub enum RppmHistory {
     /// converges as with `Reset`. The window counts iterations, not frames: with several a
     /// frame ([`IterationsPerFrame`]) it spans fewer frames (on the README's moving pool a
     /// longer window was worse at every count of iterations a frame tried: what it keeps of
-    /// earlier frames lags the caustics). Holds 112 bytes a pixel (the history, and last
-    /// frame's copy for reprojection). Range of `iterations` 1..=1024.
+    /// earlier frames lags the caustics). Holds 48 bytes a pixel, and from the first change
+    /// on 64 more (last frame's copies, for reprojection). Range of `iterations` 1..=1024.
     Reuse { iterations: u32 },
 }
 

@@ -19,6 +19,7 @@ pub struct History {
     previous: Option<[Buffer; 2]>,
     /// Bound in their place until then.
     placeholder: Buffer,
+    size: UVec2,
 }
 
 /// Bytes a pixel of the largest history buffer (three vec4 blocks, bound whole).
@@ -43,6 +44,7 @@ impl History {
                 BufferUsages::COPY_SRC,
             ),
             previous: None,
+            size,
             placeholder: pixel_buffer(
                 device,
                 UVec2::ONE,
@@ -58,9 +60,7 @@ impl History {
         if self.previous.is_some() {
             return false;
         }
-        let pixels = self.history.size() / HISTORY_BYTES;
-        let size = UVec2::new(pixels as u32, 1);
-        let copy = BufferUsages::COPY_DST;
+        let (size, copy) = (self.size, BufferUsages::COPY_DST);
         self.previous = Some([
             pixel_buffer(device, size, "rppm_previous_radiance", 16, copy),
             pixel_buffer(device, size, "rppm_previous_history", HISTORY_BYTES, copy),

@@ -214,11 +214,6 @@ fn prepare_view(
         scene: std::mem::take(&mut state.scene_changed),
         relit: std::mem::take(&mut state.scene_relit),
     };
-    // Last frame's copies are made at the first change after an iteration: a still view
-    // reads none.
-    if window.is_some() && (changes.moved || changes.scene) && state.clock.iteration > 0 {
-        state.keep_previous(device, &pipelines.cache, &pipelines.stages());
-    }
     state.view_epoch = frame.rppm.view_epoch;
     state.view_moves = frame.rppm.view_moves;
     // A radius past a quarter of the image blurs it all and makes every splat cover it.
@@ -227,6 +222,11 @@ fn prepare_view(
     // A new start, or a change under `Reuse` (its index is back at 0).
     if state.clock.begin_frame(changes, window) || changes.moved || changes.scene {
         state.radius2 = initial;
+    }
+    // Last frame's copies are made when an iteration first reads them: a still view reads
+    // none.
+    if state.clock.next(window).1.clamps() {
+        state.keep_previous(device, &pipelines.cache, &pipelines.stages());
     }
     if let Some(target) = frame
         .rppm

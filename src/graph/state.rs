@@ -280,8 +280,8 @@ impl RppmViewState {
         self.bind_targets(device, cache, pipelines);
     }
 
-    /// Makes the history's copies of last frame (`RppmHistory::Reuse`, at the view's first
-    /// change: a still view reads none) and binds them.
+    /// Makes the history's copies of last frame (`RppmHistory::Reuse`, when an iteration
+    /// first reads them: a still view reads none) and binds them; they stay.
     pub fn keep_previous(
         &mut self,
         device: &RenderDevice,

@@ -6,7 +6,7 @@ use bevy::prelude::*;
 use bevy::render::render_resource::*;
 use bevy::render::renderer::RenderDevice;
 
-use crate::view::per_pixel_binding_fits;
+use crate::view::{per_pixel_binding_fits, pixel_buffer};
 
 pub struct History {
     /// Three blocks of one vec4 a pixel: surface (position, packed normal), direct light
@@ -107,19 +107,4 @@ impl History {
             .map(|b| b.size())
             .sum()
     }
-}
-
-fn pixel_buffer(
-    device: &RenderDevice,
-    size: UVec2,
-    label: &'static str,
-    bytes: u64,
-    usage: BufferUsages,
-) -> Buffer {
-    device.create_buffer(&BufferDescriptor {
-        label: Some(label),
-        size: size.x as u64 * size.y as u64 * bytes,
-        usage: BufferUsages::STORAGE | usage,
-        mapped_at_creation: false,
-    })
 }

@@ -26,8 +26,8 @@ use crate::scene::{Lookups, ScatterPaths, material_defs};
 use crate::shaders::RppmShaders;
 use crate::splat::SplatTarget;
 use crate::stats::timing::{Stage, StageTimer};
-use crate::view::ViewLayouts;
 use crate::view::layouts::params_entry;
+use crate::view::{ViewLayouts, pixel_buffer};
 
 pub(crate) struct AccumulatePlugin;
 
@@ -153,12 +153,7 @@ pub struct EstimateInputs<'a> {
 
 impl Estimate {
     pub fn new(device: &RenderDevice, size: UVec2, history: bool) -> Self {
-        let radiance = device.create_buffer(&BufferDescriptor {
-            label: Some("rppm_radiance"),
-            size: size.x as u64 * size.y as u64 * 16,
-            usage: BufferUsages::STORAGE | BufferUsages::COPY_SRC,
-            mapped_at_creation: false,
-        });
+        let radiance = pixel_buffer(device, size, "rppm_radiance", 16, BufferUsages::COPY_SRC);
         Self {
             radiance,
             history: history.then(|| History::new(device, size)),

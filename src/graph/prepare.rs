@@ -223,11 +223,6 @@ fn prepare_view(
     if state.clock.begin_frame(changes, window) || changes.moved || changes.scene {
         state.radius2 = initial;
     }
-    // Last frame's copies are made when an iteration first reads them: a still view reads
-    // none.
-    if state.clock.next(window).1.clamps() {
-        state.keep_previous(device, &pipelines.cache, &pipelines.stages());
-    }
     if let Some(target) = frame
         .rppm
         .fast_forward
@@ -300,6 +295,11 @@ fn prepare_view(
         0
     };
     let (_, first_flags) = state.clock.next(window);
+    // Last frame's copies are made when an iteration first reads them: a still view reads
+    // none.
+    if first_flags.clamps() {
+        state.keep_previous(device, &pipelines.cache, &pipelines.stages());
+    }
     state.reprojects = count > 0 && first_flags.contains(HistoryFlags::REPROJECT);
     state.clamps = false;
     for slot in 0..count.max(1) {

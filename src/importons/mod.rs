@@ -19,7 +19,7 @@ use crate::scene::{Lookups, ScatterPaths, texture_defs};
 use crate::shaders::RppmShaders;
 use crate::shadows::ShadowMaps;
 use crate::stats::timing::{Stage, StageTimer};
-use crate::view::{ViewLayouts, per_pixel_binding_fits};
+use crate::view::{ViewLayouts, per_pixel_binding_fits, pixel_buffer};
 
 /// Byte offset of the indirect splat's dispatch arguments (one thread a pixel) in the
 /// importon stats buffer.
@@ -209,12 +209,7 @@ impl EyePaths {
             if importons { pixels * bytes } else { 0 }
         };
         Self {
-            samples: device.create_buffer(&BufferDescriptor {
-                label: Some("rppm_samples"),
-                size: pixels * 16,
-                usage: BufferUsages::STORAGE,
-                mapped_at_creation: false,
-            }),
+            samples: pixel_buffer(device, size, "rppm_samples", 16, BufferUsages::empty()),
             importons: storage(device, "rppm_importons", per_pixel(IMPORTON_BYTES)),
             stats: device.create_buffer_with_data(&BufferInitDescriptor {
                 label: Some("rppm_importon_stats"),

@@ -10,6 +10,7 @@ use bevy::camera::visibility::VisibilitySystems;
 use bevy::prelude::*;
 use bevy::render::RenderApp;
 use bevy::render::extract_component::ExtractComponentPlugin;
+use bevy::render::render_resource::{Buffer, BufferDescriptor, BufferUsages};
 use bevy::render::renderer::RenderDevice;
 use bevy::transform::TransformSystems;
 
@@ -51,6 +52,22 @@ pub(crate) fn binding_limit(device: &RenderDevice) -> u64 {
     limits
         .max_storage_buffer_binding_size
         .min(limits.max_buffer_size)
+}
+
+/// A storage buffer of `bytes_per_pixel` for each pixel of `size`.
+pub(crate) fn pixel_buffer(
+    device: &RenderDevice,
+    size: UVec2,
+    label: &'static str,
+    bytes_per_pixel: u64,
+    usage: BufferUsages,
+) -> Buffer {
+    device.create_buffer(&BufferDescriptor {
+        label: Some(label),
+        size: size.x as u64 * size.y as u64 * bytes_per_pixel,
+        usage: BufferUsages::STORAGE | usage,
+        mapped_at_creation: false,
+    })
 }
 
 /// Whether `what`, a buffer of `bytes_per_pixel` for each of `size`'s pixels bound whole,

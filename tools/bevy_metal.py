@@ -9,6 +9,11 @@ with separable Smith and F = its reflectance at every angle: at roughness 0.5 it
 
     import bevy_metal; bevy_metal.register()  # after mi.set_variant
     {"type": "bevy_metal", "roughness": 0.5, "base_color": {"type": "rgb", "value": [...]}}
+
+`roughness` may be a texture (a metallic-roughness texture's G × factor, filtered as Bevy
+filters it): the roughness is then read per point and α = roughness² is taken after the
+filter, as Bevy's StandardMaterial does, with the multiple-scattering lobe interpolated
+between ROWS roughnesses.
 """
 
 import math
@@ -53,6 +58,8 @@ def smith_visibility(n_dot_v, n_dot_l, a):
 
 
 TABLE = 128
+# Roughnesses 0, 1/(ROWS − 1), …, 1 of the tables of a textured roughness.
+ROWS = 33
 
 
 # GGX pieces on Dr.Jit arrays (local frame, n = z), shared with bevy_layers.py.
@@ -103,6 +110,13 @@ def table_at(dr, mi, table, mu):
     return dr.lerp(dr.gather(mi.Float, table, i), dr.gather(mi.Float, table, i + 1), f)
 
 
+def lost_tables(roughnesses):
+    """1 − E(μ) at TABLE cosines and its cosine-weighted average, for each roughness."""
+    mus = (np.arange(TABLE) + 0.5) / TABLE
+    lost = np.array([np.clip(1 - directional_albedo(r, mus), 0, 1) for r in roughnesses])
+    return lost, np.maximum(np.sum(2 * lost * mus, axis=1) / TABLE, 1e-3)
+
+
 def register():
     import drjit as dr
     import mitsuba as mi
@@ -110,49 +124,81 @@ def register():
     class BevyMetal(mi.BSDF):
         def __init__(self, props):
             mi.BSDF.__init__(self, props)
-            self.roughness = float(props.get("roughness", 0.5))
-            self.alpha = self.roughness * self.roughness
+            roughness = props.get("roughness", 0.5)
+            self.textured = isinstance(roughness, mi.Texture)
             self.base = props.get("base_color", mi.ScalarColor3f(1.0))
             if not isinstance(self.base, mi.Texture):
                 self.base = mi.load_dict({"type": "rgb", "value": self.base})
-            mus = (np.arange(TABLE) + 0.5) / TABLE
-            lost = np.clip(1 - directional_albedo(self.roughness, mus), 0, 1)
-            self.lost_avg = max(float(np.sum(2 * lost * mus) / TABLE), 1e-3)
-            self.lost = as_table(mi, lost)
+            if self.textured:
+                if mi.variant().startswith("scalar"):
+                    raise RuntimeError("bevy_metal: a textured roughness needs an llvm variant")
+                self.roughness = roughness
+                lost, avg = lost_tables(np.linspace(0.0, 1.0, ROWS))
+                self.lost, self.lost_avg = mi.Float(lost.ravel().astype("float32")), mi.Float(avg.astype("float32"))
+            else:
+                self.roughness = float(roughness)
+                self.alpha = self.roughness * self.roughness
+                lost, avg = lost_tables([self.roughness])
+                self.lost_avg = float(avg[0])
+                self.lost = as_table(mi, lost[0])
             # Half the lobes by GGX, half by cosine: every direction either draws is sampled.
             self.m_flags = mi.BSDFFlags.GlossyReflection | mi.BSDFFlags.DiffuseReflection | mi.BSDFFlags.FrontSide
             self.m_components = [self.m_flags]
 
-        def lost_at(self, mu):
-            return table_at(dr, mi, self.lost, mu)
+        def alpha_at(self, si, active):
+            if not self.textured:
+                return self.alpha
+            r = dr.clamp(self.roughness.eval_1(si, active), 0.0, 1.0)
+            return dr.maximum(r * r, 1e-3)
+
+        def multiple_at(self, si, mu_i, mu_o, active):
+            """(1 − E(μi)) (1 − E(μo)) / (π (1 − E_avg)) at the point's roughness."""
+            if not self.textured:
+                lost_i, lost_o = table_at(dr, mi, self.lost, mu_i), table_at(dr, mi, self.lost, mu_o)
+                return lost_i * lost_o / (math.pi * self.lost_avg)
+            x = dr.clamp(self.roughness.eval_1(si, active), 0.0, 1.0) * (ROWS - 1)
+            row = dr.minimum(mi.UInt32(x), ROWS - 2)
+            f = x - mi.Float(row)
+
+            def at(r, mu):
+                t = dr.clamp(mu * TABLE - 0.5, 0, TABLE - 1)
+                i = dr.minimum(mi.UInt32(t), TABLE - 2)
+                g = t - mi.Float(i)
+                k = r * TABLE + i
+                return dr.lerp(dr.gather(mi.Float, self.lost, k), dr.gather(mi.Float, self.lost, k + 1), g)
+
+            def value(r):
+                return at(r, mu_i) * at(r, mu_o) / (math.pi * dr.gather(mi.Float, self.lost_avg, r))
+
+            return dr.lerp(value(row), value(row + 1), f)
 
         def f_cos(self, si, wi, wo, active):
             """f·cos θo with wi toward the viewer, wo toward the light (local frame)."""
             mu_i, mu_o = mi.Frame3f.cos_theta(wi), mi.Frame3f.cos_theta(wo)
             active = active & (mu_i > 0) & (mu_o > 0)
-            ggx_d, vis, h = ggx_terms(dr, mi, wi, wo, self.alpha)
+            ggx_d, vis, h = ggx_terms(dr, mi, wi, wo, self.alpha_at(si, active))
             f0 = self.base.eval(si, active)
             f90 = dr.clamp(16.5 * (f0[0] + f0[1] + f0[2]), 0.0, 1.0)
             fc = dr.power(1 - dr.clamp(dr.dot(wi, h), 0, 1), 5)
             fresnel = f0 + (f90 - f0) * fc
-            multiple = f0 * (self.lost_at(mu_i) * self.lost_at(mu_o) / (math.pi * self.lost_avg))
+            multiple = f0 * self.multiple_at(si, mu_i, mu_o, active)
             value = (fresnel * ggx_d * vis + multiple) * mu_o
             return dr.select(active, value, 0.0)
 
-        def pdf_of(self, wi, wo, active):
+        def pdf_of(self, si, wi, wo, active):
             mu_i, mu_o = mi.Frame3f.cos_theta(wi), mi.Frame3f.cos_theta(wo)
-            p = 0.5 * ggx_pdf(dr, mi, wi, wo, self.alpha) + 0.5 * mu_o / math.pi
+            p = 0.5 * ggx_pdf(dr, mi, wi, wo, self.alpha_at(si, active)) + 0.5 * mu_o / math.pi
             return dr.select(active & (mu_i > 0) & (mu_o > 0), p, 0.0)
 
         def sample(self, ctx, si, sample1, sample2, active=True):
             wi = si.wi
             # GGX half vector (D cos θh) or a cosine direction.
-            reflected = ggx_reflect(dr, mi, wi, sample2, self.alpha)
+            reflected = ggx_reflect(dr, mi, wi, sample2, self.alpha_at(si, active))
             cosine = mi.warp.square_to_cosine_hemisphere(sample2)
             wo = dr.select(sample1 < 0.5, reflected, cosine)
             bs = dr.zeros(mi.BSDFSample3f)
             bs.wo = wo
-            bs.pdf = self.pdf_of(wi, wo, active)
+            bs.pdf = self.pdf_of(si, wi, wo, active)
             bs.eta = 1.0
             bs.sampled_type = mi.UInt32(+mi.BSDFFlags.GlossyReflection)
             bs.sampled_component = mi.UInt32(0)
@@ -164,15 +210,15 @@ def register():
             return self.f_cos(si, si.wi, wo, active)
 
         def pdf(self, ctx, si, wo, active=True):
-            return self.pdf_of(si.wi, wo, active)
+            return self.pdf_of(si, si.wi, wo, active)
 
         def eval_pdf(self, ctx, si, wo, active=True):
-            return self.f_cos(si, si.wi, wo, active), self.pdf_of(si.wi, wo, active)
+            return self.f_cos(si, si.wi, wo, active), self.pdf_of(si, si.wi, wo, active)
 
         def traverse(self, callback):
             pass
 
         def to_string(self):
-            return f"BevyMetal[roughness={self.roughness}]"
+            return f"BevyMetal[roughness={'texture' if self.textured else self.roughness}]"
 
     mi.register_bsdf("bevy_metal", lambda props: BevyMetal(props))

@@ -26,8 +26,12 @@ dielectric's specular layer, which the Lambertian stand-in leaves out.
 Textures (numpy needed): base colour texture × factor and emissive texture × factor as
 bilinear repeating bitmaps, COLOR_0 as the `vertex_color` mesh attribute, alpha `MASK` as a
 `mask` BSDF, `doubleSided` as `twosided`, a metallic-roughness texture (on a Lambertian
-base) as a `blendbsdf` of Lambert and the rough metal weighted by metallic, a normal texture
-as `normalmap`; KHR_texture_transform and the normal map's scale are left out.
+base) as a `blendbsdf` of Lambert and the rough metal weighted by metallic, the metal at the
+roughness filtered at each point as Bevy filters it (`bevy_metal` reads the texture; an llvm
+variant), a normal texture
+as `normalmap` (its folding of normals that face away from the viewer and its terminator
+term, on by default since Mitsuba 3.7.1, turned off: Bevy has neither);
+KHR_texture_transform and the normal map's scale are left out.
 Lights: KHR_lights_punctual point (W/sr = cd; with `extras.rppm_radius` a sphere of that
 radius, radiance I/(πr²), that neither blocks nor reflects), spot (Bevy's falloff, the square of a ramp in
 cos θ from the outer cone to the inner, as a texture the spot projects), directional (W/m² = lux); their
@@ -83,17 +87,16 @@ class Textures:
         return self._write(linear * np.array(factor[:3], dtype=np.float32), "colour")
 
     def metallic_roughness(self, info, metallic, roughness):
-        """Metallic (B × factor) as a blend weight and GGX α = (G × factor)² as bitmaps, and the
-        metal's one roughness where its texels share one (else None)."""
+        """Metallic (B × factor) as a blend weight, the roughness (G × factor) and GGX
+        α = (G × factor)² as bitmaps."""
         import numpy as np
 
         p = self._pixels(info)
         metal = p[..., 2] * metallic
-        alpha = np.maximum((p[..., 1] * roughness) ** 2, 1e-3)
-        rough = p[..., 1][metal > 0] * roughness
-        one = float(rough.mean()) if rough.size and np.ptp(rough) < 1.5 / 255 else None
-        return (self._write(np.stack([metal] * 3, axis=2), "metallic"), self._write(np.stack([alpha] * 3, axis=2), "alpha"),
-                one)
+        rough = p[..., 1] * roughness
+        alpha = np.maximum(rough ** 2, 1e-3)
+        return tuple(self._write(np.stack([x] * 3, axis=2), name)
+                     for x, name in ((metal, "metallic"), (rough, "roughness"), (alpha, "alpha")))
 
     def normal_map(self, info):
         """A glTF normal map for Mitsuba's `normalmap`: its frame's second axis is n × ∂p/∂u,
@@ -178,13 +181,15 @@ def bsdf_of(material, textures=None, vertex_colors=False):
         bsdf = {"type": "bevy_translucent", "transmission": translucent, "reflectance": rgb}
         description = f"bevy_translucent({description}, transmission={translucent})"
     if textured_metal:
-        # Per texel: Lambert where metallic is 0, a GGX conductor of α = roughness² where 1.
-        metal, alpha, rough = textures.metallic_roughness(pbr["metallicRoughnessTexture"], metallic, roughness)
+        # Per point: Lambert where metallic is 0, the rough metal where 1, at the filtered roughness.
+        metal, rough, alpha = textures.metallic_roughness(pbr["metallicRoughnessTexture"], metallic, roughness)
         conductor, kind = rough_metal(rgb, alpha, rough)
         bsdf = {"type": "blendbsdf", "weight": metal, "bsdf_0": bsdf, "bsdf_1": conductor}
         description = f"blend({description}, {kind}) by metallic texture"
     if "normalTexture" in material and textures:
-        bsdf = {"type": "normalmap", "normalmap": textures.normal_map(material["normalTexture"]), "bsdf": bsdf}
+        # Bevy bends the normal and nothing more: no folding toward the viewer, no terminator term.
+        bsdf = {"type": "normalmap", "normalmap": textures.normal_map(material["normalTexture"]), "bsdf": bsdf,
+                "flip_invalid_normals": False, "use_shadowing_function": False}
         description = f"normalmap({description})"
     coat = material.get("extensions", {}).get("KHR_materials_clearcoat", {})
     if coat.get("clearcoatFactor", 0.0) > 0:
@@ -210,11 +215,11 @@ METAL = "bevy"
 def rough_metal(rgb, alpha_texture, roughness):
     """A rough conductor: bevy_rppm's (`bevy_metal`: multiple scattering, Schlick's Fresnel)
     or, with `--metal mitsuba`, Mitsuba's `roughconductor` (single scattering, F constant);
-    the texture's α where the roughness is textured (Mitsuba's only)."""
+    where the roughness is textured, `roughness` is its texture and `alpha_texture` its α
+    (Mitsuba's filters α, Bevy the roughness)."""
     if METAL == "bevy":
-        if alpha_texture is not None and roughness is None:
-            sys.exit("reference.py: error: bevy_metal takes one roughness; the texture varies it")
-        return ({"type": "bevy_metal", "roughness": roughness, "base_color": rgb}, f"bevy_metal(roughness={roughness:.3f})")
+        shown = "texture" if isinstance(roughness, dict) else f"{roughness:.3f}"
+        return ({"type": "bevy_metal", "roughness": roughness, "base_color": rgb}, f"bevy_metal(roughness={shown})")
     alpha = alpha_texture if alpha_texture is not None else max(roughness * roughness, 1e-3)
     return ({"type": "roughconductor", "material": "none", "distribution": "ggx", "alpha": alpha, "specular_reflectance": rgb},
             "roughconductor")

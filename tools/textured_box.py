@@ -6,10 +6,14 @@
   cut-out screen (an alpha-masked texture with round holes, double-sided) onto the floor;
 - `metal`: the floor normal-mapped with round bumps under a grazing point light, the back
   wall gold in stripes of rough metal and Lambertian paint (a metallic-roughness texture),
-  a plain emissive ceiling panel.
+  a plain emissive ceiling panel;
+- `grooves`: normal maps steep enough to face away from the camera, on three surfaces: a
+  floor and a red left wall in asymmetric grooves (normals up to 58° off), a back wall of
+  bevelled tiles, a warm point light high in the box and the panel, seen from another place.
 
     python3 tools/textured_box.py assets/suite/textured_box.gltf box
     python3 tools/textured_box.py assets/suite/textured_metal.gltf metal
+    python3 tools/textured_box.py assets/suite/grooved_room.gltf grooves
     python3 tools/reference.py assets/suite/textured_box.gltf --out assets/suite/textured_box.ref.exr \\
         --width 256 --height 256 --spp 2048 --variant scalar_rgb
 """
@@ -43,8 +47,8 @@ def srgb(linear):
 
 out = sys.argv[1] if len(sys.argv) > 1 else "textured_box.gltf"
 variant = sys.argv[2] if len(sys.argv) > 2 else "box"
-if variant not in ("box", "metal"):
-    sys.exit("textured_box.py: error: the variant is box or metal")
+if variant not in ("box", "metal", "grooves"):
+    sys.exit("textured_box.py: error: the variant is box, metal or grooves")
 folder = os.path.dirname(os.path.abspath(out))
 os.makedirs(os.path.join(folder, "textures"), exist_ok=True)
 # 8 × 8 checks on a 64² texture, sRGB-encoded albedos 0.8 and 0.1.
@@ -76,6 +80,35 @@ write_png(os.path.join(folder, "textures/bumps.png"), 64, 64, lambda x, y: dome(
 # Metallic-roughness stripes along u: metal at roughness 0.5 (G 128, B 255) / paint (G 255, B 0).
 write_png(os.path.join(folder, "textures/metal_stripes.png"), 32, 8,
           lambda x, y: [0, 128, 255, 255] if (x // 4) % 2 == 0 else [0, 255, 0, 255])
+
+
+
+def tangent_normal(nx, ny):
+    """A tangent-space normal of x, y components as RGBA8 (z completes the unit vector)."""
+    nz = math.sqrt(max(1 - nx * nx - ny * ny, 0.0))
+    return [round(255 * (c * 0.5 + 0.5)) for c in (nx, ny, nz)] + [255]
+
+
+def groove(x, y):
+    """Six grooves across u, a cosine and its second harmonic (asymmetric), slope up to 1.6."""
+    t = ((x + 0.5) / 128 * 6) % 1.0
+    slope = 1.2 * (math.cos(2 * math.pi * t) + 0.35 * math.cos(4 * math.pi * t))
+    length = math.sqrt(slope * slope + 1)
+    return tangent_normal(-slope / length, 0.0)
+
+
+def tile(x, y):
+    """8 × 8 tiles on 128², bevels 3 texels wide tilted 35° out."""
+    cx, cy = x % 16, y % 16
+    nx = -0.7 if cx < 3 else (0.7 if cx >= 13 else 0.0)
+    ny = 0.7 if cy < 3 else (-0.7 if cy >= 13 else 0.0)
+    length = math.sqrt(nx * nx + ny * ny + 1)
+    return tangent_normal(nx / length, ny / length)
+
+
+if variant == "grooves":
+    write_png(os.path.join(folder, "textures/grooves.png"), 128, 16, groove)
+    write_png(os.path.join(folder, "textures/tiles.png"), 128, 128, tile)
 
 buf = b""
 views, accessors, meshes, nodes, materials = [], [], [], [], []
@@ -135,6 +168,15 @@ if variant == "box":
     panel = material([0.0, 0.0, 0.0], name="striped emitter", emissiveTexture={"index": 1},
                      emissiveFactor=[1.0, 1.0, 1.0], extensions={"KHR_materials_emissive_strength": {"emissiveStrength": 6.0}})
     light = {"translation": [-0.3, 1.5, -0.7], "intensity": 2.0}
+elif variant == "grooves":
+    images = [{"uri": "textures/grooves.png"}, {"uri": "textures/tiles.png"}]
+    floor = material([0.6, 0.55, 0.5], name="grooved floor", normalTexture={"index": 0})
+    materials[red]["normalTexture"] = {"index": 0}
+    back = material([0.8, 0.8, 0.8], name="tiled wall", normalTexture={"index": 1})
+    back_colors = None
+    panel = material([0.0, 0.0, 0.0], name="emitter", emissiveFactor=[1.0, 1.0, 1.0],
+                     extensions={"KHR_materials_emissive_strength": {"emissiveStrength": 4.0}})
+    light = {"translation": [0.6, 1.3, -0.4], "intensity": 1.5, "color": [1, 0.9, 0.8]}
 else:
     images = [{"uri": "textures/bumps.png"}, {"uri": "textures/metal_stripes.png"}]
     floor = material([0.7, 0.7, 0.7], name="bumps", normalTexture={"index": 0})
@@ -161,7 +203,13 @@ if variant == "box":
     quad([[cx - s, cy, cz - s], [cx - s, cy, cz + s], [cx + s, cy, cz + s], [cx + s, cy, cz - s]],
          [0, 1, 0], screen)                                                                            # cut-out screen
 nodes.append({"extensions": {"KHR_lights_punctual": {"light": 0}}, "translation": light["translation"]})
-nodes.append({"camera": 0, "translation": [0.0, 1.55, 0.95], "rotation": [-0.2231, 0.0, 0.0, 0.9748]})
+if variant == "grooves":
+    # Turned 0.35 rad to the left and 0.3 rad down.
+    yaw, pitch = 0.35, -0.3
+    cy, sy, cp, sp = math.cos(yaw / 2), math.sin(yaw / 2), math.cos(pitch / 2), math.sin(pitch / 2)
+    nodes.append({"camera": 0, "translation": [0.55, 1.1, 0.95], "rotation": [cy * sp, sy * cp, -sy * sp, cy * cp]})
+else:
+    nodes.append({"camera": 0, "translation": [0.0, 1.55, 0.95], "rotation": [-0.2231, 0.0, 0.0, 0.9748]})
 gltf = {
     "asset": {"version": "2.0", "generator": "tools/textured_box.py"},
     "scene": 0,
@@ -176,7 +224,7 @@ gltf = {
     "buffers": [{"byteLength": len(buf), "uri": "data:application/octet-stream;base64," + base64.b64encode(buf).decode()}],
     "cameras": [{"type": "perspective", "perspective": {"yfov": 1.0, "znear": 0.05, "zfar": 100.0, "aspectRatio": 1.0}}],
     "extensionsUsed": ["KHR_lights_punctual", "KHR_materials_emissive_strength"],
-    "extensions": {"KHR_lights_punctual": {"lights": [{"type": "point", "color": [1, 1, 1], "intensity": light["intensity"]}]}},
+    "extensions": {"KHR_lights_punctual": {"lights": [{"type": "point", "color": light.get("color", [1, 1, 1]), "intensity": light["intensity"]}]}},
 }
 with open(out, "w") as f:
     json.dump(gltf, f)

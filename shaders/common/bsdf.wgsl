@@ -182,7 +182,9 @@ struct Scatter {
 // (mirror metals, Fresnel glass). A lobe is chosen with a probability near what it reflects
 // from wi, else the photon is absorbed, so flux stays unbiased. Lobes no material of the scene
 // has are compiled out (GLOSSY, MIRRORS, REFRACTION).
-fn scatter_photon(material: Material, n: vec3<f32>, wi: vec3<f32>, front: bool, rng: ptr<function, u32>) -> Scatter {
+// The cosine lobes are drawn about `around`: n, or for photons the surface's own normal where
+// a normal map bends n (photons/trace.wgsl: they leave by that normal's cosine).
+fn scatter_photon(material: Material, n: vec3<f32>, around: vec3<f32>, wi: vec3<f32>, front: bool, rng: ptr<function, u32>) -> Scatter {
 #ifdef CLEARCOAT
     // The coat reflects what it reflects of light from wi; the rest passes it both ways.
     let coat = coat_albedo(material, max(dot(n, wi), 0.0));
@@ -191,7 +193,7 @@ fn scatter_photon(material: Material, n: vec3<f32>, wi: vec3<f32>, front: bool, 
             let s = scatter_coat(material, n, wi, rng);
             return Scatter(s.direction, s.weight / coat);
         }
-        var s = scatter_layers(material, n, wi, front, rng);
+        var s = scatter_layers(material, n, around, wi, front, rng);
         let out = dot(n, s.direction);
         if out > 0.0 {
             s.weight *= 1.0 - coat_albedo(material, out);
@@ -199,11 +201,11 @@ fn scatter_photon(material: Material, n: vec3<f32>, wi: vec3<f32>, front: bool, 
         return s;
     }
 #endif
-    return scatter_layers(material, n, wi, front, rng);
+    return scatter_layers(material, n, around, wi, front, rng);
 }
 
 // `scatter_photon` under a clearcoat.
-fn scatter_layers(material: Material, n: vec3<f32>, wi: vec3<f32>, front: bool, rng: ptr<function, u32>) -> Scatter {
+fn scatter_layers(material: Material, n: vec3<f32>, around: vec3<f32>, wi: vec3<f32>, front: bool, rng: ptr<function, u32>) -> Scatter {
     var m = material;
 #ifdef DIFFUSE_TRANSMISSION
     // Through with the translucent share's probability, Lambertian about −n.
@@ -244,9 +246,14 @@ fn scatter_layers(material: Material, n: vec3<f32>, wi: vec3<f32>, front: bool, 
     let p_cosine = min(luminance(cosine_lobes_energy(m, f0, i, avg)), left);
     left -= p_cosine;
     if u < p_cosine {
-        let d = cosine_direction(n, vec2<f32>(random(rng), random(rng)));
+        let d = cosine_direction(around, vec2<f32>(random(rng), random(rng)));
         let o = specular_at(m, f0, dot(n, d));
-        return Scatter(d, cosine_lobes(m, f0, o, i, avg) / p_cosine);
+        var weight = cosine_lobes(m, f0, o, i, avg) / p_cosine;
+        if any(around != n) {
+            // Drawn by the other normal's cosine: this one's over it, none below this one.
+            weight *= max(dot(n, d), 0.0) / max(dot(around, d), 1e-6);
+        }
+        return Scatter(d, weight);
     }
     u -= p_cosine;
     let delta = m.perceptual_roughness < DELTA_ROUGHNESS;

@@ -63,7 +63,7 @@ fn furnace(@builtin(workgroup_id) group: vec3<u32>, @builtin(local_invocation_in
             }
             eval_sum += bsdf_eval(m, n, wo, wi) * cos_i * strategies / max(pdf, 1e-12);
         }
-        photon_sum += scatter_photon(m, n, wo, true, &rng).weight;
+        photon_sum += scatter_photon(m, n, n, wo, true, &rng).weight;
     }
     eval_sums[local] = eval_sum;
     photon_sums[local] = photon_sum;

@@ -91,7 +91,7 @@ fn next_bounce(m: Material, d: vec3<f32>, n: vec3<f32>, front: bool, rng: ptr<fu
 fn lobe_bounce(m: Material, d: vec3<f32>, n: vec3<f32>, front: bool, rng: ptr<function, u32>) -> Bounce {
 #ifdef GLOSSY
     if m.perceptual_roughness >= DELTA_ROUGHNESS {
-        let s = scatter_photon(m, n, -d, front, rng);
+        let s = scatter_photon(m, n, n, -d, front, rng);
         return Bounce(s.direction, s.weight);
     }
 #endif

@@ -227,9 +227,11 @@ fn bent_scatter(n: vec3<f32>, plane: vec3<f32>, wi: vec3<f32>, wo: vec3<f32>) ->
     if in_bent * in_plane <= 0.0 || out_bent * out_plane <= 0.0 {
         return 0.0;
     }
-    // Floors as the gathers' bend has (splat/splat.wgsl): grazing photons are not boosted past 20×.
+    // The arrival's floor is the gathers' bend's (splat/splat.wgsl). The cosine lobes are drawn
+    // about `plane` already (scatter_photon's `around`): their way out is weighed there, and
+    // this factor's undoes it but for the floor, met only in the last 1 % above n's horizon.
     let arrival = abs(in_bent) / max(abs(in_plane), 0.05);
-    return arrival * abs(out_plane) / max(abs(out_bent), 0.05);
+    return arrival * abs(out_plane) / max(abs(out_bent), 0.01);
 }
 #endif
 
@@ -306,7 +308,7 @@ fn trace(@builtin(global_invocation_id) id: vec3<u32>, @builtin(local_invocation
             if (indirect || direct_only) && stores_photons(m) {
                 store(x, ray, interpolated);
             }
-            var s = scatter_photon(m, n, -ray.direction, front, &rng);
+            var s = scatter_photon(m, n, interpolated, -ray.direction, front, &rng);
 #ifdef NORMAL_MAP
             s.weight *= bent_scatter(n, interpolated, -ray.direction, s.direction);
 #endif

@@ -140,6 +140,16 @@ class Textures:
         return self._write(np.stack([opacity] * 3, axis=2), "mask")
 
 
+def with_normal_map(material, textures, bsdf, description):
+    """The BSDF under the material's normal texture, bent as Bevy bends it: Mitsuba's folding
+    of normals that face away from the viewer and its terminator term (on by default since
+    3.7.1) off, as Bevy has neither."""
+    if "normalTexture" not in material or not textures:
+        return bsdf, description
+    return ({"type": "normalmap", "normalmap": textures.normal_map(material["normalTexture"]), "bsdf": bsdf,
+             "flip_invalid_normals": False, "use_shadowing_function": False}, f"normalmap({description})")
+
+
 def bsdf_of(material, textures=None, vertex_colors=False):
     """Mitsuba BSDF dict and a one-line description, per the mapping in this file's header."""
     pbr = material.get("pbrMetallicRoughness", {})
@@ -151,18 +161,21 @@ def bsdf_of(material, textures=None, vertex_colors=False):
     ior = ext.get("KHR_materials_ior", {}).get("ior", 1.5)
     rgb = {"type": "rgb", "value": base}
     if transmission > 0 and roughness < 0.02:
-        return {"type": "dielectric", "int_ior": ior, "ext_ior": 1.0}, f"dielectric(ior={ior})"
+        return with_normal_map(material, textures, {"type": "dielectric", "int_ior": ior, "ext_ior": 1.0},
+                               f"dielectric(ior={ior})")
     if transmission > 0:
         if transmission < 1:
             print("reference.py: partial transmission is rendered as full", file=sys.stderr)
         alpha = roughness * roughness
-        return ({"type": "roughdielectric", "distribution": "ggx", "alpha": alpha, "int_ior": ior, "ext_ior": 1.0},
-                f"roughdielectric(ior={ior}, alpha={alpha:.3f})")
+        return with_normal_map(material, textures, {"type": "roughdielectric", "distribution": "ggx", "alpha": alpha,
+                                                    "int_ior": ior, "ext_ior": 1.0},
+                               f"roughdielectric(ior={ior}, alpha={alpha:.3f})")
     textured_metal = "metallicRoughnessTexture" in pbr and textures
     if metallic > 0 and roughness < 0.02 and not textured_metal:
-        return {"type": "conductor", "material": "none", "specular_reflectance": rgb}, "conductor(none)"
+        return with_normal_map(material, textures, {"type": "conductor", "material": "none", "specular_reflectance": rgb},
+                               "conductor(none)")
     if metallic > 0 and not textured_metal:
-        return rough_metal(rgb, None, roughness)
+        return with_normal_map(material, textures, *rough_metal(rgb, None, roughness))
     description = "diffuse(lambert)"
     if "baseColorTexture" in pbr and textures:
         rgb = textures.colour(pbr["baseColorTexture"], base)
@@ -186,11 +199,7 @@ def bsdf_of(material, textures=None, vertex_colors=False):
         conductor, kind = rough_metal(rgb, alpha, rough)
         bsdf = {"type": "blendbsdf", "weight": metal, "bsdf_0": bsdf, "bsdf_1": conductor}
         description = f"blend({description}, {kind}) by metallic texture"
-    if "normalTexture" in material and textures:
-        # Bevy bends the normal and nothing more: no folding toward the viewer, no terminator term.
-        bsdf = {"type": "normalmap", "normalmap": textures.normal_map(material["normalTexture"]), "bsdf": bsdf,
-                "flip_invalid_normals": False, "use_shadowing_function": False}
-        description = f"normalmap({description})"
+    bsdf, description = with_normal_map(material, textures, bsdf, description)
     coat = material.get("extensions", {}).get("KHR_materials_clearcoat", {})
     if coat.get("clearcoatFactor", 0.0) > 0:
         strength, rough = coat["clearcoatFactor"], coat.get("clearcoatRoughnessFactor", 0.0)

@@ -9,11 +9,14 @@
   a plain emissive ceiling panel;
 - `grooves`: normal maps steep enough to face away from the camera, on three surfaces: a
   floor and a red left wall in asymmetric grooves (normals up to 58° off), a back wall of
-  bevelled tiles, a warm point light high in the box and the panel, seen from another place.
+  bevelled tiles, a warm point light high in the box and the panel, seen from another place;
+- `grooves_metal`: the same with its floor gold metal of roughness 0.35 (glossy photons
+  scattered off a normal-mapped metal, and reflections in it).
 
     python3 tools/textured_box.py assets/suite/textured_box.gltf box
     python3 tools/textured_box.py assets/suite/textured_metal.gltf metal
     python3 tools/textured_box.py assets/suite/grooved_room.gltf grooves
+    python3 tools/textured_box.py assets/suite/grooved_metal.gltf grooves_metal
     python3 tools/reference.py assets/suite/textured_box.gltf --out assets/suite/textured_box.ref.exr \\
         --width 256 --height 256 --spp 2048 --variant scalar_rgb
 """
@@ -47,8 +50,8 @@ def srgb(linear):
 
 out = sys.argv[1] if len(sys.argv) > 1 else "textured_box.gltf"
 variant = sys.argv[2] if len(sys.argv) > 2 else "box"
-if variant not in ("box", "metal", "grooves"):
-    sys.exit("textured_box.py: error: the variant is box, metal or grooves")
+if variant not in ("box", "metal", "grooves", "grooves_metal"):
+    sys.exit("textured_box.py: error: the variant is box, metal, grooves or grooves_metal")
 folder = os.path.dirname(os.path.abspath(out))
 os.makedirs(os.path.join(folder, "textures"), exist_ok=True)
 # 8 × 8 checks on a 64² texture, sRGB-encoded albedos 0.8 and 0.1.
@@ -106,7 +109,7 @@ def tile(x, y):
     return tangent_normal(nx / length, ny / length)
 
 
-if variant == "grooves":
+if variant.startswith("grooves"):
     write_png(os.path.join(folder, "textures/grooves.png"), 128, 16, groove)
     write_png(os.path.join(folder, "textures/tiles.png"), 128, 128, tile)
 
@@ -168,9 +171,12 @@ if variant == "box":
     panel = material([0.0, 0.0, 0.0], name="striped emitter", emissiveTexture={"index": 1},
                      emissiveFactor=[1.0, 1.0, 1.0], extensions={"KHR_materials_emissive_strength": {"emissiveStrength": 6.0}})
     light = {"translation": [-0.3, 1.5, -0.7], "intensity": 2.0}
-elif variant == "grooves":
+elif variant.startswith("grooves"):
     images = [{"uri": "textures/grooves.png"}, {"uri": "textures/tiles.png"}]
     floor = material([0.6, 0.55, 0.5], name="grooved floor", normalTexture={"index": 0})
+    if variant == "grooves_metal":
+        materials[floor]["pbrMetallicRoughness"].update(baseColorFactor=[0.95, 0.75, 0.45, 1.0], metallicFactor=1.0,
+                                                        roughnessFactor=0.35)
     materials[red]["normalTexture"] = {"index": 0}
     back = material([0.8, 0.8, 0.8], name="tiled wall", normalTexture={"index": 1})
     back_colors = None
@@ -203,7 +209,7 @@ if variant == "box":
     quad([[cx - s, cy, cz - s], [cx - s, cy, cz + s], [cx + s, cy, cz + s], [cx + s, cy, cz - s]],
          [0, 1, 0], screen)                                                                            # cut-out screen
 nodes.append({"extensions": {"KHR_lights_punctual": {"light": 0}}, "translation": light["translation"]})
-if variant == "grooves":
+if variant.startswith("grooves"):
     # Turned 0.35 rad to the left and 0.3 rad down.
     yaw, pitch = 0.35, -0.3
     cy, sy, cp, sp = math.cos(yaw / 2), math.sin(yaw / 2), math.cos(pitch / 2), math.sin(pitch / 2)

@@ -39,7 +39,7 @@ fn reference(name: &str) -> RgbImage {
 /// through double glazing; an area light over matte spheres; the same over metal
 /// spheres of roughness 0.1 and 0.25, which camera paths go on through; a box with a checker
 /// floor, vertex colours, a striped emissive panel and a cut-out screen; the same box with
-/// steep normal maps on its floor and two walls; a dark room lit by a
+/// steep normal maps on its floor and two walls, and again with the floor glossy gold; a dark room lit by a
 /// sun through a window; a glass block under a small panel; blocks of coloured glass; a
 /// frosted pane and a rough glass block; a water surface in a pool under a sky, seen through
 /// from above, with one-sided walls seen from behind; a yard lit by a uniform sky alone, with
@@ -66,6 +66,7 @@ fn suite_energy_is_right_after_four_iterations() {
         ("textured_box", 0.05),
         ("textured_metal", 0.05),
         ("grooved_room", 0.05),
+        ("grooved_metal", 0.25),
         ("sun_room", 0.05),
         ("glazed_room", 0.05),
         ("glass_slab", 0.05),

@@ -99,15 +99,17 @@ def as_table(mi, values):
     return mi.Float(values.astype("float32"))
 
 
-def table_at(dr, mi, table, mu):
-    """A table of TABLE values at cosines (k + ½)/TABLE, read linearly at mu."""
+def table_at(dr, mi, table, mu, row=0):
+    """A table of TABLE values at cosines (k + ½)/TABLE, read linearly at mu; its `row`-th
+    where `table` holds rows of TABLE values one after another (JIT arrays only)."""
     x = dr.clamp(mu * TABLE - 0.5, 0, TABLE - 1)
     if isinstance(table, list):
         i = min(int(x), TABLE - 2)
         return dr.lerp(table[i], table[i + 1], x - i)
     i = dr.minimum(mi.UInt32(x), TABLE - 2)
     f = x - mi.Float(i)
-    return dr.lerp(dr.gather(mi.Float, table, i), dr.gather(mi.Float, table, i + 1), f)
+    k = row * TABLE + i
+    return dr.lerp(dr.gather(mi.Float, table, k), dr.gather(mi.Float, table, k + 1), f)
 
 
 def lost_tables(roughnesses):
@@ -160,15 +162,9 @@ def register():
             row = dr.minimum(mi.UInt32(x), ROWS - 2)
             f = x - mi.Float(row)
 
-            def at(r, mu):
-                t = dr.clamp(mu * TABLE - 0.5, 0, TABLE - 1)
-                i = dr.minimum(mi.UInt32(t), TABLE - 2)
-                g = t - mi.Float(i)
-                k = r * TABLE + i
-                return dr.lerp(dr.gather(mi.Float, self.lost, k), dr.gather(mi.Float, self.lost, k + 1), g)
-
             def value(r):
-                return at(r, mu_i) * at(r, mu_o) / (math.pi * dr.gather(mi.Float, self.lost_avg, r))
+                lost_i, lost_o = table_at(dr, mi, self.lost, mu_i, r), table_at(dr, mi, self.lost, mu_o, r)
+                return lost_i * lost_o / (math.pi * dr.gather(mi.Float, self.lost_avg, r))
 
             return dr.lerp(value(row), value(row + 1), f)
 

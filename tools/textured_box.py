@@ -67,15 +67,19 @@ write_png(os.path.join(folder, "textures/holes.png"), 64, 64,
 
 
 
+def tangent_normal(nx, ny):
+    """A tangent-space normal of x, y components as RGBA8 (z completes the unit vector)."""
+    nz = math.sqrt(max(1 - nx * nx - ny * ny, 0.0))
+    return [round(255 * (c * 0.5 + 0.5)) for c in (nx, ny, nz)] + [255]
+
+
 def dome(x, y, cells, size):
     """Tangent-space normal (texture +X right, +Y up) of a round bump per cell, as RGBA8."""
     cell = size / cells
     dx = ((x % cell) + 0.5 - cell / 2) / (0.4 * cell)
     dy = -((y % cell) + 0.5 - cell / 2) / (0.4 * cell)
     r2 = dx * dx + dy * dy
-    nx, ny = (0.7 * dx, 0.7 * dy) if r2 < 1 else (0.0, 0.0)
-    nz = math.sqrt(max(1 - nx * nx - ny * ny, 0.0))
-    return [round(255 * (c * 0.5 + 0.5)) for c in (nx, ny, nz)] + [255]
+    return tangent_normal(*((0.7 * dx, 0.7 * dy) if r2 < 1 else (0.0, 0.0)))
 
 
 # Round bumps, 4 × 4 on a 64² normal map.
@@ -84,12 +88,6 @@ write_png(os.path.join(folder, "textures/bumps.png"), 64, 64, lambda x, y: dome(
 write_png(os.path.join(folder, "textures/metal_stripes.png"), 32, 8,
           lambda x, y: [0, 128, 255, 255] if (x // 4) % 2 == 0 else [0, 255, 0, 255])
 
-
-
-def tangent_normal(nx, ny):
-    """A tangent-space normal of x, y components as RGBA8 (z completes the unit vector)."""
-    nz = math.sqrt(max(1 - nx * nx - ny * ny, 0.0))
-    return [round(255 * (c * 0.5 + 0.5)) for c in (nx, ny, nz)] + [255]
 
 
 def groove(x, y):

@@ -54,6 +54,14 @@ fn diffuse_albedo(m: Material, avg: vec2<f32>) -> vec3<f32> {
     return max(dielectric - avg.x, vec3<f32>(0.0)) * ((1.0 - m.metallic) / (1.0 - avg.x));
 }
 
+// How much more of light along w a normal map's bent normal n receives than the surface's own
+// (`plane`): |w·n| / |w·plane|, its denominator at least 0.05 so that grazing light is not
+// boosted past 20×. Photons' density is irradiance on the surface (the gathers' bend, and a
+// scattered photon's arrival in photons/trace.wgsl).
+fn bent_cosine(n: vec3<f32>, plane: vec3<f32>, w: vec3<f32>) -> f32 {
+    return abs(dot(n, w)) / max(abs(dot(plane, w)), 0.05);
+}
+
 // What the cosine lobes reflect of light from i (the photons' choice of them).
 fn cosine_lobes_energy(m: Material, f0: vec3<f32>, i: Specular, avg: vec2<f32>) -> vec3<f32> {
     return diffuse_albedo(m, avg) * (1.0 - i.dielectric) + f0 * i.lost;

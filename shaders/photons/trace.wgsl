@@ -6,7 +6,7 @@
 #import bevy_rppm::sampling::{random, pcg_hash}
 #import bevy_rppm::scene::{triangle_at, material_at, as_seen_from, normal_at, interpolated_normal, triangle_point, uniform_barycentrics, part_barycentrics, lights, emitters, light_cdf, find_source}
 #import bevy_rppm::cubemap::{cubemap, trace_ray, NO_HIT}
-#import bevy_rppm::bsdf::{stores_photons, scatter_photon}
+#import bevy_rppm::bsdf::{stores_photons, scatter_photon, bent_cosine}
 #ifdef ABSORPTION
 #import bevy_rppm::scene::medium_after
 #endif
@@ -220,18 +220,15 @@ fn bent_scatter(n: vec3<f32>, plane: vec3<f32>, wi: vec3<f32>, wo: vec3<f32>) ->
     if all(n == plane) {
         return 1.0;
     }
-    let in_bent = dot(wi, n);
-    let in_plane = dot(wi, plane);
     let out_bent = dot(wo, n);
     let out_plane = dot(wo, plane);
-    if in_bent * in_plane <= 0.0 || out_bent * out_plane <= 0.0 {
+    if dot(wi, n) * dot(wi, plane) <= 0.0 || out_bent * out_plane <= 0.0 {
         return 0.0;
     }
-    // The arrival's floor is the gathers' bend's (splat/splat.wgsl). The cosine lobes are drawn
-    // about `plane` already (scatter_photon's `around`): their way out is weighed there, and
-    // this factor's undoes it but for the floor, met only in the last 1 % above n's horizon.
-    let arrival = abs(in_bent) / max(abs(in_plane), 0.05);
-    return arrival * abs(out_plane) / max(abs(out_bent), 0.01);
+    // The cosine lobes are drawn about `plane` already (scatter_photon's `around`): their way
+    // out is weighed there, and this factor's undoes it but for its floor, met only in the
+    // last 1 % above n's horizon.
+    return bent_cosine(n, plane, wi) * abs(out_plane) / max(abs(out_bent), 0.01);
 }
 #endif
 

@@ -9,7 +9,7 @@
 // in shaders/accumulate/accumulate.wgsl, which applies each full-resolution pixel's own BSDF.
 #import bevy_rppm::common::{Material, Outgoing, Photon, IterationParams, PI, basis_around, faces_reached, gather_radius, splat_weight, subsample_representative, toward_eye, unpack_normal}
 #import bevy_rppm::scene::{gbuffer_material, resolved_material, resolved_kernel_normal, kernel_normal}
-#import bevy_rppm::bsdf::{bsdf_from, bsdf_gathered, glass_share, translucency, stores_photons}
+#import bevy_rppm::bsdf::{bsdf_from, bsdf_gathered, bent_cosine, glass_share, translucency, stores_photons}
 #import bevy_rppm::cubemap::cubemap
 #import bevy_rppm::photon_map::{photons, face_gather, gather_row_run, next_in_kernel, disc_point, disc_share}
 
@@ -69,7 +69,7 @@ fn gather_run(k: Kernel, m: Material, out: Outgoing, shading: vec3<f32>, wo: vec
         // The photons' density is irradiance on the kernel's plane; a normal map's bent
         // normal receives it by its own cosine instead (on either side: diffuse transmission).
         let incoming = unpack_normal(p.incoming);
-        let bend = select(1.0, abs(dot(shading, incoming)) / max(abs(dot(k.plane, incoming)), 0.05), bent);
+        let bend = select(1.0, bent_cosine(shading, k.plane, incoming), bent);
         sum += bsdf_gathered(m, out, shading, wo, incoming) * (bend * p.flux);
 #endif
     }

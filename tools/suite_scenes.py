@@ -35,7 +35,10 @@ of failure:
   ball above the camera's view (reference by light tracing, as `lens_caustic`'s);
 - `lamp_globe`: a point light inside a closed globe of frosted glass above the camera's view,
   the only light: every path from it crosses two rough interfaces, and no shadow ray reaches
-  it (reference by light tracing).
+  it (reference by light tracing);
+- `studio`: a small set (floor, backdrop, a glass block and a glass ball, a red box) under a
+  tilted softbox panel 7× its floor's area, in open space: most of the panel's hemisphere
+  meets nothing, and the glass reflects the panel.
 
     python3 tools/suite_scenes.py assets/suite
     python3 tools/reference.py assets/suite/sun_room.gltf --out assets/suite/sun_room.ref.exr \
@@ -357,13 +360,33 @@ def lamp_globe(path):
     g.write(path, "bevy_rppm tools/suite_scenes.py lamp_globe")
 
 
+def studio(path):
+    g = Gltf()
+    floor = [[-1.0, 0.0, -0.8], [-1.0, 0.0, 0.8], [1.0, 0.0, 0.8], [1.0, 0.0, -0.8]]
+    backdrop = [[-1.0, 0.0, -0.8], [1.0, 0.0, -0.8], [1.0, 1.2, -0.8], [-1.0, 1.2, -0.8]]
+    g.quads([floor, backdrop], g.material([0.55, 0.55, 0.52]))
+    lift = 0.005
+    block = box([-0.7, lift, -0.45], [-0.2, 0.45 + lift, -0.05], inward=False)
+    g.quads(block, g.glass(1.5))
+    g.mesh(*sphere([0.35, 0.25 + lift, 0.15], 0.25), g.glass(1.5))
+    red = box([0.1, 0.0, -0.6], [0.5, 0.3, -0.35], inward=False)
+    g.quads(red[1:], g.material([0.7, 0.12, 0.1]))
+    # The softbox: 4 m × 3 m, 2.5 m up, tilted 20° toward the set, facing down.
+    c, s = 0.9397, 0.3420
+    corners = [(-2.0, -1.5), (2.0, -1.5), (2.0, 1.5), (-2.0, 1.5)]
+    panel = [[x, 2.5 - s * z, 1.0 + c * z] for x, z in corners]
+    g.quads([panel], g.emitter([1.0, 0.97, 0.92], 3.0))
+    g.camera([0.2, 1.1, 2.2], [-0.05, 0.25, -0.3], yfov=0.8)
+    g.write(path, "bevy_rppm tools/suite_scenes.py studio")
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("out", help="folder for the .gltf files")
     args = parser.parse_args()
     os.makedirs(args.out, exist_ok=True)
     for make in (sun_room, glazed_room, glass_slab, tinted_glass, frosted_glass, frosted_lamp, frosted_lantern, water_pool, sky_court, lens_caustic, clearcoat, translucent,
-                 mirror_caustic, sun_spot_caustics, lamp_globe):
+                 mirror_caustic, sun_spot_caustics, lamp_globe, studio):
         path = os.path.join(args.out, f"{make.__name__}.gltf")
         make(path)
         print(f"wrote {path}")

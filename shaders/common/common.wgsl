@@ -142,6 +142,11 @@ struct Emitter {
     area: f32,
     power: f32,
     cdf: f32,
+    // The sphere bounding what its photons meet (src/scene/receivers.rs); radius 0: unknown.
+    toward_x: f32,
+    toward_y: f32,
+    toward_z: f32,
+    toward_radius: f32,
 }
 
 // One view a shadow map is rendered from: a cube face of a point, spot or area-light sample,

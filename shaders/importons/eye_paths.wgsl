@@ -99,6 +99,20 @@ fn lobe_bounce(m: Material, d: vec3<f32>, n: vec3<f32>, front: bool, rng: ptr<fu
 }
 #endif
 
+#ifdef REFLECTED_EMISSION
+// At smooth glass seen from outside, the share of the camera path that its Fresnel reflection
+// carries (glass × F), whose emission the path then looks up along the reflected ray (a
+// `peek`) besides going on: the path itself reflects in only F of its tries (water under a
+// bright sky panel: about one in 35 saw the panel, a speckle 10x the dim floor behind). 0
+// elsewhere (mirrors, rough glass, from inside: left to the path alone).
+fn reflection_share(v: Vertex) -> f32 {
+    let glass = glass_share(v.m);
+    var split = v.front && glass > 0.0 && luminance(v.m.base_color.rgb) * v.m.metallic <= 0.0;
+    split = split && v.m.perceptual_roughness < DELTA_ROUGHNESS;
+    return select(0.0, glass * fresnel_dielectric(dot(v.wo, v.n), 1.0 / v.m.ior), split);
+}
+#endif
+
 // A vertex of the camera path: the surface point, its shading normal and material as seen
 // from the side the path arrives on, and the direction back along the path.
 struct Vertex {
@@ -131,15 +145,47 @@ fn camera_path(pixel: u32, first: Vertex, rng: ptr<function, u32>) -> vec3<f32> 
     // σ of the coloured glass the path is in (the camera is outside every medium).
     var medium = vec3<f32>(0.0);
 #endif
+#ifdef REFLECTED_EMISSION
+    // A trace that only looks up the emission along a smooth reflection, its weight, and
+    // the bounce the path goes on by after it.
+    var peek = false;
+    var peek_weight = vec3<f32>(0.0);
+    var pending = bounce;
+    var pending_sampled = false;
+#endif
 #endif
     for (var depth = 1u; depth <= params.max_eye_depth; depth += 1u) {
 #ifdef IMPORTONS
         if depth > 1u {
-            if all(throughput <= vec3<f32>(0.0)) {
+            var peeking = false;
+#ifdef REFLECTED_EMISSION
+            peeking = peek;
+#endif
+            if all(throughput <= vec3<f32>(0.0)) && !peeking {
                 return found;
             }
             let d = bounce.direction;
             let hit = trace_ray(v.x, d, t_min, 1.0e30, v.triangle);
+#ifdef REFLECTED_EMISSION
+            if peek {
+                // The reflected ray's emission (front faces), then back to the path from v.
+                var emitted = vec3<f32>(0.0);
+                if hit.triangle != NO_HIT {
+                    let t = triangle_at(hit.triangle);
+                    let front = dot(cross(t.position_b - t.position_a, t.position_c - t.position_a), d) < 0.0;
+                    emitted = select(vec3<f32>(0.0), material_at(hit.triangle, hit.uv, 0.0).emissive.rgb, front);
+                }
+#ifdef SKY
+                emitted = select(emitted, params.sky.rgb, hit.triangle == NO_HIT);
+#endif
+                found += peek_weight * emitted;
+                peek = false;
+                bounce = pending;
+                sampled = pending_sampled;
+                depth -= 1u;
+                continue;
+            }
+#endif
 #ifdef SPHERE_LIGHTS
             if drawn_density > 0.0 {
                 found += throughput * sphere_lights_met(v.x, d, select(hit.t, 1.0e30, hit.triangle == NO_HIT), drawn_density);
@@ -244,27 +290,45 @@ fn camera_path(pixel: u32, first: Vertex, rng: ptr<function, u32>) -> vec3<f32> 
             guided = true;
         }
 #endif
+        var reflected_share = 0.0;
         if !guided {
             bounce = next_bounce(v.m, -v.wo, v.n, v.front, rng);
+#ifdef REFLECTED_EMISSION
+            reflected_share = reflection_share(v);
+#endif
 #ifdef TRACED_SHADOWS
             if mis {
                 drawn_density = path_pdf(v.m, v.n, v.wo, bounce.direction, v.front);
             }
 #endif
         }
+        let arriving = throughput;
         throughput *= bounce.weight;
 #ifdef ABSORPTION
         medium = medium_after(medium, v.m, v.front, dot(bounce.direction, v.n) < 0.0);
 #endif
         // Russian roulette past the first vertices, so that paths trapped in glass (total
         // internal reflection) end early on average yet the estimate keeps its mean.
+        var kept = 1.0;
         if depth >= EYE_ROULETTE_DEPTH {
-            let survive = min(max(throughput.x, max(throughput.y, throughput.z)), 0.95);
-            if random(rng) >= survive {
+            kept = min(max(throughput.x, max(throughput.y, throughput.z)), 0.95);
+            if random(rng) >= kept {
                 return found;
             }
-            throughput /= survive;
+            throughput /= kept;
         }
+#ifdef REFLECTED_EMISSION
+        if reflected_share > 0.0 && depth < params.max_eye_depth {
+            // The next trace peeks along the reflection (`reflection_share`); the path goes
+            // on from v after it, without that emission if it reflected too.
+            let reflected = reflect(-v.wo, v.n);
+            peek = true;
+            peek_weight = arriving * (reflected_share / kept);
+            pending = bounce;
+            pending_sampled = all(bounce.direction == reflected);
+            bounce = Bounce(reflected, vec3<f32>(1.0));
+        }
+#endif
 #endif
     }
     return found;

@@ -2,7 +2,7 @@
 // cubemap; a photon is stored at every diffuse or rough-glossy hit after its first bounce
 // (direct light is the local-illumination stage's), then scattered by the material
 // (bsdf.wgsl's scatter_photon: diffuse, GGX glossy, mirror, Fresnel glass) or absorbed.
-#import bevy_rppm::common::{Light, Photon, IterationParams, PI, cubemap_tile, pack_normal, LIGHT_POINT, LIGHT_SPOT, LIGHT_DIRECTIONAL, basis_around, cosine_direction}
+#import bevy_rppm::common::{Light, Emitter, Photon, IterationParams, PI, cubemap_tile, pack_normal, LIGHT_POINT, LIGHT_SPOT, LIGHT_DIRECTIONAL, basis_around, cosine_direction}
 #import bevy_rppm::sampling::{random, pcg_hash}
 #import bevy_rppm::scene::{triangle_at, material_at, as_seen_from, normal_at, interpolated_normal, triangle_point, uniform_barycentrics, part_barycentrics, lights, emitters, light_cdf, find_source}
 #import bevy_rppm::cubemap::{cubemap, trace_ray, NO_HIT}
@@ -116,6 +116,28 @@ fn emission_disc(direction: vec3<f32>, rng: ptr<function, u32>) -> vec4<f32> {
     return vec4<f32>(origin, 1.0 / density);
 }
 
+// The direction a photon leaves an emitter's point `x` by, and cos θ / pdf (w). Within the
+// cone of the sphere its photons can meet (src/scene/receivers.rs), uniform in solid angle,
+// where that cone is narrower than 60° from its axis: a panel wider than what lies under it
+// sent most photons past everything by its cosine. Else by the cosine (π). Both give each
+// direction toward the scene its cosine's share of the power, so no light is lost or added.
+fn emitted_direction(x: vec3<f32>, n: vec3<f32>, e: Emitter, rng: ptr<function, u32>) -> vec4<f32> {
+    let u = vec2<f32>(random(rng), random(rng));
+    let to = vec3<f32>(e.toward_x, e.toward_y, e.toward_z) - x;
+    let r2 = e.toward_radius * e.toward_radius;
+    let d2 = dot(to, to);
+    if r2 > 0.0 && r2 < 0.75 * d2 {
+        let cos_max = sqrt(1.0 - r2 / d2);
+        let cos_theta = 1.0 - u.x * (1.0 - cos_max);
+        let sin_theta = sqrt(max(1.0 - cos_theta * cos_theta, 0.0));
+        let phi = 2.0 * PI * u.y;
+        let w = basis_around(to * inverseSqrt(d2)) * vec3<f32>(sin_theta * cos(phi), sin_theta * sin(phi), cos_theta);
+        // A direction behind the emitter (the sphere may reach there) carries nothing.
+        return vec4<f32>(w, max(dot(w, n), 0.0) * 2.0 * PI * (1.0 - cos_max));
+    }
+    return vec4<f32>(cosine_direction(n, u), PI);
+}
+
 fn emit(rng: ptr<function, u32>) -> Ray {
     let index = find_source(random(rng), 0u, params.source_count - 1u);
     let previous = select(0.0, light_cdf[index - 1u], index > 0u);
@@ -143,9 +165,10 @@ fn emit(rng: ptr<function, u32>) -> Ray {
         let b = part_barycentrics(e.part, uniform_barycentrics(u, random(rng)));
         ray.origin = triangle_point(t, b);
         let n = normalize(cross(t.position_b - t.position_a, t.position_c - t.position_a));
-        ray.direction = cosine_direction(n, vec2<f32>(random(rng), random(rng)));
+        let leaving = emitted_direction(ray.origin, n, e, rng);
+        ray.direction = leaving.xyz;
         let emitted = material_at(e.triangle, b, 0.0).emissive.rgb;
-        ray.flux = emitted * (PI * e.area * share);
+        ray.flux = emitted * (leaving.w * e.area * share);
         ray.ignore = e.triangle;
         ray.source = vec4<f32>(ray.origin, 0.0);
         return ray;
@@ -263,7 +286,8 @@ fn trace(@builtin(global_invocation_id) id: vec3<u32>, @builtin(local_invocation
     for (var step = 0u; step < steps; step += 1u) {
         var ended = true;
         let hit = trace_ray(ray.origin, ray.direction, t_min, 1.0e30, ray.ignore);
-        var reached = hit.triangle != NO_HIT;
+        // A photon that left carrying nothing (behind its emitter) ends.
+        var reached = hit.triangle != NO_HIT && any(ray.flux > vec3<f32>(0.0));
 #ifdef ABSORPTION
         // Absorbed by roulette on the channel that keeps most, the others weighted to match,
         // so that a photon keeps its power and coloured glass does not trace faint ones long.

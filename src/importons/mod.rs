@@ -91,6 +91,9 @@ pub struct EyePathKey {
     /// and rough lobes (`SceneBuffers::sphere_lights`), and camera paths go on with traced
     /// shadows.
     pub sphere_lights: bool,
+    /// Camera paths at smooth glass look up the emission along its reflection besides going
+    /// on (`REFLECTED_EMISSION`): the scene has smooth glass and emitters or a sky.
+    pub reflected_emission: bool,
 }
 
 impl SpecializedComputePipeline for EyePathPipeline {
@@ -123,6 +126,9 @@ impl SpecializedComputePipeline for EyePathPipeline {
         }
         if key.sphere_lights {
             shader_defs.push("SPHERE_LIGHTS".into());
+        }
+        if key.reflected_emission {
+            shader_defs.push("REFLECTED_EMISSION".into());
         }
         if key.bvh {
             shader_defs.push("BVH".into());

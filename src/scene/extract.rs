@@ -11,8 +11,7 @@ use bevy::prelude::*;
 use super::material::material_to_gpu;
 use super::textures::{GpuTexture, MAX_TEXTURE_SIZE, NO_TEXTURE, PackedTexture, TEXEL_BUDGET};
 use super::{
-    GpuEmitter, GpuInstance, MaterialFlags, RppmScene, SceneData, SceneMesh, deform, lights,
-    luminance, mesh, parts,
+    GpuInstance, MaterialFlags, RppmScene, SceneData, SceneMesh, deform, emitters, lights, mesh,
 };
 use bevy::math::Affine3A;
 
@@ -139,6 +138,8 @@ pub(super) fn extract_scene(
     let mut textures = TextureTable::default();
     let mut seen = EntityHashSet::default();
     let mut bounds: Option<(Vec3, Vec3)> = None;
+    // Each instance's world bounds (None: not finite), for the emitters' receivers.
+    let mut instance_bounds = Vec::new();
     cache.referenced.clear();
     for (entity, mesh3d, material3d, transform, visibility) in &meshes_q {
         if visibility.is_some_and(|v| !v.get()) {
@@ -234,9 +235,11 @@ pub(super) fn extract_scene(
         instance.material = index;
         instance.first_world = data.triangle_count() as u32;
         instance.triangle_count = local.triangles.len() as u32;
-        if let Some((lo, hi)) = meshes_cache.bounds(entity, &instance, &local) {
+        let placed = meshes_cache.bounds(entity, &instance, &local);
+        if let Some((lo, hi)) = placed {
             bounds = Some(bounds.map_or((lo, hi), |(a, b)| (a.min(lo), b.max(hi))));
         }
+        instance_bounds.push(placed);
         data.instances.push(instance);
     }
     meshes_cache.keep(&seen);
@@ -251,14 +254,15 @@ pub(super) fn extract_scene(
     }
     data.bounds = bounds.unwrap_or((Vec3::ZERO, Vec3::ZERO));
     lights::collect_lights(&lights_q, &mut data);
-    collect_emitters(&mut data, &textures.packed);
+    emitters::collect_emitters(&mut data, &textures.packed, &instance_bounds);
     textures.write(&mut data, &mut cache);
-    data.light_cdf = cdf(data
-        .lights
-        .iter()
-        .map(|l| l.radiance[3])
-        .chain(data.emitters.iter().map(|e| e.power))
-        .chain((data.sky[3] > 0.0).then_some(data.sky[3])));
+    data.light_cdf = emitters::cdf(
+        data.lights
+            .iter()
+            .map(|l| l.radiance[3])
+            .chain(data.emitters.iter().map(|e| e.power))
+            .chain((data.sky[3] > 0.0).then_some(data.sky[3])),
+    );
     scene.extract_ms = started.elapsed().as_secs_f64() * 1e3;
     if !scene.data.same_as(&data) {
         scene.data = Arc::new(data);
@@ -358,132 +362,5 @@ impl TextureTable {
         }
         data.texels = Arc::new(texels);
         cache.table = Some((self.ids.clone(), data.textures.clone(), data.texels.clone()));
-    }
-}
-
-fn collect_emitters(data: &mut SceneData, textures: &[Arc<PackedTexture>]) {
-    // Cuts a textured emissive triangle may get: as many as keep all their parts together
-    // within parts::MAX_PARTS.
-    let radiance =
-        |m: &super::GpuMaterial| luminance([m.emissive[0], m.emissive[1], m.emissive[2]]);
-    let textured: usize = data
-        .instances
-        .iter()
-        .filter(|i| {
-            let m = &data.materials[i.material as usize];
-            textures.get(m.textures[2] as usize).is_some() && radiance(m) > 0.0
-        })
-        .map(|i| data.meshes[i.mesh as usize].triangles.len())
-        .sum();
-    let most = parts::most_cuts(textured);
-    for instance in &data.instances {
-        let m = &data.materials[instance.material as usize];
-        let radiance = radiance(m);
-        if radiance <= 0.0 {
-            continue;
-        }
-        let mesh = &data.meshes[instance.mesh as usize];
-        let texture = textures.get(m.textures[2] as usize);
-        let transform = Mat2::from_cols_array(&m.uv_transform);
-        let offset = Vec2::from_slice(&m.uv_offset);
-        for (k, local) in mesh.triangles.iter().enumerate() {
-            let area = instance.place(local).area();
-            let triangle = instance.first_world + k as u32;
-            let textured = texture.zip(mesh.attributes.get(k));
-            let Some((packed, attributes)) = textured else {
-                push_emitter(&mut data.emitters, triangle, 0, area, radiance);
-                continue;
-            };
-            // Texture coordinates at world barycentrics, the corners in placed order.
-            let [a, b, c] = instance.placed_order(attributes.uv.map(Vec2::from));
-            let uv = |w: Vec2| transform * (a + (b - a) * w.x + (c - a) * w.y) + offset;
-            let texels = (transform * (b - a)).perp_dot(transform * (c - a)).abs()
-                * 0.5
-                * (packed.width * packed.height) as f32;
-            // Photons leave each part in proportion to the texture's mean over it, from a few
-            // points (the shaders weight each by the texel it leaves from, so a rough mean
-            // costs noise, never bias; a floor keeps every texel reachable).
-            let level = parts::level_for(texels).min(most);
-            let share = area / (1u32 << (2 * level)) as f32;
-            for part in parts::parts(level) {
-                let [p, q, r] = parts::corners(part);
-                let mean = [
-                    [4.0, 1.0, 1.0],
-                    [1.0, 4.0, 1.0],
-                    [1.0, 1.0, 4.0],
-                    [2.0, 2.0, 2.0],
-                ]
-                .iter()
-                .map(|w| {
-                    let at = (p * w[0] + q * w[1] + r * w[2]) / 6.0;
-                    luminance(packed.sample(uv(at)).truncate().to_array())
-                })
-                .sum::<f32>()
-                    / 4.0;
-                let power = radiance * mean.max(0.01);
-                push_emitter(&mut data.emitters, triangle, part, share, power);
-            }
-        }
-    }
-    let cdf = cdf(data.emitters.iter().map(|e| e.power));
-    for (e, c) in data.emitters.iter_mut().zip(cdf) {
-        e.cdf = c;
-    }
-}
-
-/// An emitter of `radiance` (luminance) over `area` of a triangle's `part`, if it emits.
-fn push_emitter(
-    emitters: &mut Vec<GpuEmitter>,
-    triangle: u32,
-    part: u32,
-    area: f32,
-    radiance: f32,
-) {
-    let power = std::f32::consts::PI * radiance * area;
-    if power > 0.0 && power.is_finite() {
-        emitters.push(GpuEmitter {
-            triangle,
-            part,
-            area,
-            power,
-            cdf: 0.0,
-        });
-    }
-}
-
-/// Inclusive normalised CDF; empty or all-zero weights give an empty or uniform CDF.
-fn cdf(weights: impl Iterator<Item = f32>) -> Vec<f32> {
-    let w: Vec<f32> = weights
-        .map(|w| if w.is_finite() { w.max(0.0) } else { 0.0 })
-        .collect();
-    let total: f64 = w.iter().map(|&x| x as f64).sum();
-    let n = w.len();
-    let mut acc = 0.0f64;
-    w.iter()
-        .enumerate()
-        .map(|(i, &x)| {
-            acc += if total > 0.0 {
-                x as f64 / total
-            } else {
-                1.0 / n as f64
-            };
-            if i + 1 == n { 1.0 } else { acc as f32 }
-        })
-        .collect()
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn cdf_is_normalised_and_monotone() {
-        let c = cdf([1.0, 3.0, 0.0, 4.0].into_iter());
-        assert_eq!(c.len(), 4);
-        assert!((c[0] - 0.125).abs() < 1e-6 && (c[1] - 0.5).abs() < 1e-6);
-        assert_eq!(c[2], c[1]);
-        assert_eq!(c[3], 1.0);
-        assert_eq!(cdf([0.0, 0.0].into_iter()), vec![0.5, 1.0]);
-        assert!(cdf(std::iter::empty()).is_empty());
     }
 }

@@ -5,6 +5,7 @@
 //! receives the tables as one `Arc` and uploads them (see [`gpu`]).
 
 mod deform;
+mod emitters;
 mod extract;
 mod instances;
 mod lights;
@@ -14,6 +15,7 @@ mod packed;
 pub mod parts;
 pub mod place;
 pub mod prepare;
+mod receivers;
 pub mod textures;
 pub(crate) mod upload;
 
@@ -232,7 +234,7 @@ pub struct GpuLight {
     pub radiance: [f32; 4],
 }
 
-/// An emissive triangle or a part of one, an area light (20 bytes).
+/// An emissive triangle or a part of one, an area light (36 bytes).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuEmitter {
@@ -246,6 +248,9 @@ pub struct GpuEmitter {
     pub power: f32,
     /// Cumulative distribution over emitters (inclusive), in (0, 1].
     pub cdf: f32,
+    /// The sphere (centre, radius) bounding what its photons can meet; radius 0: unknown
+    /// (a curved emitter), its photons leave over the hemisphere.
+    pub toward: [f32; 4],
 }
 
 /// The scene as flat tables: meshes placed by instances, materials, textures and lights.

@@ -126,14 +126,16 @@ fn emitted_direction(x: vec3<f32>, n: vec3<f32>, e: Emitter, rng: ptr<function, 
     let to = vec3<f32>(e.toward_x, e.toward_y, e.toward_z) - x;
     let r2 = e.toward_radius * e.toward_radius;
     let d2 = dot(to, to);
-    if r2 > 0.0 && r2 < 0.75 * d2 {
-        let cos_max = sqrt(1.0 - r2 / d2);
-        let cos_theta = 1.0 - u.x * (1.0 - cos_max);
-        let sin_theta = sqrt(max(1.0 - cos_theta * cos_theta, 0.0));
+    // 1 − cos of the cone's half-angle, without cancelling for a small or far sphere.
+    let s2 = r2 / d2;
+    let width = s2 / (1.0 + sqrt(max(1.0 - s2, 0.0)));
+    if r2 > 0.0 && s2 < 0.75 && width > 0.0 {
+        let cos_theta = 1.0 - u.x * width;
+        let sin_theta = sqrt(max(u.x * width * (2.0 - u.x * width), 0.0));
         let phi = 2.0 * PI * u.y;
         let w = basis_around(to * inverseSqrt(d2)) * vec3<f32>(sin_theta * cos(phi), sin_theta * sin(phi), cos_theta);
         // A direction behind the emitter (the sphere may reach there) carries nothing.
-        return vec4<f32>(w, max(dot(w, n), 0.0) * 2.0 * PI * (1.0 - cos_max));
+        return vec4<f32>(w, max(dot(w, n), 0.0) * 2.0 * PI * width);
     }
     return vec4<f32>(cosine_direction(n, u), PI);
 }

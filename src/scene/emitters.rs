@@ -21,14 +21,12 @@ pub(super) fn collect_emitters(
     instance_bounds: &[Option<(Vec3, Vec3)>],
 ) {
     // Receivers are known only where every instance's bounds are, and looked for while the
-    // emissive instances × instances stay few (extraction runs every frame of an animation);
-    // a plane's points within a millionth of the scene's size lie on it.
+    // emissive instances × instances stay few (extraction runs every frame of an animation).
     let emissive = (data.instances.iter())
         .filter(|i| luminance_of(&data.materials[i.material as usize]) > 0.0)
         .count();
     let boxes: Option<Vec<(Vec3, Vec3)>> = instance_bounds.iter().copied().collect();
     let boxes = boxes.filter(|b| emissive * b.len() <= MAX_RECEIVER_TESTS);
-    let eps = 1e-6 * (data.bounds.1 - data.bounds.0).length();
     // Cuts a textured emissive triangle may get: as many as keep all their parts together
     // within parts::MAX_PARTS.
     let radiance = luminance_of;
@@ -51,8 +49,7 @@ pub(super) fn collect_emitters(
         let mesh = &data.meshes[instance.mesh as usize];
         let plane = boxes.as_ref().and_then(|boxes| {
             let placed = mesh.triangles.iter().map(|t| instance.place(t).positions());
-            let points: Vec<Vec3> = placed.flatten().collect();
-            receivers::emitter_plane(&points, boxes, own, eps)
+            receivers::emitter_plane(placed, boxes, own)
         });
         let toward = |placed: &GpuTriangle| {
             let [a, b, c] = placed.positions();

@@ -138,7 +138,7 @@ pub(super) fn extract_scene(
     let mut textures = TextureTable::default();
     let mut seen = EntityHashSet::default();
     let mut bounds: Option<(Vec3, Vec3)> = None;
-    // Each instance's world bounds (None: not finite), for the emitters' receivers.
+    // Each instance's world bounds (None: unknown), for the emitters' receivers.
     let mut instance_bounds = Vec::new();
     cache.referenced.clear();
     for (entity, mesh3d, material3d, transform, visibility) in &meshes_q {

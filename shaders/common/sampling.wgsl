@@ -53,3 +53,22 @@ fn random(state: ptr<function, u32>) -> f32 {
     *state = pcg_hash(*state);
     return f32(*state >> 8u) / 16777216.0;
 }
+
+// 1 − cos of the half-angle of the cone a sphere of radius r subtends from squared distance
+// d2, without cancelling for a small or far sphere; 0 from inside it.
+fn sphere_cap(r: f32, d2: f32) -> f32 {
+    if r <= 0.0 || d2 <= r * r * 1.0001 {
+        return 0.0;
+    }
+    let sin2 = r * r / d2;
+    return sin2 / (1.0 + sqrt(1.0 - sin2));
+}
+
+// A direction uniform in solid angle within the cone about +z whose half-angle has
+// 1 − cos = `one_minus`, from u in [0, 1)²; basis_around(axis) turns it about an axis.
+fn cone_local(one_minus: f32, u: vec2<f32>) -> vec3<f32> {
+    let cos_t = 1.0 - u.x * one_minus;
+    let sin_t = sqrt(max(u.x * one_minus * (2.0 - u.x * one_minus), 0.0));
+    let phi = 6.2831855 * u.y;
+    return vec3<f32>(sin_t * cos(phi), sin_t * sin(phi), cos_t);
+}

@@ -3,7 +3,7 @@
 // (direct light is the local-illumination stage's), then scattered by the material
 // (bsdf.wgsl's scatter_photon: diffuse, GGX glossy, mirror, Fresnel glass) or absorbed.
 #import bevy_rppm::common::{Light, Emitter, Photon, IterationParams, PI, cubemap_tile, pack_normal, LIGHT_POINT, LIGHT_SPOT, LIGHT_DIRECTIONAL, basis_around, cosine_direction}
-#import bevy_rppm::sampling::{random, pcg_hash}
+#import bevy_rppm::sampling::{random, pcg_hash, sphere_cap, cone_local}
 #import bevy_rppm::scene::{triangle_at, material_at, as_seen_from, normal_at, interpolated_normal, triangle_point, uniform_barycentrics, part_barycentrics, lights, emitters, light_cdf, find_source}
 #import bevy_rppm::cubemap::{cubemap, trace_ray, NO_HIT}
 #import bevy_rppm::bsdf::{stores_photons, scatter_photon, bent_cosine}
@@ -126,14 +126,9 @@ fn emitted_direction(x: vec3<f32>, n: vec3<f32>, e: Emitter, rng: ptr<function, 
     let to = vec3<f32>(e.toward_x, e.toward_y, e.toward_z) - x;
     let r2 = e.toward_radius * e.toward_radius;
     let d2 = dot(to, to);
-    // 1 − cos of the cone's half-angle, without cancelling for a small or far sphere.
-    let s2 = r2 / d2;
-    let width = s2 / (1.0 + sqrt(max(1.0 - s2, 0.0)));
-    if r2 > 0.0 && s2 < 0.75 && width > 0.0 {
-        let cos_theta = 1.0 - u.x * width;
-        let sin_theta = sqrt(max(u.x * width * (2.0 - u.x * width), 0.0));
-        let phi = 2.0 * PI * u.y;
-        let w = basis_around(to * inverseSqrt(d2)) * vec3<f32>(sin_theta * cos(phi), sin_theta * sin(phi), cos_theta);
+    let width = sphere_cap(e.toward_radius, d2);
+    if width > 0.0 && r2 < 0.75 * d2 {
+        let w = basis_around(to * inverseSqrt(d2)) * cone_local(width, u);
         // A direction behind the emitter (the sphere may reach there) carries nothing.
         return vec4<f32>(w, max(dot(w, n), 0.0) * 2.0 * PI * width);
     }
@@ -187,10 +182,9 @@ fn emit(rng: ptr<function, u32>) -> Ray {
     ray.origin = l.position.xyz;
     if l.kind == LIGHT_SPOT {
         // Uniform in the outer cone's solid angle, weighted by Bevy's falloff a².
-        let cos_theta = 1.0 - random(rng) * (1.0 - l.cos_outer);
-        let sin_theta = sqrt(max(1.0 - cos_theta * cos_theta, 0.0));
-        let phi = 2.0 * PI * random(rng);
-        ray.direction = basis_around(l.direction.xyz) * vec3<f32>(sin_theta * cos(phi), sin_theta * sin(phi), cos_theta);
+        let local = cone_local(1.0 - l.cos_outer, vec2<f32>(random(rng), random(rng)));
+        let cos_theta = local.z;
+        ray.direction = basis_around(l.direction.xyz) * local;
         let a = clamp((cos_theta - l.cos_outer) / max(l.cos_inner - l.cos_outer, 1e-6), 0.0, 1.0);
         let falloff = select(a * a, 1.0, l.cos_inner <= l.cos_outer);
         ray.flux = l.radiance.rgb * (2.0 * PI * (1.0 - l.cos_outer) * falloff * share);

@@ -7,7 +7,7 @@
 #define_import_path bevy_rppm::lighting
 
 #import bevy_rppm::common::{Material, Light, IterationParams, PI, LIGHT_SPOT, LIGHT_DIRECTIONAL, face_of, basis_around, cosine_direction, luminance}
-#import bevy_rppm::sampling::random
+#import bevy_rppm::sampling::{random, sphere_cap, cone_local}
 #import bevy_rppm::bsdf::{bsdf_eval, translucency, layered}
 #import bevy_rppm::scene::{shadow_views, lights, triangles, triangle_at, material_at, emitters, light_cdf, find_source, triangle_point, uniform_barycentrics, part_barycentrics}
 #ifdef TRACED_SHADOWS
@@ -118,10 +118,7 @@ fn punctual_sample(l: Light, x: vec3<f32>, rng: ptr<function, u32>) -> LightSamp
         // radiance I/(πR²) times Ω averages to I/d² (and the spot's falloff stays that of
         // the centre).
         let sin2 = radius * radius / d2;
-        let cos_t = 1.0 - random(rng) * one_minus;
-        let sin_t = sqrt(max(1.0 - cos_t * cos_t, 0.0));
-        let phi = 2.0 * PI * random(rng);
-        let dir = basis_around(s.wi) * vec3<f32>(sin_t * cos(phi), sin_t * sin(phi), cos_t);
+        let dir = basis_around(s.wi) * cone_local(one_minus, vec2<f32>(random(rng), random(rng)));
         s.li *= 2.0 * one_minus / sin2;
         let b = dot(dir, to_light);
         s.distance = b - sqrt(max(b * b - (d2 - radius * radius), 0.0));
@@ -133,16 +130,6 @@ fn punctual_sample(l: Light, x: vec3<f32>, rng: ptr<function, u32>) -> LightSamp
     }
 #endif
     return s;
-}
-
-// 1 − cos of the half-angle that a sphere light of radius r subtends at distance² d2; 0 for
-// a point, or from inside the sphere (sampled as a point there).
-fn sphere_cap(r: f32, d2: f32) -> f32 {
-    if r <= 0.0 || d2 <= r * r * 1.0001 {
-        return 0.0;
-    }
-    let sin2 = r * r / d2;
-    return sin2 / (1.0 + sqrt(1.0 - sin2));
 }
 
 // A spot light's falloff toward `dir` (from the light; 1 for other lights).

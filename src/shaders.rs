@@ -31,6 +31,7 @@ pub struct RppmShaders {
     pub splat: Handle<Shader>,
     pub indirect_splat: Handle<Shader>,
     pub accumulate: Handle<Shader>,
+    pub outliers: Handle<Shader>,
     pub output: Handle<Shader>,
     #[cfg(feature = "debug")]
     pub debug_view: Handle<Shader>,
@@ -67,6 +68,7 @@ impl RppmShaders {
             splat: wgsl!(shaders, "splat/splat.wgsl"),
             indirect_splat: wgsl!(shaders, "indirect_splat/indirect_splat.wgsl"),
             accumulate: wgsl!(shaders, "accumulate/accumulate.wgsl"),
+            outliers: wgsl!(shaders, "accumulate/outliers.wgsl"),
             output: wgsl!(shaders, "output/output.wgsl"),
             #[cfg(feature = "debug")]
             debug_view: wgsl!(shaders, "debug/debug_view.wgsl"),

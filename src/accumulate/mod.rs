@@ -2,14 +2,17 @@
 //! the running mean of every iteration since the last reset (`shaders/accumulate/`). With
 //! subsampled splats, the incident light is upsampled by a joint-bilateral filter before each
 //! pixel's own BSDF. Under `RppmHistory::Reuse` it also keeps each pixel's history through
-//! motion (`history.rs`).
+//! motion (`history.rs`). Where camera paths go on, outlying samples are spread first
+//! (`outliers.rs`).
 
 mod clock;
 mod history;
+mod outliers;
 
 pub use clock::{Changes, HistoryClock, HistoryFlags};
 pub use history::History;
 pub(crate) use history::history_fits;
+pub use outliers::{OutlierPipelines, Outliers};
 
 use bevy::prelude::*;
 use bevy::render::render_resource::binding_types::{
@@ -52,6 +55,8 @@ pub struct AccumulatePipeline {
     pub history_layout: BindGroupLayoutDescriptor,
     scene: BindGroupLayoutDescriptor,
     shader: Handle<Shader>,
+    /// The outlier passes run before it where camera paths go on.
+    pub outliers: OutlierPipelines,
 }
 
 /// What a view's iteration adds up.
@@ -100,6 +105,7 @@ fn init_accumulate_pipeline(
     mut commands: Commands,
     shaders: Res<RppmShaders>,
     layouts: Res<ViewLayouts>,
+    cache: Res<PipelineCache>,
 ) {
     let unfilterable = TextureSampleType::Float { filterable: false };
     let entries = BindGroupLayoutEntries::sequential(
@@ -131,6 +137,7 @@ fn init_accumulate_pipeline(
         history_layout,
         scene: layouts.scene.clone(),
         shader: shaders.accumulate.clone(),
+        outliers: OutlierPipelines::new(&cache, &shaders),
     });
 }
 
@@ -140,6 +147,8 @@ fn init_accumulate_pipeline(
 pub struct Estimate {
     pub radiance: Buffer,
     pub history: Option<History>,
+    /// Held where camera paths go on past the G-buffer.
+    pub outliers: Option<Outliers>,
     group: Option<BindGroup>,
 }
 
@@ -152,11 +161,12 @@ pub struct EstimateInputs<'a> {
 }
 
 impl Estimate {
-    pub fn new(device: &RenderDevice, size: UVec2, history: bool) -> Self {
+    pub fn new(device: &RenderDevice, size: UVec2, history: bool, importons: bool) -> Self {
         let radiance = pixel_buffer(device, size, "rppm_radiance", 16, BufferUsages::COPY_SRC);
         Self {
             radiance,
             history: history.then(|| History::new(device, size)),
+            outliers: importons.then(|| Outliers::new(device, size)),
             group: None,
         }
     }
@@ -170,6 +180,16 @@ impl Estimate {
         inputs: EstimateInputs,
     ) {
         let (samples, importons) = (&inputs.eye_paths.samples, &inputs.eye_paths.radiance);
+        if let Some(outliers) = &mut self.outliers {
+            outliers.bind(
+                device,
+                &cache.get_bind_group_layout(&pipeline.outliers.layout),
+                inputs.params.clone(),
+                inputs.eye_paths,
+                &self.radiance,
+                inputs.gbuffer,
+            );
+        }
         let entries = BindGroupEntries::sequential((
             inputs.params,
             samples.as_entire_binding(),
@@ -217,10 +237,13 @@ impl Estimate {
         }
     }
 
-    /// Adds the splats to the local sample and folds it into the running estimate.
+    /// Spreads outlying samples (with `outliers`' passes), adds the splats to the local
+    /// sample and folds it into the running estimate.
+    #[allow(clippy::too_many_arguments)]
     pub fn encode(
         &self,
         encoder: &mut CommandEncoder,
+        outliers: Option<[&ComputePipeline; 2]>,
         pipeline: &ComputePipeline,
         scene_group: &BindGroup,
         size: UVec2,
@@ -232,6 +255,9 @@ impl Estimate {
             label: Some("rppm_accumulate"),
             timestamp_writes: timer.compute_pass(Stage::Accumulate),
         });
+        if let (Some(own), Some(passes)) = (&self.outliers, outliers) {
+            own.dispatch(&mut pass, passes, size, offset);
+        }
         pass.set_pipeline(pipeline);
         pass.set_bind_group(0, scene_group, &[]);
         pass.set_bind_group(1, group, &[offset]);

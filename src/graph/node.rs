@@ -28,6 +28,7 @@ struct NodePipelines<'a> {
     splat: Option<&'a ComputePipeline>,
     indirect_splat: Option<&'a ComputePipeline>,
     accumulate: &'a ComputePipeline,
+    outliers: Option<[&'a ComputePipeline; 2]>,
 }
 
 /// This frame's PPM iterations of the view, then the view output.
@@ -65,6 +66,12 @@ pub(crate) fn rppm_node(
             .indirect_splat
             .and_then(|id| cache.get_compute_pipeline(id)),
         accumulate,
+        outliers: stages.outliers.and_then(|[bound, spread]| {
+            Some([
+                cache.get_compute_pipeline(bound)?,
+                cache.get_compute_pipeline(spread)?,
+            ])
+        }),
     };
     let ViewTimer(timer, wall) = &mut *timer;
     let encoder = ctx.command_encoder();
@@ -258,6 +265,7 @@ fn encode_estimate(
     }
     state.estimate.encode(
         encoder,
+        node.outliers.filter(|_| state.importons),
         node.accumulate,
         &state.scene_group,
         state.key.size,

@@ -144,6 +144,9 @@ pub(super) fn select_stages(
                 history: state.key.history,
             },
         ),
+        outliers: state
+            .importons
+            .then_some(pipelines.accumulate.outliers.passes),
         output: output.map(|key| {
             pipelines
                 .output_variants

@@ -58,6 +58,8 @@ pub struct StageIds {
     pub splat: Option<CachedComputePipelineId>,
     pub indirect_splat: Option<CachedComputePipelineId>,
     pub accumulate: CachedComputePipelineId,
+    /// The outlier passes, where camera paths go on.
+    pub outliers: Option<[CachedComputePipelineId; 2]>,
     pub output: Option<CachedRenderPipelineId>,
 }
 
@@ -182,7 +184,7 @@ impl RppmViewState {
         });
         let eye_paths = EyePaths::new(device, size, key.importons, key.textured);
         let splats = SplatTarget::new(textures, device, size, key.subsampling);
-        let estimate = Estimate::new(device, size, key.history);
+        let estimate = Estimate::new(device, size, key.history, key.importons);
         let (store, indirect_group) = photon_store(key, device, cache, pipelines, &eye_paths);
         let seen_region = device.create_buffer(&BufferDescriptor {
             label: Some("rppm_seen_region"),
@@ -403,6 +405,9 @@ impl RppmViewState {
         if let Some(history) = &self.estimate.history {
             memory.push(("history", history.bytes()));
         }
+        if let Some(outliers) = &self.estimate.outliers {
+            memory.push(("outliers", outliers.bytes()));
+        }
         if let Some(cubemap) = &self.cubemap.cubemap {
             memory.extend(cubemap.memory());
         }
@@ -468,7 +473,9 @@ pub(super) fn stages_ready(state: &RppmViewState, cache: &PipelineCache) -> Resu
         stages.splat,
         stages.indirect_splat,
     ];
-    let sort = stages.sort.into_iter().flatten().map(Some);
+    let sort = (stages.sort.into_iter().flatten())
+        .chain(stages.outliers.into_iter().flatten())
+        .map(Some);
     let render = [cache.get_render_pipeline_state(stages.gbuffer)];
     readiness(
         compute

@@ -366,12 +366,15 @@ fn the_pixels_a_corner_crosses_are_not_dark() {
 /// (`SPHERE_LIGHTS`). Found by shadow rays alone, a point drawn on the sphere lands in such a
 /// lobe about once in a hundred tries, and those samples are worth thousands: the image's
 /// energy swung with the seed. Six seeds of 30 iterations at 128²: energy each within 6 %
-/// (0.961–1.017 measured; by shadow rays alone 0.874–1.199).
+/// (0.961–1.017 measured; by shadow rays alone 0.874–1.199). The rarest of those paths, a
+/// sample of ~10³ in a pixel that reads 1, is spread over its surface's pixels around it
+/// (`shaders/accumulate/outliers.wgsl`): relMSE by seed 0.010–0.069, median 0.016 (before,
+/// 0.034–1.35, median 0.083), energies unchanged to 10⁻⁶.
 #[test]
 fn a_sphere_light_in_frosted_glass_converges_from_every_seed() {
     let reference = read_exr(&asset("suite/frosted_lantern.ref.exr")).unwrap();
     let reference = downsample(&reference, reference.width / 128);
-    let mut energies = Vec::new();
+    let (mut energies, mut errors) = (Vec::new(), Vec::new());
     for seed in 11..=16 {
         let request = RenderRequest {
             scene: asset("suite/frosted_lantern.gltf"),
@@ -387,11 +390,19 @@ fn a_sphere_light_in_frosted_glass_converges_from_every_seed() {
         let image = render_gltf(&request, |_| {}).unwrap().image;
         assert_eq!(bad_pixels(&image), 0, "seed {seed}");
         energies.push(energy_ratio(&image, &reference).unwrap());
+        errors.push(relmse(&image, &reference).unwrap());
     }
-    println!("frosted_lantern: energy by seed {energies:.3?}");
+    println!("frosted_lantern: energy by seed {energies:.3?}, relMSE {errors:.4?}");
     assert!(
         energies.iter().all(|e| (e - 1.0).abs() <= 0.06),
         "energy by seed {energies:.3?}"
+    );
+    let mut sorted = errors.clone();
+    sorted.sort_by(f64::total_cmp);
+    let median = (sorted[2] + sorted[3]) / 2.0;
+    assert!(
+        sorted[5] < 0.1 && median < 0.04,
+        "relMSE by seed {errors:.4?}"
     );
 }
 

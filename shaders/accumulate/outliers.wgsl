@@ -1,0 +1,184 @@
+// Outliers: a camera path's rare sample (its local light plus the photons its importon
+// gathered) far above what its pixel and surface read so far (a
+// small bright light met through rough glass: 10³ where the pixel reads 1) keeps
+// BOUND·√k times that level (k: the pixel's iterations) and spreads the rest over the pixels
+// of its surface around it, in proportion to their own estimates. The image keeps its energy
+// exactly and the rare light lands where it falls on average; as the bound grows with k,
+// fewer samples are spread, and an estimate that has converged spreads none.
+#import bevy_rppm::common::{IterationParams, luminance}
+
+@group(0) @binding(0) var<uniform> params: IterationParams;
+@group(0) @binding(1) var<storage, read_write> samples: array<vec4<f32>>;
+@group(0) @binding(2) var<storage, read> radiance: array<vec4<f32>>;
+// Per pixel: the light it spreads (`bound`).
+@group(0) @binding(3) var<storage, read_write> excess: array<vec4<f32>>;
+@group(0) @binding(4) var gbuffer_position: texture_2d<f32>;
+@group(0) @binding(5) var gbuffer_normal: texture_2d<f32>;
+// Photons gathered by this iteration's importons, per pixel: a path's weight through rough
+// glass brings its outliers too.
+@group(0) @binding(6) var<storage, read_write> importon_radiance: array<vec4<f32>>;
+
+// Pixels each side over which a sample spreads.
+const RADIUS: i32 = 4;
+// A sample may read this many times its level, times √k.
+const BOUND: f32 = 4.0;
+
+// A pixel's camera-path sample of this iteration.
+fn path_sample(index: u32) -> vec3<f32> {
+    return samples[index].rgb + importon_radiance[index].rgb;
+}
+
+// A pixel's estimate so far (luminance): 0 on the first iteration after a reset.
+fn level(index: u32) -> f32 {
+    return select(luminance(radiance[index].rgb), 0.0, params.iteration == 0u);
+}
+
+// How much of what pixel a spreads pixel b (`offset` from it) takes, before b's level: 0
+// unless they see one surface (normals within ~25°, each point within a few footprints of
+// the other's tangent plane), falling off to 0 at RADIUS + 1 so that no square shows. Symmetric,
+// so what one gives the other takes.
+fn kinship(a: vec4<f32>, a_normal: vec4<f32>, b: vec4<f32>, b_normal: vec4<f32>, offset: vec2<i32>) -> f32 {
+    let d = b.xyz - a.xyz;
+    let steps2 = f32(dot(offset, offset));
+    let slack = (1.0 + sqrt(steps2)) * max(a_normal.w, b_normal.w);
+    let off_plane = max(abs(dot(d, a_normal.xyz)), abs(dot(d, b_normal.xyz)));
+    let same = b.w != 0.0 && dot(a_normal.xyz, b_normal.xyz) > 0.9 && off_plane <= slack;
+    let falloff = 1.0 - steps2 / f32((RADIUS + 1) * (RADIUS + 1));
+    return select(0.0, falloff, same && falloff > 0.0);
+}
+
+// The highest estimate among a pixel and its eight neighbours: a feature smaller than a
+// pixel (a light's highlight on a metal ball) is hit by some jittered samples and not others,
+// a spread that is its own (nothing of it is spread).
+fn nearby_level(pixel: vec2<i32>) -> f32 {
+    let w = Window(max(pixel - 1, vec2<i32>(0)), min(pixel + 1, vec2<i32>(params.size) - 1));
+    var highest = 0.0;
+    for (var row = w.lo.y; row <= w.hi.y; row += 1) {
+        for (var column = w.lo.x; column <= w.hi.x; column += 1) {
+            highest = max(highest, level(pixel_index(vec2<i32>(column, row))));
+        }
+    }
+    return highest;
+}
+
+struct Window {
+    lo: vec2<i32>,
+    hi: vec2<i32>,
+}
+
+// The pixels within RADIUS of `pixel`, inside the image.
+fn window(pixel: vec2<i32>) -> Window {
+    let last = vec2<i32>(params.size) - 1;
+    return Window(max(pixel - RADIUS, vec2<i32>(0)), min(pixel + RADIUS, last));
+}
+
+fn pixel_index(p: vec2<i32>) -> u32 {
+    return u32(p.y) * params.size.x + u32(p.x);
+}
+
+// Bounds this pixel's sample; what is above the bound goes to `excess`: its share per unit
+// of receiver weight, and (w) the weights' sum, negative where every receiver weighs 1.
+@compute @workgroup_size(8, 8, 1)
+fn bound(@builtin(global_invocation_id) id: vec3<u32>) {
+    if any(id.xy >= params.size) {
+        return;
+    }
+    let pixel = vec2<i32>(id.xy);
+    let index = pixel_index(pixel);
+    excess[index] = vec4<f32>(0.0);
+    let at = textureLoad(gbuffer_position, pixel, 0);
+    if at.w == 0.0 {
+        return;
+    }
+    // A pixel without an estimate yet (the first iteration) is bounded by its surface's
+    // samples of this iteration, and spreads evenly.
+    let count = select(radiance[index].w, 0.0, params.iteration == 0u);
+    let fresh = count < 1.0;
+    let sample = path_sample(index);
+    let l = luminance(sample);
+    let scale = BOUND * sqrt(max(count, 1.0));
+    let own = select(nearby_level(pixel), 0.0, fresh);
+    // Within the bound of its own neighbourhood: not an outlier, whatever its surface reads
+    // (nearly every pixel: the window is read only for the others).
+    if !(l > scale * own) {
+        return;
+    }
+    let n = textureLoad(gbuffer_normal, pixel, 0);
+    let w = window(pixel);
+    var around = 0.0;
+    var pixels = 0.0;
+    for (var row = w.lo.y; row <= w.hi.y; row += 1) {
+        for (var column = w.lo.x; column <= w.hi.x; column += 1) {
+            let q = vec2<i32>(column, row);
+            let k = kinship(at, n, textureLoad(gbuffer_position, q, 0), textureLoad(gbuffer_normal, q, 0), q - pixel);
+            if k > 0.0 {
+                let other = pixel_index(q);
+                around += k * select(level(other), luminance(path_sample(other)), fresh);
+                pixels += k;
+            }
+        }
+    }
+    let limit = scale * max(own, around / pixels);
+    if !(l > limit) || !(around > 0.0) {
+        return;
+    }
+    let weights = select(around, -pixels, fresh);
+    excess[index] = vec4<f32>(sample * ((1.0 - limit / l) / abs(weights)), weights);
+}
+
+// Whether any pixel within RADIUS of this workgroup's spreads light.
+var<workgroup> spreading: atomic<u32>;
+
+// Takes from this pixel's sample what it spreads and adds its share of what its surface's
+// pixels around it spread: in proportion to its estimate, or evenly.
+@compute @workgroup_size(8, 8, 1)
+fn spread(
+    @builtin(global_invocation_id) id: vec3<u32>,
+    @builtin(workgroup_id) group: vec3<u32>,
+    @builtin(local_invocation_index) lane: u32,
+) {
+    // Outliers are rare: a workgroup with none around it stops after one read a pixel.
+    if lane == 0u {
+        atomicStore(&spreading, 0u);
+    }
+    workgroupBarrier();
+    let side = 8 + 2 * RADIUS;
+    let origin = vec2<i32>(group.xy * 8u) - RADIUS;
+    for (var k = i32(lane); k < side * side; k += 64) {
+        let q = clamp(origin + vec2<i32>(k % side, k / side), vec2<i32>(0), vec2<i32>(params.size) - 1);
+        if excess[pixel_index(q)].w != 0.0 {
+            atomicStore(&spreading, 1u);
+        }
+    }
+    if workgroupUniformLoad(&spreading) == 0u || any(id.xy >= params.size) {
+        return;
+    }
+    let pixel = vec2<i32>(id.xy);
+    let index = pixel_index(pixel);
+    let at = textureLoad(gbuffer_position, pixel, 0);
+    if at.w == 0.0 {
+        return;
+    }
+    let own = level(index);
+    let n = textureLoad(gbuffer_normal, pixel, 0);
+    let w = window(pixel);
+    // What it spreads scales both parts of its sample alike.
+    let given = excess[index];
+    let kept = 1.0 - luminance(given.rgb * abs(given.w)) / max(luminance(path_sample(index)), 1e-30);
+    var got = vec3<f32>(0.0);
+    for (var row = w.lo.y; row <= w.hi.y; row += 1) {
+        for (var column = w.lo.x; column <= w.hi.x; column += 1) {
+            let q = vec2<i32>(column, row);
+            let share = excess[pixel_index(q)];
+            if share.w != 0.0 {
+                let k = kinship(at, n, textureLoad(gbuffer_position, q, 0), textureLoad(gbuffer_normal, q, 0), q - pixel);
+                got += share.rgb * (k * select(own, 1.0, share.w < 0.0));
+            }
+        }
+    }
+    if given.w != 0.0 {
+        samples[index] = vec4<f32>(samples[index].rgb * kept, samples[index].w);
+        importon_radiance[index] = vec4<f32>(importon_radiance[index].rgb * kept, importon_radiance[index].w);
+    }
+    samples[index] += vec4<f32>(got, 0.0);
+}

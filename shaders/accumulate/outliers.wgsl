@@ -1,10 +1,10 @@
 // Outliers: a camera path's rare sample (its local light plus the photons its importon
-// gathered) far above what its pixel and surface read so far (a
-// small bright light met through rough glass: 10³ where the pixel reads 1) keeps
-// BOUND·√k times that level (k: the pixel's iterations) and spreads the rest over the pixels
-// of its surface around it, in proportion to their own estimates. The image keeps its energy
-// exactly and the rare light lands where it falls on average; as the bound grows with k,
-// fewer samples are spread, and an estimate that has converged spreads none.
+// gathered) far above what its pixel's neighbourhood and its surface read so far (a small
+// bright light met through rough glass: 10³ where the pixel reads 1) keeps BOUND·√k times
+// that level (k: the pixel's iterations) and spreads the rest over the pixels of its surface
+// around it, in proportion to their own estimates. The image keeps its energy exactly and the
+// rare light lands near where it falls on average; as the bound grows with k, ever fewer
+// samples are spread.
 #import bevy_rppm::common::{IterationParams, luminance}
 
 @group(0) @binding(0) var<uniform> params: IterationParams;
@@ -51,7 +51,7 @@ fn kinship(a: vec4<f32>, a_normal: vec4<f32>, b: vec4<f32>, b_normal: vec4<f32>,
 // pixel (a light's highlight on a metal ball) is hit by some jittered samples and not others,
 // a spread that is its own (nothing of it is spread).
 fn nearby_level(pixel: vec2<i32>) -> f32 {
-    let w = Window(max(pixel - 1, vec2<i32>(0)), min(pixel + 1, vec2<i32>(params.size) - 1));
+    let w = window(pixel, 1);
     var highest = 0.0;
     for (var row = w.lo.y; row <= w.hi.y; row += 1) {
         for (var column = w.lo.x; column <= w.hi.x; column += 1) {
@@ -66,10 +66,10 @@ struct Window {
     hi: vec2<i32>,
 }
 
-// The pixels within RADIUS of `pixel`, inside the image.
-fn window(pixel: vec2<i32>) -> Window {
+// The pixels within `radius` of `pixel` (a square), inside the image.
+fn window(pixel: vec2<i32>, radius: i32) -> Window {
     let last = vec2<i32>(params.size) - 1;
-    return Window(max(pixel - RADIUS, vec2<i32>(0)), min(pixel + RADIUS, last));
+    return Window(max(pixel - radius, vec2<i32>(0)), min(pixel + radius, last));
 }
 
 fn pixel_index(p: vec2<i32>) -> u32 {
@@ -104,7 +104,7 @@ fn bound(@builtin(global_invocation_id) id: vec3<u32>) {
         return;
     }
     let n = textureLoad(gbuffer_normal, pixel, 0);
-    let w = window(pixel);
+    let w = window(pixel, RADIUS);
     var around = 0.0;
     var pixels = 0.0;
     for (var row = w.lo.y; row <= w.hi.y; row += 1) {
@@ -161,7 +161,7 @@ fn spread(
     }
     let own = level(index);
     let n = textureLoad(gbuffer_normal, pixel, 0);
-    let w = window(pixel);
+    let w = window(pixel, RADIUS);
     // What it spreads scales both parts of its sample alike.
     let given = excess[index];
     let kept = 1.0 - luminance(given.rgb * abs(given.w)) / max(luminance(path_sample(index)), 1e-30);

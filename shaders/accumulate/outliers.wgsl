@@ -162,9 +162,7 @@ fn spread(
     let own = level(index);
     let n = textureLoad(gbuffer_normal, pixel, 0);
     let w = window(pixel, RADIUS);
-    // What it spreads scales both parts of its sample alike.
     let given = excess[index];
-    let kept = 1.0 - luminance(given.rgb * abs(given.w)) / max(luminance(path_sample(index)), 1e-30);
     var got = vec3<f32>(0.0);
     for (var row = w.lo.y; row <= w.hi.y; row += 1) {
         for (var column = w.lo.x; column <= w.hi.x; column += 1) {
@@ -177,6 +175,8 @@ fn spread(
         }
     }
     if given.w != 0.0 {
+        // What it spreads scales both parts of its sample alike.
+        let kept = 1.0 - luminance(given.rgb * abs(given.w)) / max(luminance(path_sample(index)), 1e-30);
         samples[index] = vec4<f32>(samples[index].rgb * kept, samples[index].w);
         importon_radiance[index] = vec4<f32>(importon_radiance[index].rgb * kept, importon_radiance[index].w);
     }

@@ -265,7 +265,7 @@ fn encode_estimate(
     }
     state.estimate.encode(
         encoder,
-        node.outliers.filter(|_| state.importons),
+        node.outliers,
         node.accumulate,
         &state.scene_group,
         state.key.size,

@@ -228,6 +228,22 @@ fn diffuse_transmission_passes_what_mitsuba_passes() {
     );
 }
 
+/// Suite scene `scene` rendered at 64² for `iterations` with `settings`, against its reference:
+/// relMSE, energy and bad pixels, printed with `what` (the settings' gist).
+fn measured(
+    scene: &str,
+    settings: PhotonMapping,
+    iterations: u32,
+    what: &str,
+) -> (f64, f64, usize) {
+    let image = render(&format!("suite/{scene}.gltf"), settings, iterations);
+    let reference = reference(&format!("suite/{scene}.ref.exr"));
+    let error = relmse(&image, &reference).unwrap();
+    let energy = energy_ratio(&image, &reference).unwrap();
+    println!("{scene}: relMSE {error:.4}, energy {energy:.4} {what}");
+    (error, energy, bad_pixels(&image))
+}
+
 /// Asserts that suite scene `scene` after `iterations` of 65 536 photons at 64² (1-pixel
 /// radius) has no bad pixel, a relMSE against the reference of at most `bound` and an energy
 /// within `energy_bound` of 1.
@@ -237,12 +253,9 @@ fn assert_close_after(scene: &str, iterations: u32, bound: f64, energy_bound: f6
         initial_radius_pixels: 1.0,
         ..default()
     };
-    let image = render(&format!("suite/{scene}.gltf"), settings, iterations);
-    let reference = reference(&format!("suite/{scene}.ref.exr"));
-    assert_eq!(bad_pixels(&image), 0, "{scene}");
-    let error = relmse(&image, &reference).unwrap();
-    let energy = energy_ratio(&image, &reference).unwrap();
-    println!("{scene}: relMSE {error:.4}, energy {energy:.4} after {iterations} iterations");
+    let what = format!("after {iterations} iterations");
+    let (error, energy, bad) = measured(scene, settings, iterations, &what);
+    assert_eq!(bad, 0, "{scene}");
     assert!(
         error <= bound && (energy - 1.0).abs() <= energy_bound,
         "{scene}: relMSE {error:.4}, energy {energy:.4}"
@@ -298,11 +311,7 @@ fn corners_edges_and_rims_are_not_dark() {
         initial_radius_pixels: 4.0,
         ..default()
     };
-    let image = render("suite/cornell_matte.gltf", settings, 16);
-    let reference = reference("suite/cornell_matte.ref.exr");
-    let energy = energy_ratio(&image, &reference).unwrap();
-    let error = relmse(&image, &reference).unwrap();
-    println!("cornell_matte: relMSE {error:.4}, energy {energy:.4} with discs of 4 pixels");
+    let (error, energy, _) = measured("cornell_matte", settings, 16, "with discs of 4 pixels");
     assert!(
         error < 0.0035 && (energy - 1.0).abs() <= 0.02,
         "relMSE {error:.4}, energy {energy:.4}"
@@ -422,11 +431,7 @@ fn photons_under_glass_that_meets_a_surface_stay_apart() {
         ..default()
     };
     for (scene, bound) in [("water_pool", 0.0138), ("glass_slab", 0.0038)] {
-        let image = render(&format!("suite/{scene}.gltf"), settings.clone(), 16);
-        let reference = reference(&format!("suite/{scene}.ref.exr"));
-        let energy = energy_ratio(&image, &reference).unwrap();
-        let error = relmse(&image, &reference).unwrap();
-        println!("{scene}: relMSE {error:.4}, energy {energy:.4} with discs of 4 pixels");
+        let (error, energy, _) = measured(scene, settings.clone(), 16, "with discs of 4 pixels");
         assert!(
             error < bound && (energy - 1.0).abs() <= 0.02,
             "{scene}: relMSE {error:.4}, energy {energy:.4}"
@@ -445,11 +450,7 @@ fn water_reflects_its_sky_panel_without_speckle() {
         photons_per_iteration: PhotonCount::Fixed(65_536),
         ..default()
     };
-    let image = render("suite/water_pool.gltf", settings, 16);
-    let reference = reference("suite/water_pool.ref.exr");
-    let error = relmse(&image, &reference).unwrap();
-    let energy = energy_ratio(&image, &reference).unwrap();
-    println!("water_pool: relMSE {error:.4}, energy {energy:.4}");
+    let (error, energy, _) = measured("water_pool", settings, 16, "at 65 536 photons");
     assert!(error < 0.0085, "relMSE {error:.4}");
     assert!((energy - 1.0).abs() < 0.02, "energy {energy:.4}");
 }

@@ -28,9 +28,9 @@ fn path_sample(index: u32) -> vec3<f32> {
     return samples[index].rgb + importon_radiance[index].rgb;
 }
 
-// A pixel's estimate so far (luminance): 0 on the first iteration after a reset.
+// A pixel's estimate so far (luminance).
 fn level(index: u32) -> f32 {
-    return select(luminance(radiance[index].rgb), 0.0, params.iteration == 0u);
+    return luminance(radiance[index].rgb);
 }
 
 // How much of what pixel a spreads pixel b (`offset` from it) takes, before b's level: 0
@@ -77,7 +77,7 @@ fn pixel_index(p: vec2<i32>) -> u32 {
 }
 
 // Bounds this pixel's sample; what is above the bound goes to `excess`: its share per unit
-// of receiver weight, and (w) the weights' sum, negative where every receiver weighs 1.
+// of receiver weight, and (w) the weights' sum.
 @compute @workgroup_size(8, 8, 1)
 fn bound(@builtin(global_invocation_id) id: vec3<u32>) {
     if any(id.xy >= params.size) {
@@ -86,18 +86,18 @@ fn bound(@builtin(global_invocation_id) id: vec3<u32>) {
     let pixel = vec2<i32>(id.xy);
     let index = pixel_index(pixel);
     excess[index] = vec4<f32>(0.0);
+    // Only a still estimate bounds a sample: before the first iteration there is none, and
+    // while a change settles (`Reuse`'s capped history) it is of the light before, against
+    // which what the change lit would read as outliers.
     let at = textureLoad(gbuffer_position, pixel, 0);
-    if at.w == 0.0 {
+    if at.w == 0.0 || params.iteration == 0u || params.history_cap != 0xffffffffu {
         return;
     }
-    // A pixel without an estimate yet (the first iteration) is bounded by its surface's
-    // samples of this iteration, and spreads evenly.
-    let count = select(radiance[index].w, 0.0, params.iteration == 0u);
-    let fresh = count < 1.0;
+    let count = radiance[index].w;
     let sample = path_sample(index);
     let l = luminance(sample);
-    let scale = BOUND * sqrt(max(count, 1.0));
-    let own = select(nearby_level(pixel), 0.0, fresh);
+    let scale = BOUND * sqrt(count);
+    let own = nearby_level(pixel);
     // Within the bound of its own neighbourhood: not an outlier, whatever its surface reads
     // (nearly every pixel: the window is read only for the others).
     if !(l > scale * own) {
@@ -113,7 +113,7 @@ fn bound(@builtin(global_invocation_id) id: vec3<u32>) {
             let k = kinship(at, n, textureLoad(gbuffer_position, q, 0), textureLoad(gbuffer_normal, q, 0), q - pixel);
             if k > 0.0 {
                 let other = pixel_index(q);
-                around += k * select(level(other), luminance(path_sample(other)), fresh);
+                around += k * level(other);
                 pixels += k;
             }
         }
@@ -122,15 +122,14 @@ fn bound(@builtin(global_invocation_id) id: vec3<u32>) {
     if !(l > limit) || !(around > 0.0) {
         return;
     }
-    let weights = select(around, -pixels, fresh);
-    excess[index] = vec4<f32>(sample * ((1.0 - limit / l) / abs(weights)), weights);
+    excess[index] = vec4<f32>(sample * ((1.0 - limit / l) / around), around);
 }
 
 // Whether any pixel within RADIUS of this workgroup's spreads light.
 var<workgroup> spreading: atomic<u32>;
 
 // Takes from this pixel's sample what it spreads and adds its share of what its surface's
-// pixels around it spread: in proportion to its estimate, or evenly.
+// pixels around it spread, in proportion to its estimate.
 @compute @workgroup_size(8, 8, 1)
 fn spread(
     @builtin(global_invocation_id) id: vec3<u32>,
@@ -170,13 +169,13 @@ fn spread(
             let share = excess[pixel_index(q)];
             if share.w != 0.0 {
                 let k = kinship(at, n, textureLoad(gbuffer_position, q, 0), textureLoad(gbuffer_normal, q, 0), q - pixel);
-                got += share.rgb * (k * select(own, 1.0, share.w < 0.0));
+                got += share.rgb * (k * own);
             }
         }
     }
     if given.w != 0.0 {
         // What it spreads scales both parts of its sample alike.
-        let kept = 1.0 - luminance(given.rgb * abs(given.w)) / max(luminance(path_sample(index)), 1e-30);
+        let kept = 1.0 - luminance(given.rgb * given.w) / max(luminance(path_sample(index)), 1e-30);
         samples[index] = vec4<f32>(samples[index].rgb * kept, samples[index].w);
         importon_radiance[index] = vec4<f32>(importon_radiance[index].rgb * kept, importon_radiance[index].w);
     }

@@ -133,7 +133,8 @@ pub(crate) fn report_views(
             if state.photon_count.observe(setting, cost) {
                 info!(
                     "bevy_rppm: {} photons per iteration (was {before}, {:.1} ms an iteration)",
-                    state.photon_count.count, state.photon_count.before.ms
+                    state.photon_count.count,
+                    state.photon_count.timing(before).map_or(0.0, |t| t.ms)
                 );
             }
             let setting = rppm.map_or(default(), |r| r.settings.iterations_per_frame);

@@ -26,14 +26,26 @@ const SMOOTHING: f64 = 0.2;
 /// Readings taken at a count before it may move again.
 const SETTLE: u32 = 4;
 
+/// The ratio of the slowest to the fastest timed count's iteration before the line is
+/// fitted: photons whose cost is within the noise of timing give no slope.
+const SPAN: f64 = 1.5;
+/// Counts timed apart: one slot per octave (a count is a power of two, or `max`).
+const SLOTS: usize = 32;
+/// A slot's readings weigh at most this many in the fit (a count held for minutes would
+/// otherwise outweigh every other).
+const MOST_WEIGHT: u32 = 8;
+
 /// The photon count of a view's iterations, and the costs it was chosen from.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct PhotonController {
     /// Photons per iteration now; 0 before the first frame.
     pub count: u32,
-    /// Smoothed time per iteration at this count and at the one before it (`Auto`).
-    pub now: Timing,
-    pub before: Timing,
+    /// Smoothed time per iteration at each count timed so far (`Auto`), by octave.
+    timings: [Timing; SLOTS],
+    /// Readings since the count last moved (`GpuMilliseconds`).
+    readings: u32,
+    /// Whether a fit chose the count yet (`Auto`): until then it doubles to probe.
+    fitted: bool,
     /// Smoothed GPU ms per photon of the photon stages, and of the other stages per
     /// iteration (`GpuMilliseconds`).
     pub per_photon_ms: f64,
@@ -116,20 +128,24 @@ impl PhotonController {
         };
         let moved = next != self.count;
         if moved {
-            self.before = self.now;
-            self.now = Timing {
-                count: next,
-                ..Timing::default()
-            };
+            self.readings = 0;
             self.count = next;
         }
         moved
     }
 
+    /// The smoothed time per iteration at `count`, if it was timed.
+    pub fn timing(&self, count: u32) -> Option<Timing> {
+        let t = self.timings[slot(count)];
+        (t.count == count && t.readings > 0).then_some(t)
+    }
+
     /// `Auto`: an iteration takes a + b·n ms for n photons, by wall clock or GPU, whichever is
     /// longer (a CPU rasteriser's timestamps see part of its work, and stages overlap). a and
-    /// b come from the smoothed times at the last two counts; the best n makes b·n =
-    /// [`PHOTON_SHARE`] · a. Until two counts are timed, the count doubles. It falls one
+    /// b are fitted to the smoothed times of every count timed so far (least squares), so
+    /// that the noise of two nearby counts' times does not swing the choice; the best n makes
+    /// b·n = [`PHOTON_SHARE`] · a. Until two counts are timed, and until the slowest iteration
+    /// takes [`SPAN`] times the fastest, the count doubles. It falls one
     /// octave at a time: where a is lost in the noise of the fit (photons nearly all of an
     /// iteration), the fit's best fell from 262 144 to the floor of 1 024 in one step.
     fn auto(&mut self, iteration_ms: f64, max: u32) -> u32 {
@@ -138,37 +154,57 @@ impl PhotonController {
     }
 
     fn auto_best(&mut self, iteration_ms: f64, max: u32) -> u32 {
-        self.now.count = self.count;
-        self.now.add(iteration_ms);
-        if self.now.readings < SETTLE {
+        let here = &mut self.timings[slot(self.count)];
+        if here.count != self.count {
+            *here = Timing {
+                count: self.count,
+                ..Timing::default()
+            };
+        }
+        here.add(iteration_ms);
+        if here.readings < SETTLE {
             return self.count;
         }
-        let (now, before) = (self.now, self.before);
-        if before.readings < SETTLE || before.count == now.count {
-            let up = self.count.saturating_mul(2).min(max);
+        let timed = || self.timings.iter().filter(|t| t.readings >= SETTLE);
+        let highest = timed().map(|t| t.count).max().unwrap_or(0);
+        let slowest = timed().map(|t| t.ms).fold(0.0, f64::max);
+        let fastest = timed().map(|t| t.ms).fold(f64::INFINITY, f64::min);
+        // Until the photons' cost stands out of the timing noise, the count doubles: a line
+        // through two nearby counts' times (16 384 and 32 768 photons, both 310 ms on
+        // llvmpipe) sent the count to 32 768 or 262 144 from run to run.
+        let measured = slowest >= SPAN * fastest;
+        let up = self.count.saturating_mul(2).min(max);
+        let Some((fixed, per_photon)) = fit(timed()) else {
             return if up != self.count {
                 up
             } else {
                 (self.count / 2).max(MIN_PHOTONS.min(max))
             };
+        };
+        if !measured && self.count == highest {
+            return up;
         }
-        let per_photon = (now.ms - before.ms) / (now.count as f64 - before.count as f64);
-        // Photons that cost nothing measurable (timing noise): one octave more. A jump to
-        // `max` (32 768 to 262 144 on a sunlit yard whose iteration took 34 ms, less than at
-        // 16 384) set off a swing through every octave between them.
+        // Photons that cost nothing measurable (timing noise): one octave more from the
+        // highest count timed. A jump to `max` (32 768 to 262 144 on a sunlit yard whose
+        // iteration took 34 ms, less than at 16 384) set off a swing through every octave
+        // between them.
         if per_photon.is_nan() || per_photon <= 0.0 {
-            return if now.count > before.count {
-                self.count.saturating_mul(2).min(max)
+            return if self.count == highest {
+                up
             } else {
                 self.count
             };
         }
-        let fixed = (now.ms - per_photon * now.count as f64).max(0.0);
-        next_count(
+        // The first fit takes its best count as it is; later ones move only past the
+        // hysteresis.
+        let octaves = if self.fitted { OCTAVES } else { 0.0 };
+        self.fitted = true;
+        count_within(
             self.count,
             per_photon * self.count as f64,
-            PHOTON_SHARE * fixed,
+            PHOTON_SHARE * fixed.max(0.0),
             max,
+            octaves,
         )
     }
 
@@ -176,19 +212,48 @@ impl PhotonController {
     /// other stages leave of the budget.
     fn gpu_budget(&mut self, photon_ms: f64, other_ms: f64, budget: f64, max: u32) -> u32 {
         let per_photon = photon_ms / self.count as f64;
-        if self.now.readings == 0 && self.per_photon_ms == 0.0 {
+        if self.readings == 0 && self.per_photon_ms == 0.0 {
             (self.per_photon_ms, self.other_gpu_ms) = (per_photon, other_ms);
         } else {
             self.per_photon_ms += SMOOTHING * (per_photon - self.per_photon_ms);
             self.other_gpu_ms += SMOOTHING * (other_ms - self.other_gpu_ms);
         }
-        self.now.readings += 1;
-        if self.now.readings < SETTLE {
+        self.readings += 1;
+        if self.readings < SETTLE {
             return self.count;
         }
         let photon_ms = self.per_photon_ms * self.count as f64;
         next_count(self.count, photon_ms, budget - self.other_gpu_ms, max)
     }
+}
+
+/// The slot of a count in [`PhotonController`]'s timings: its octave.
+fn slot(count: u32) -> usize {
+    (count.max(1).ilog2() as usize).min(SLOTS - 1)
+}
+
+/// The weighted least-squares line ms = a + b·n through the timings, as (a, b); `None`
+/// unless two counts are timed.
+fn fit<'a>(timings: impl Iterator<Item = &'a Timing>) -> Option<(f64, f64)> {
+    let (mut w, mut n, mut ms, mut nn, mut n_ms) = (0.0, 0.0, 0.0, 0.0, 0.0);
+    let mut counts = 0;
+    for t in timings {
+        let weight = t.readings.min(MOST_WEIGHT) as f64;
+        let x = t.count as f64;
+        w += weight;
+        n += weight * x;
+        ms += weight * t.ms;
+        nn += weight * x * x;
+        n_ms += weight * x * t.ms;
+        counts += 1;
+    }
+    if counts < 2 {
+        return None;
+    }
+    let (n, ms) = (n / w, ms / w);
+    let spread = nn / w - n * n;
+    let b = (n_ms / w - n * ms) / spread;
+    Some((ms - b * n, b))
 }
 
 /// GPU ms of the stages whose work grows with the photon count, and of the others.
@@ -210,6 +275,11 @@ pub fn split(ms: &[f64; STAGES]) -> (f64, f64) {
 /// stages should take: a power of two (or `max`) in `MIN_PHOTONS..=max`, moved only when the
 /// best count is more than [`OCTAVES`] away.
 pub fn next_count(current: u32, photon_ms: f64, target_ms: f64, max: u32) -> u32 {
+    count_within(current, photon_ms, target_ms, max, OCTAVES)
+}
+
+/// [`next_count`] with the hysteresis `octaves`.
+fn count_within(current: u32, photon_ms: f64, target_ms: f64, max: u32, octaves: f64) -> u32 {
     let lowest = MIN_PHOTONS.min(max);
     if !photon_ms.is_finite() || photon_ms <= 0.0 || !target_ms.is_finite() {
         return current;
@@ -218,8 +288,7 @@ pub fn next_count(current: u32, photon_ms: f64, target_ms: f64, max: u32) -> u32
     if best < lowest as f64 {
         return lowest;
     }
-    let octaves = (best / current as f64).log2();
-    if octaves.abs() <= OCTAVES {
+    if (best / current as f64).log2().abs() <= octaves {
         return current;
     }
     let power = 2f64.powf(best.log2().round()).min(u32::MAX as f64) as u32;
@@ -272,6 +341,42 @@ mod tests {
         let noisy = run(setting, 1e-3, 40.0, &[0.7, 1.3, 0.8, 1.25, 1.0, 1.4, 0.75]);
         let settled = &noisy[32..];
         assert!(settled.iter().all(|&n| n == 65_536), "{noisy:?}");
+    }
+
+    /// Noise factors in 1 ± `amplitude`, from a seed (a small LCG: the test's own draws).
+    fn noise(seed: u32, amplitude: f64) -> Vec<f64> {
+        let mut state = seed.wrapping_mul(747_796_405).wrapping_add(2_891_336_453);
+        (0..64)
+            .map(|_| {
+                state = state.wrapping_mul(747_796_405).wrapping_add(2_891_336_453);
+                1.0 + amplitude * (2.0 * (state >> 8) as f64 / (1u32 << 24) as f64 - 1.0)
+            })
+            .collect()
+    }
+
+    #[test]
+    fn auto_takes_the_same_count_whatever_the_noise() {
+        // `frosted_glass` on llvmpipe: 16 384 and 32 768 photons both took 310 ms an
+        // iteration, 65 536 took 390: about 270 ms fixed and 1.8 µs a photon, so 262 144
+        // (the most) is best. A line through the first two counts' noisy times sent the count
+        // to 32 768 in one run of the suite and to 262 144 in the next.
+        let setting = PhotonCount::Auto { max: 262_144 };
+        for seed in 0..200 {
+            let counts = run(setting, 1.8e-3, 270.0, &noise(seed, 0.15));
+            assert!(
+                counts[40..].iter().all(|&n| n == 262_144),
+                "seed {seed}: {counts:?}"
+            );
+        }
+        // 40 ms fixed and 1 µs a photon: 80 000 is best, 65 536 its nearest octave.
+        let setting = PhotonCount::Auto { max: 1 << 20 };
+        for seed in 0..200 {
+            let counts = run(setting, 1e-3, 40.0, &noise(seed, 0.15));
+            assert!(
+                counts[40..].iter().all(|&n| n == 65_536),
+                "seed {seed}: {counts:?}"
+            );
+        }
     }
 
     #[test]

@@ -249,6 +249,12 @@ fn bent_scatter(n: vec3<f32>, plane: vec3<f32>, wi: vec3<f32>, wo: vec3<f32>) ->
     // last 1 % above n's horizon.
     return bent_cosine(n, plane, wi) * abs(out_plane) / max(abs(out_bent), 0.01);
 }
+
+// The most a photon's flux may grow by `bent_scatter` along its path. Each factor is at most
+// 2 000, and a few bounces in a glossy metal's grooves multiplied one photon of 2 million to
+// 2 % of `grooved_metal`'s image (a red disc of 80× the wall's light after 30 iterations,
+// relMSE 1.77). Capped, the grooved scenes lose 0.15–0.2 % of their energy.
+const BENT_GAIN_MAX: f32 = 32.0;
 #endif
 
 @compute @workgroup_size(64, 1, 1)
@@ -276,6 +282,10 @@ fn trace(@builtin(global_invocation_id) id: vec3<u32>, @builtin(local_invocation
     // Light through panes is direct light, the shadow rays' (common/panes.wgsl).
     let panes = panes_on(params);
     var walk = pane_walk();
+#endif
+#ifdef NORMAL_MAP
+    // What `bent_scatter` multiplied this photon's flux by so far.
+    var bent_gain = 1.0;
 #endif
     // Segments this invocation may trace: its photons × the depth each may reach.
     let steps = ((params.photons - 1u - index) / lanes + 1u) * params.max_photon_depth;
@@ -327,7 +337,10 @@ fn trace(@builtin(global_invocation_id) id: vec3<u32>, @builtin(local_invocation
             }
             var s = scatter_photon(m, n, interpolated, -ray.direction, front, &rng);
 #ifdef NORMAL_MAP
-            s.weight *= bent_scatter(n, interpolated, -ray.direction, s.direction);
+            let bent = bent_scatter(n, interpolated, -ray.direction, s.direction);
+            let allowed = min(bent_gain * bent, max(bent_gain, BENT_GAIN_MAX));
+            s.weight *= allowed / bent_gain;
+            bent_gain = max(allowed, 1e-30);
 #endif
             if !direct_only && any(s.weight > vec3<f32>(0.0)) && depth + 1u < params.max_photon_depth {
 #ifdef ABSORPTION
@@ -354,6 +367,9 @@ fn trace(@builtin(global_invocation_id) id: vec3<u32>, @builtin(local_invocation
             depth = 0u;
 #ifdef ABSORPTION
             medium = vec3<f32>(0.0);
+#endif
+#ifdef NORMAL_MAP
+            bent_gain = 1.0;
 #endif
 #ifdef PANES
             walk = pane_walk();

@@ -2,9 +2,9 @@
 // gathered) far above what its pixel's neighbourhood and its surface read so far (a small
 // bright light met through rough glass: 10³ where the pixel reads 1) keeps BOUND·√k times
 // that level (k: the pixel's iterations) and spreads the rest over the pixels of its surface
-// around it, in proportion to their own estimates. The image keeps its energy exactly and the
-// rare light lands near where it falls on average; as the bound grows with k, ever fewer
-// samples are spread.
+// around it (within 4 pixels, or as far as keeps each of them within its own bound, up to 16),
+// in proportion to their own estimates. The image keeps its energy and the rare light lands
+// near where it falls on average; as the bound grows with k, ever fewer samples are spread.
 #import bevy_rppm::common::{IterationParams, luminance}
 
 @group(0) @binding(0) var<uniform> params: IterationParams;
@@ -18,8 +18,10 @@
 // glass brings its outliers too.
 @group(0) @binding(6) var<storage, read_write> importon_radiance: array<vec4<f32>>;
 
-// Pixels each side over which a sample spreads.
+// Pixels each side over which a sample spreads, and the most: a sample that would lift its
+// surface's pixels within RADIUS past their own bound spreads farther.
 const RADIUS: i32 = 4;
+const MOST_RADIUS: i32 = 16;
 // A sample may read this many times its level, times √k.
 const BOUND: f32 = 4.0;
 
@@ -35,15 +37,15 @@ fn level(index: u32) -> f32 {
 
 // How much of what pixel a spreads pixel b (`offset` from it) takes, before b's level: 0
 // unless they see one surface (normals within ~25°, each point within a few footprints of
-// the other's tangent plane), falling off to 0 at RADIUS + 1 so that no square shows. Symmetric,
-// so what one gives the other takes.
-fn kinship(a: vec4<f32>, a_normal: vec4<f32>, b: vec4<f32>, b_normal: vec4<f32>, offset: vec2<i32>) -> f32 {
+// the other's tangent plane), falling off to 0 at `radius` + 1 so that no square shows.
+// Symmetric, so what one gives the other takes.
+fn kinship(a: vec4<f32>, a_normal: vec4<f32>, b: vec4<f32>, b_normal: vec4<f32>, offset: vec2<i32>, radius: i32) -> f32 {
     let d = b.xyz - a.xyz;
     let steps2 = f32(dot(offset, offset));
     let slack = (1.0 + sqrt(steps2)) * max(a_normal.w, b_normal.w);
     let off_plane = max(abs(dot(d, a_normal.xyz)), abs(dot(d, b_normal.xyz)));
     let same = b.w != 0.0 && dot(a_normal.xyz, b_normal.xyz) > 0.9 && off_plane <= slack;
-    let falloff = 1.0 - steps2 / f32((RADIUS + 1) * (RADIUS + 1));
+    let falloff = 1.0 - steps2 / f32((radius + 1) * (radius + 1));
     return select(0.0, falloff, same && falloff > 0.0);
 }
 
@@ -104,29 +106,45 @@ fn bound(@builtin(global_invocation_id) id: vec3<u32>) {
         return;
     }
     let n = textureLoad(gbuffer_normal, pixel, 0);
-    let w = window(pixel, RADIUS);
-    var around = 0.0;
-    var pixels = 0.0;
+    var sums = surface_sums(pixel, at, n, RADIUS);
+    let limit = scale * max(own, sums.x / sums.y);
+    if !(l > limit) || !(sums.x > 0.0) {
+        return;
+    }
+    // Spread over RADIUS, the pixels would take (l - limit) in proportion to levels summing
+    // to sums.x: past their own bound where that is above l / scale. A window's sum grows
+    // with its area, so a radius √ that ratio larger keeps them within it.
+    var radius = RADIUS;
+    let wanted = (l - limit) / scale;
+    if wanted > sums.x {
+        radius = min(i32(ceil(f32(RADIUS) * sqrt(wanted / sums.x))), MOST_RADIUS);
+        sums = surface_sums(pixel, at, n, radius);
+    }
+    // w: the radius, and (twice its fraction, under 1 so that it never rounds up to the next
+    // radius) the share of the sample the pixel keeps.
+    excess[index] = vec4<f32>(sample * ((1.0 - limit / l) / sums.x), f32(radius) + 0.5 * (limit / l));
+}
+
+// The levels of the pixels of this pixel's surface within `radius`, weighed by their
+// kinship, and (y) the kinships' sum.
+fn surface_sums(pixel: vec2<i32>, at: vec4<f32>, n: vec4<f32>, radius: i32) -> vec2<f32> {
+    let w = window(pixel, radius);
+    var sums = vec2<f32>(0.0);
     for (var row = w.lo.y; row <= w.hi.y; row += 1) {
         for (var column = w.lo.x; column <= w.hi.x; column += 1) {
             let q = vec2<i32>(column, row);
-            let k = kinship(at, n, textureLoad(gbuffer_position, q, 0), textureLoad(gbuffer_normal, q, 0), q - pixel);
+            let k = kinship(at, n, textureLoad(gbuffer_position, q, 0), textureLoad(gbuffer_normal, q, 0), q - pixel, radius);
             if k > 0.0 {
-                let other = pixel_index(q);
-                around += k * level(other);
-                pixels += k;
+                sums += vec2<f32>(k * level(pixel_index(q)), k);
             }
         }
     }
-    let limit = scale * max(own, around / pixels);
-    if !(l > limit) || !(around > 0.0) {
-        return;
-    }
-    excess[index] = vec4<f32>(sample * ((1.0 - limit / l) / around), around);
+    return sums;
 }
 
-// Whether any pixel within RADIUS of this workgroup's spreads light.
-var<workgroup> spreading: atomic<u32>;
+// How far this workgroup's pixels look for light spread to them: the largest radius of
+// those within MOST_RADIUS that reach it (0: none).
+var<workgroup> reach: atomic<i32>;
 
 // Takes from this pixel's sample what it spreads and adds its share of what its surface's
 // pixels around it spread, in proportion to its estimate.
@@ -136,20 +154,28 @@ fn spread(
     @builtin(workgroup_id) group: vec3<u32>,
     @builtin(local_invocation_index) lane: u32,
 ) {
-    // Outliers are rare: a workgroup with none around it stops after one read a pixel.
+    // Outliers are rare: a workgroup with none around it stops after a few reads a pixel.
     if lane == 0u {
-        atomicStore(&spreading, 0u);
+        atomicStore(&reach, 0);
     }
     workgroupBarrier();
-    let side = 8 + 2 * RADIUS;
-    let origin = vec2<i32>(group.xy * 8u) - RADIUS;
+    let side = 8 + 2 * MOST_RADIUS;
+    let lo = vec2<i32>(group.xy * 8u);
+    let origin = lo - MOST_RADIUS;
     for (var k = i32(lane); k < side * side; k += 64) {
-        let q = clamp(origin + vec2<i32>(k % side, k / side), vec2<i32>(0), vec2<i32>(params.size) - 1);
-        if excess[pixel_index(q)].w != 0.0 {
-            atomicStore(&spreading, 1u);
+        let q = origin + vec2<i32>(k % side, k / side);
+        if all(q >= vec2<i32>(0)) && all(q < vec2<i32>(params.size)) {
+            let share = excess[pixel_index(q)];
+            // Pixels from this workgroup's square (0 inside it).
+            let apart = max(max(lo - q, q - (lo + 7)), vec2<i32>(0));
+            let radius = i32(share.w);
+            if share.w != 0.0 && max(apart.x, apart.y) <= radius {
+                atomicMax(&reach, radius);
+            }
         }
     }
-    if workgroupUniformLoad(&spreading) == 0u || any(id.xy >= params.size) {
+    let radius = workgroupUniformLoad(&reach);
+    if radius == 0 || any(id.xy >= params.size) {
         return;
     }
     let pixel = vec2<i32>(id.xy);
@@ -160,7 +186,7 @@ fn spread(
     }
     let own = level(index);
     let n = textureLoad(gbuffer_normal, pixel, 0);
-    let w = window(pixel, RADIUS);
+    let w = window(pixel, radius);
     let given = excess[index];
     var got = vec3<f32>(0.0);
     for (var row = w.lo.y; row <= w.hi.y; row += 1) {
@@ -168,14 +194,14 @@ fn spread(
             let q = vec2<i32>(column, row);
             let share = excess[pixel_index(q)];
             if share.w != 0.0 {
-                let k = kinship(at, n, textureLoad(gbuffer_position, q, 0), textureLoad(gbuffer_normal, q, 0), q - pixel);
+                let k = kinship(at, n, textureLoad(gbuffer_position, q, 0), textureLoad(gbuffer_normal, q, 0), q - pixel, i32(share.w));
                 got += share.rgb * (k * own);
             }
         }
     }
     if given.w != 0.0 {
         // What it spreads scales both parts of its sample alike.
-        let kept = 1.0 - luminance(given.rgb * given.w) / max(luminance(path_sample(index)), 1e-30);
+        let kept = 2.0 * fract(given.w);
         samples[index] = vec4<f32>(samples[index].rgb * kept, samples[index].w);
         importon_radiance[index] = vec4<f32>(importon_radiance[index].rgb * kept, importon_radiance[index].w);
     }

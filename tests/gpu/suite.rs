@@ -386,18 +386,7 @@ fn a_sphere_light_in_frosted_glass_converges_from_every_seed() {
     let reference = downsample(&reference, reference.width / 128);
     let (mut energies, mut errors) = (Vec::new(), Vec::new());
     for seed in 11..=16 {
-        let request = RenderRequest {
-            scene: asset("suite/frosted_lantern.gltf"),
-            width: 128,
-            height: 128,
-            budget: Budget::Iterations(30),
-            settings: PhotonMapping {
-                photons_per_iteration: PhotonCount::Fixed(65_536),
-                seed,
-                ..default()
-            },
-        };
-        let image = render_gltf(&request, |_| {}).unwrap().image;
+        let image = render_seed(&asset("suite/frosted_lantern.gltf"), seed);
         assert_eq!(bad_pixels(&image), 0, "seed {seed}");
         energies.push(energy_ratio(&image, &reference).unwrap());
         errors.push(relmse(&image, &reference).unwrap());

@@ -6,7 +6,6 @@
 use bevy::image::Image;
 use bevy::render::render_resource::{Extent3d, TextureDimension, TextureFormat};
 use bevy_rppm::scene::{MaterialFlags, NO_TEXTURE};
-use bevy_rppm_cli::headless::{Budget, RenderRequest, render_gltf};
 use bevy_rppm_cli::image_io::{energy_ratio, relmse};
 
 use crate::util::*;
@@ -174,18 +173,7 @@ fn a_normal_mapped_metal_sends_no_photon_brighter_than_its_cap() {
     let suite = Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/suite");
     let reference = read_exr(&suite.join("grooved_metal.ref.exr")).unwrap();
     for seed in [1, 2] {
-        let request = RenderRequest {
-            scene: suite.join("grooved_metal.gltf"),
-            width: 128,
-            height: 128,
-            budget: Budget::Iterations(30),
-            settings: PhotonMapping {
-                photons_per_iteration: PhotonCount::Fixed(65_536),
-                seed,
-                ..default()
-            },
-        };
-        let image = render_gltf(&request, |_| {}).unwrap().image;
+        let image = render_seed(&suite.join("grooved_metal.gltf"), seed);
         let energy = energy_ratio(&image, &reference).unwrap();
         let error = relmse(&image, &reference).unwrap();
         println!("grooved_metal seed {seed}: energy {energy:.4}, relMSE {error:.4}");

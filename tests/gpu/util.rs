@@ -211,6 +211,26 @@ pub fn render_debug(view: bevy_rppm::RppmDebugView) -> RgbImage {
     render_asset(settings, 64, 48, 2).image
 }
 
+/// `scene` (a path) at 128² after 30 iterations of 65 536 photons from `seed`: the tests that
+/// compare seeds, where one seed's rare sample is what they look for.
+pub fn render_seed(scene: &Path, seed: u32) -> RgbImage {
+    use bevy_rppm_cli::headless::{Budget, RenderRequest, render_gltf};
+    let request = RenderRequest {
+        scene: scene.to_path_buf(),
+        width: 128,
+        height: 128,
+        budget: Budget::Iterations(30),
+        settings: PhotonMapping {
+            photons_per_iteration: PhotonCount::Fixed(65_536),
+            seed,
+            ..default()
+        },
+    };
+    render_gltf(&request, |_| {})
+        .unwrap_or_else(|e| panic!("{}: {e}", scene.display()))
+        .image
+}
+
 /// The reference box-filtered down by an integer factor (pixel averages stay pixel averages).
 pub fn downsample(image: &RgbImage, factor: usize) -> RgbImage {
     let (w, h) = (image.width / factor, image.height / factor);

@@ -18,8 +18,8 @@ const SAMPLES: u32 = 2048;
 /// Below this perceptual roughness the lobe is a mirror (`DELTA_ROUGHNESS` in common.wgsl).
 pub const DELTA_ROUGHNESS: f32 = 0.02;
 /// Photons are stored at glossy surfaces at least this rough; camera paths go on through
-/// smoother ones (`GLOSSY_STORE_ROUGHNESS` in bsdf.wgsl).
-pub const GLOSSY_STORE_ROUGHNESS: f32 = 0.3;
+/// smoother ones (`GLOSSY_STORE_ROUGHNESS` in bsdf.wgsl, which says why 0.5).
+pub const GLOSSY_STORE_ROUGHNESS: f32 = 0.5;
 
 /// `SIZE²` cells `(A, B, 0, 0)`, row by row of roughness, then `SIZE` row averages
 /// `2∫·μ dμ` of `(A, B, 0, 0)`: what the shader binds as `ggx_albedo`.

@@ -38,7 +38,10 @@ of failure:
   it (reference by light tracing);
 - `studio`: a small set (floor, backdrop, a glass block and a glass ball, a red box) under a
   tilted softbox panel 7× its floor's area, in open space: most of the panel's hemisphere
-  meets nothing, and the glass reflects the panel.
+  meets nothing, and the glass reflects the panel;
+- `many_lights`: a room lit by 24 coloured point lights under its ceiling and 4 spot lights,
+  more than a vertex samples (8, drawn by power), with a gold block at roughness 0.3 (the
+  rough end of issue 11's glossy metals) reflecting the lit ceiling, and a matte block.
 
     python3 tools/suite_scenes.py assets/suite
     python3 tools/reference.py assets/suite/sun_room.gltf --out assets/suite/sun_room.ref.exr \
@@ -47,6 +50,7 @@ of failure:
 import argparse
 import math
 import os
+import random
 
 from gltf_kit import Gltf, box, ceiling_panel, coloured_walls, inward, open_box, rotate_y, sphere, unit
 
@@ -380,13 +384,35 @@ def studio(path):
     g.write(path, "bevy_rppm tools/suite_scenes.py studio")
 
 
+def many_lights(path):
+    g, h, faces = open_box()
+    coloured_walls(g, faces, [0.6, 0.6, 0.58], [0.6, 0.2, 0.15], [0.15, 0.3, 0.6])
+    g.quads(box([-0.9, 0, -1.0], [-0.3, 0.9, -0.4], inward=False), g.material([0.7, 0.7, 0.65]))
+    g.quads(box([0.3, 0, -0.6], [0.9, 0.45, 0.0], inward=False), g.material([0.9, 0.8, 0.5], roughness=0.3, metallic=1.0))
+    # 24 point lights of varied colour and power in a grid under the ceiling (a fixed random
+    # draw), each lighting a spot of it that the gold block reflects; 4 spots at the walls.
+    draw = random.Random(3)
+    for i in range(24):
+        x, z = -1.2 + 2.4 * (i % 6) / 5, -1.2 + 2.0 * (i // 6) / 3
+        colour = [draw.uniform(0.3, 1.0) for _ in range(3)]
+        g.light({"type": "point", "color": colour, "intensity": draw.uniform(0.05, 0.6)},
+                translation=[x, draw.uniform(1.6, 2.2), z])
+    spots = [([-1.3, 1.8, 0.5], [1, -1, -1]), ([1.3, 1.8, 0.5], [-1, -1, -1]),
+             ([0.0, 2.2, -1.3], [0, -1, 0.3]), ([0.0, 0.4, 1.0], [0, 0.2, -1])]
+    for position, direction in spots:
+        g.light({"type": "spot", "color": [1.0, 0.9, 0.8], "intensity": 2.0,
+                 "spot": {"innerConeAngle": 0.3, "outerConeAngle": 0.45}}, translation=position, direction=direction)
+    g.camera([0.0, 1.3, 2.9], [0.0, 0.7, -0.5], yfov=0.85)
+    g.write(path, "bevy_rppm tools/suite_scenes.py many_lights")
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("out", help="folder for the .gltf files")
     args = parser.parse_args()
     os.makedirs(args.out, exist_ok=True)
     for make in (sun_room, glazed_room, glass_slab, tinted_glass, frosted_glass, frosted_lamp, frosted_lantern, water_pool, sky_court, lens_caustic, clearcoat, translucent,
-                 mirror_caustic, sun_spot_caustics, lamp_globe, studio):
+                 mirror_caustic, sun_spot_caustics, lamp_globe, studio, many_lights):
         path = os.path.join(args.out, f"{make.__name__}.gltf")
         make(path)
         print(f"wrote {path}")

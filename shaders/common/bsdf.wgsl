@@ -166,8 +166,9 @@ fn layers_toward(m: Material, out: Outgoing, n: vec3<f32>, wo: vec3<f32>, wi: ve
 }
 
 // Photons are stored at glossy surfaces at least this rough (density estimation needs a
-// lobe wide enough to gather over); smoother ones only scatter them.
-const GLOSSY_STORE_ROUGHNESS: f32 = 0.3;
+// lobe wide enough to gather over: at 0.3 each photon near a lobe's peak was a blotch of
+// its light's colour, suite/many_lights); smoother ones only scatter them.
+const GLOSSY_STORE_ROUGHNESS: f32 = 0.5;
 
 // Whether photons are stored at a surface (its light is gathered there by density
 // estimation): a diffuse lobe, or a glossy one at least GLOSSY_STORE_ROUGHNESS rough. Camera

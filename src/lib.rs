@@ -268,5 +268,15 @@ mod tests {
         use crate::photons::ellipse::{DISC_SHARE, MARGIN};
         assert_eq!(float("photons/map.wgsl", "MARGIN"), MARGIN);
         assert_eq!(float("photons/map.wgsl", "DISC_SHARE"), DISC_SHARE);
+        // Which surfaces are mirrors and which store photons (camera paths go on through the rest).
+        use crate::bsdf::{DELTA_ROUGHNESS, GLOSSY_STORE_ROUGHNESS};
+        assert_eq!(
+            float("common/common.wgsl", "DELTA_ROUGHNESS"),
+            DELTA_ROUGHNESS
+        );
+        assert_eq!(
+            float("common/bsdf.wgsl", "GLOSSY_STORE_ROUGHNESS"),
+            GLOSSY_STORE_ROUGHNESS
+        );
     }
 }

@@ -211,15 +211,14 @@ pub fn render_debug(view: bevy_rppm::RppmDebugView) -> RgbImage {
     render_asset(settings, 64, 48, 2).image
 }
 
-/// `scene` (a path) at 128² after 30 iterations of 65 536 photons from `seed`: the tests that
-/// compare seeds, where one seed's rare sample is what they look for.
-pub fn render_seed(scene: &Path, seed: u32) -> RgbImage {
+/// `scene` (a path) at `width` × `height` after `iterations` of 65 536 photons from `seed`.
+pub fn render_fixed(scene: &Path, width: u32, height: u32, iterations: u32, seed: u32) -> RgbImage {
     use bevy_rppm_cli::headless::{Budget, RenderRequest, render_gltf};
     let request = RenderRequest {
         scene: scene.to_path_buf(),
-        width: 128,
-        height: 128,
-        budget: Budget::Iterations(30),
+        width,
+        height,
+        budget: Budget::Iterations(iterations),
         settings: PhotonMapping {
             photons_per_iteration: PhotonCount::Fixed(65_536),
             seed,
@@ -229,6 +228,12 @@ pub fn render_seed(scene: &Path, seed: u32) -> RgbImage {
     render_gltf(&request, |_| {})
         .unwrap_or_else(|e| panic!("{}: {e}", scene.display()))
         .image
+}
+
+/// `scene` (a path) at 128² after 30 iterations of 65 536 photons from `seed`: the tests that
+/// compare seeds, where one seed's rare sample is what they look for.
+pub fn render_seed(scene: &Path, seed: u32) -> RgbImage {
+    render_fixed(scene, 128, 128, 30, seed)
 }
 
 /// The reference box-filtered down by an integer factor (pixel averages stay pixel averages).
@@ -271,21 +276,8 @@ pub fn render_asset(
 
 /// A glTF scene rendered in-process at 64², `iterations` of 65 536 photons, every pixel finite.
 pub fn render_gltf_64(scene: PathBuf, iterations: u32) -> RgbImage {
-    use bevy_rppm_cli::headless::{Budget, RenderRequest, render_gltf};
-    let request = RenderRequest {
-        scene,
-        width: 64,
-        height: 64,
-        budget: Budget::Iterations(iterations),
-        settings: PhotonMapping {
-            photons_per_iteration: PhotonCount::Fixed(65_536),
-            ..default()
-        },
-    };
-    let image = render_gltf(&request, |_| {})
-        .unwrap_or_else(|e| panic!("{}: {e}", request.scene.display()))
-        .image;
-    assert_eq!(bad_pixels(&image), 0, "{}", request.scene.display());
+    let image = render_fixed(&scene, 64, 64, iterations, 0);
+    assert_eq!(bad_pixels(&image), 0, "{}", scene.display());
     image
 }
 

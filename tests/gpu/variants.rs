@@ -105,18 +105,7 @@ fn an_orthographic_view_of_rough_metal_matches_its_reference() {
 /// --height 126` (4 096 spp), box-filtered to 112 × 63.
 #[test]
 fn a_wide_screen_view_of_rough_metal_matches_its_reference() {
-    use bevy_rppm_cli::headless::{Budget, RenderRequest, render_gltf};
-    let request = RenderRequest {
-        scene: suite().join("glossy_metal.gltf"),
-        width: 112,
-        height: 63,
-        budget: Budget::Iterations(16),
-        settings: PhotonMapping {
-            photons_per_iteration: PhotonCount::Fixed(65_536),
-            ..default()
-        },
-    };
-    let image = render_gltf(&request, |_| {}).unwrap().image;
+    let image = render_fixed(&suite().join("glossy_metal.gltf"), 112, 63, 16, 0);
     assert_eq!(
         (image.width, image.height, bad_pixels(&image)),
         (112, 63, 0)

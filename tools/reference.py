@@ -24,7 +24,8 @@ the BSDF above; its textures and normal are left out); `KHR_materials_diffuse_tr
 textures are left out, as in bevy_rppm). `KHR_materials_specular` tints only the
 dielectric's specular layer, which the Lambertian stand-in leaves out.
 Textures (numpy needed): base colour texture × factor and emissive texture × factor as
-bilinear repeating bitmaps, COLOR_0 as the `vertex_color` mesh attribute, alpha `MASK` as a
+bitmaps wrapped and filtered as their glTF sampler says (Mitsuba has one wrap mode for both
+axes; the magnification filter), COLOR_0 as the `vertex_color` mesh attribute, alpha `MASK` as a
 `mask` BSDF, `doubleSided` as `twosided`, a metallic-roughness texture (on a Lambertian
 base) as a `blendbsdf` of Lambert and the rough metal weighted by metallic, the metal at the
 roughness filtered at each point as Bevy filters it (`bevy_metal` reads the texture; an llvm
@@ -70,13 +71,27 @@ class Textures:
             pixels = np.concatenate([pixels[..., :1]] * 3 + [pixels[..., 1:]], axis=2)
         return pixels
 
-    def _write(self, array, name):
+    def sampler(self, info):
+        """The texture's glTF sampler as Mitsuba's `wrap_mode` and `filter_type` (one wrap for
+        both axes in Mitsuba: u's where they differ; the magnification filter)."""
+        index = self.gltf["textures"][info["index"]].get("sampler")
+        s = self.gltf.get("samplers", [])[index] if index is not None else {}
+        wraps = {10497: "repeat", 33071: "clamp", 33648: "mirror"}
+        wrap_s, wrap_t = (wraps[s.get(k, 10497)] for k in ("wrapS", "wrapT"))
+        if wrap_s != wrap_t:
+            print(f"reference.py: wrapS {wrap_s} and wrapT {wrap_t} differ; both {wrap_s}", file=sys.stderr)
+        return {"wrap_mode": wrap_s, "filter_type": "nearest" if s.get("magFilter") == 9728 else "bilinear"}
+
+    def _write(self, array, name, info=None):
         import mitsuba as mi
         import numpy as np
 
         path = os.path.join(self.tmp, f"{name}_{len(os.listdir(self.tmp))}.exr")
         mi.Bitmap(np.ascontiguousarray(array, dtype=np.float32)).write(path)
-        return {"type": "bitmap", "filename": path, "raw": True, "filter_type": "bilinear", "wrap_mode": "repeat"}
+        texture = {"type": "bitmap", "filename": path, "raw": True, "filter_type": "bilinear", "wrap_mode": "repeat"}
+        if info is not None:
+            texture.update(self.sampler(info))
+        return texture
 
     def colour(self, info, factor):
         """An sRGB colour texture times a linear factor."""
@@ -84,7 +99,7 @@ class Textures:
 
         c = self._pixels(info)[..., :3]
         linear = np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
-        return self._write(linear * np.array(factor[:3], dtype=np.float32), "colour")
+        return self._write(linear * np.array(factor[:3], dtype=np.float32), "colour", info)
 
     def metallic_roughness(self, info, metallic, roughness):
         """Metallic (B × factor) as a blend weight, the roughness (G × factor) and GGX
@@ -95,7 +110,7 @@ class Textures:
         metal = p[..., 2] * metallic
         rough = p[..., 1] * roughness
         alpha = np.maximum(rough ** 2, 1e-3)
-        return tuple(self._write(np.stack([x] * 3, axis=2), name)
+        return tuple(self._write(np.stack([x] * 3, axis=2), name, info)
                      for x, name in ((metal, "metallic"), (rough, "roughness"), (alpha, "alpha")))
 
     def normal_map(self, info):
@@ -104,7 +119,7 @@ class Textures:
         the two are opposite, so green is flipped."""
         p = self._pixels(info)[..., :3].copy()
         p[..., 1] = 1.0 - p[..., 1]
-        return self._write(p, "normal")
+        return self._write(p, "normal", info)
 
     def spot_falloff(self, inner, outer, size=1024):
         """Bevy's spot falloff, the square of a ramp in cos θ from the outer cone to the inner,

@@ -11,12 +11,16 @@
   floor and a red left wall in asymmetric grooves (normals up to 58° off), a back wall of
   bevelled tiles, a warm point light high in the box and the panel, seen from another place;
 - `grooves_metal`: the same with its floor gold metal of roughness 0.35 (glossy photons
-  scattered off a normal-mapped metal, and reflections in it).
+  scattered off a normal-mapped metal, and reflections in it);
+- `samplers`: textures read as their glTF sampler says: a mirrored floor (MIRRORED_REPEAT,
+  UVs 0-3), a back wall with a badge clamped to its edge (CLAMP_TO_EDGE, UVs -1-2) and a
+  pixel-art panel magnified to the nearest texel (NEAREST).
 
     python3 tools/textured_box.py assets/suite/textured_box.gltf box
     python3 tools/textured_box.py assets/suite/textured_metal.gltf metal
     python3 tools/textured_box.py assets/suite/grooved_room.gltf grooves
     python3 tools/textured_box.py assets/suite/grooved_metal.gltf grooves_metal
+    python3 tools/textured_box.py assets/suite/texture_samplers.gltf samplers
     python3 tools/reference.py assets/suite/textured_box.gltf --out assets/suite/textured_box.ref.exr \\
         --width 256 --height 256 --spp 2048 --variant scalar_rgb
 """
@@ -50,8 +54,8 @@ def srgb(linear):
 
 out = sys.argv[1] if len(sys.argv) > 1 else "textured_box.gltf"
 variant = sys.argv[2] if len(sys.argv) > 2 else "box"
-if variant not in ("box", "metal", "grooves", "grooves_metal"):
-    sys.exit("textured_box.py: error: the variant is box, metal, grooves or grooves_metal")
+if variant not in ("box", "metal", "grooves", "grooves_metal", "samplers"):
+    sys.exit("textured_box.py: error: the variant is box, metal, grooves, grooves_metal or samplers")
 folder = os.path.dirname(os.path.abspath(out))
 os.makedirs(os.path.join(folder, "textures"), exist_ok=True)
 # 8 × 8 checks on a 64² texture, sRGB-encoded albedos 0.8 and 0.1.
@@ -111,6 +115,36 @@ if variant.startswith("grooves"):
     write_png(os.path.join(folder, "textures/grooves.png"), 128, 16, groove)
     write_png(os.path.join(folder, "textures/tiles.png"), 128, 128, tile)
 
+
+def ramp(x, y):
+    """16², lopsided: red rises along x, blue down y, a dark corner square: mirrored copies
+    differ from repeated ones."""
+    if x < 5 and y < 5:
+        return [srgb(0.05)] * 3 + [255]
+    return [srgb(0.1 + 0.8 * x / 15), srgb(0.45), srgb(0.1 + 0.8 * y / 15), 255]
+
+
+def badge(x, y):
+    """16²: a yellow disc on teal, edged in white: clamped, the edge texels stretch."""
+    r = math.hypot(x - 7.5, y - 7.5)
+    if x in (0, 15) or y in (0, 15):
+        return [srgb(0.85)] * 3 + [255]
+    return [srgb(0.9), srgb(0.75), srgb(0.1), 255] if r < 5 else [srgb(0.1), srgb(0.5), srgb(0.5), 255]
+
+
+def pixel_art(x, y):
+    """8²: a face of texels meant to be seen magnified as squares (nearest filtering)."""
+    eyes = (x, y) in ((2, 2), (5, 2))
+    mouth = y == 5 and 1 < x < 6
+    dark = eyes or mouth
+    return [srgb(0.05 if dark else 0.9), srgb(0.05 if dark else 0.6), srgb(0.05 if dark else 0.15), 255]
+
+
+if variant == "samplers":
+    write_png(os.path.join(folder, "textures/ramp.png"), 16, 16, ramp)
+    write_png(os.path.join(folder, "textures/badge.png"), 16, 16, badge)
+    write_png(os.path.join(folder, "textures/pixel_art.png"), 8, 8, pixel_art)
+
 buf = b""
 views, accessors, meshes, nodes, materials = [], [], [], [], []
 
@@ -130,9 +164,10 @@ def push(values, fmt, target, kind, component, minmax=None):
     return len(accessors) - 1
 
 
-def quad(corners, normal, material, uv_scale=1.0, colors=None):
-    """A quad (corners counter-clockwise seen from its front), UVs (0,0) (1,0) (1,1) (0,1) × scale."""
-    uvs = [(0, 0), (uv_scale, 0), (uv_scale, uv_scale), (0, uv_scale)]
+def quad(corners, normal, material, uv_scale=1.0, colors=None, uv_lo=0.0):
+    """A quad (corners counter-clockwise seen from its front), UVs (0,0) (1,0) (1,1) (0,1) × scale
+    + uv_lo."""
+    uvs = [(uv_lo + u, uv_lo + v) for u, v in [(0, 0), (uv_scale, 0), (uv_scale, uv_scale), (0, uv_scale)]]
     mn = [min(p[i] for p in corners) for i in range(3)]
     mx = [max(p[i] for p in corners) for i in range(3)]
     attributes = {
@@ -181,6 +216,15 @@ elif variant.startswith("grooves"):
     panel = material([0.0, 0.0, 0.0], name="emitter", emissiveFactor=[1.0, 1.0, 1.0],
                      extensions={"KHR_materials_emissive_strength": {"emissiveStrength": 4.0}})
     light = {"translation": [0.6, 1.3, -0.4], "intensity": 1.5, "color": [1, 0.9, 0.8]}
+elif variant == "samplers":
+    images = [{"uri": "textures/ramp.png"}, {"uri": "textures/badge.png"}, {"uri": "textures/pixel_art.png"}]
+    floor = material([1.0, 1.0, 1.0], texture=0, name="mirrored ramp")
+    back = material([1.0, 1.0, 1.0], texture=1, name="clamped badge")
+    art = material([1.0, 1.0, 1.0], texture=2, name="pixel art")
+    back_colors = None
+    panel = material([0.0, 0.0, 0.0], name="emitter", emissiveFactor=[1.0, 1.0, 1.0],
+                     extensions={"KHR_materials_emissive_strength": {"emissiveStrength": 4.0}})
+    light = {"translation": [0.5, 1.4, -0.2], "intensity": 1.5}
 else:
     images = [{"uri": "textures/bumps.png"}, {"uri": "textures/metal_stripes.png"}]
     floor = material([0.7, 0.7, 0.7], name="bumps", normalTexture={"index": 0})
@@ -191,15 +235,28 @@ else:
                      extensions={"KHR_materials_emissive_strength": {"emissiveStrength": 4.0}})
     light = {"translation": [-0.9, 0.3, 0.2], "intensity": 1.0}
 textures = [{"source": i} for i in range(len(images))]
-quad([[x0, y0, z1], [x1, y0, z1], [x1, y0, z0], [x0, y0, z0]], [0, 1, 0], floor)                      # floor
+samplers = []
+floor_uv, back_uv = (1.0, 0.0), (1.0, 0.0)
+if variant == "samplers":
+    # Mirrored (floor, UVs 0..3), clamped to the edge (back wall, UVs -1..2), nearest (left).
+    samplers = [{"wrapS": 33648, "wrapT": 33648}, {"wrapS": 33071, "wrapT": 33071},
+                {"magFilter": 9728, "minFilter": 9728}]
+    for i, t in enumerate(textures):
+        t["sampler"] = i
+    floor_uv, back_uv = (3.0, 0.0), (3.0, -1.0)
+quad([[x0, y0, z1], [x1, y0, z1], [x1, y0, z0], [x0, y0, z0]], [0, 1, 0], floor, *floor_uv[:1],
+     uv_lo=floor_uv[1])                                                                                # floor
 quad([[x0, y1, z0], [x1, y1, z0], [x1, y1, z1], [x0, y1, z1]], [0, -1, 0], white)                     # ceiling
-quad([[x0, y0, z0], [x1, y0, z0], [x1, y1, z0], [x0, y1, z0]], [0, 0, 1], back, colors=back_colors)   # back
+quad([[x0, y0, z0], [x1, y0, z0], [x1, y1, z0], [x0, y1, z0]], [0, 0, 1], back, back_uv[0], back_colors,
+     uv_lo=back_uv[1])                                                                                 # back
 quad([[x0, y0, z1], [x0, y0, z0], [x0, y1, z0], [x0, y1, z1]], [1, 0, 0], red)                        # left
 quad([[x1, y0, z0], [x1, y0, z1], [x1, y1, z1], [x1, y1, z0]], [-1, 0, 0], green)                     # right
 quad([[x0, y0, z1], [x0, y1, z1], [x1, y1, z1], [x1, y0, z1]], [0, 0, -1], white)                     # front (behind camera)
 e = 0.35
 quad([[-e, y1 - 0.001, z0 + 0.3], [e, y1 - 0.001, z0 + 0.3], [e, y1 - 0.001, z0 + 1.0], [-e, y1 - 0.001, z0 + 1.0]],
      [0, -1, 0], panel)                                                                                # ceiling panel
+if variant == "samplers":
+    quad([[-0.85, 0.15, -0.6], [-0.25, 0.15, -0.6], [-0.25, 0.75, -0.6], [-0.85, 0.75, -0.6]], [0, 0, 1], art)
 if variant == "box":
     screen = material([1.0, 1.0, 1.0], texture=2, name="cut-out screen", alphaMode="MASK", alphaCutoff=0.5,
                       doubleSided=True)
@@ -223,6 +280,7 @@ gltf = {
     "materials": materials,
     "images": images,
     "textures": textures,
+    **({"samplers": samplers} if samplers else {}),
     "accessors": accessors,
     "bufferViews": views,
     "buffers": [{"byteLength": len(buf), "uri": "data:application/octet-stream;base64," + base64.b64encode(buf).decode()}],

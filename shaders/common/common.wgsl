@@ -115,7 +115,9 @@ struct Texture {
     height: u32,
     levels: u32,
     srgb: u32,
-    pad_a: u32,
+    // Wrap along u (bits 0-1) and v (2-3): 0 repeat, 1 clamp, 2 mirror; bit 4 nearest
+    // magnification, bit 5 nearest minification (TextureSampler::bits in src/scene/textures.rs).
+    sampler: u32,
     pad_b: u32,
     pad_c: u32,
 }

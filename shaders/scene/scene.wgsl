@@ -210,10 +210,11 @@ fn srgb_to_linear(c: vec3<f32>) -> vec3<f32> {
 }
 
 // Texel `at` of a level `size` texels wide, for at in [-1, size] (sample_texture's four):
-// wrapped by comparisons, not `%` (integer division, one lane at a time on llvmpipe).
-fn texel(t: Texture, offset: u32, size: vec2<i32>, at: vec2<i32>) -> vec4<f32> {
-    let low = select(at, at + size, at < vec2<i32>(0));
-    let wrapped = clamp(select(low, low - size, low >= size), vec2<i32>(0), size - 1);
+// wrapped by comparisons, not `%` (integer division, one lane at a time on llvmpipe), along
+// the axes that repeat; the others keep the edge's texel.
+fn texel(t: Texture, offset: u32, size: vec2<i32>, at: vec2<i32>, repeat: vec2<bool>) -> vec4<f32> {
+    let low = select(at, at + size, (at < vec2<i32>(0)) & repeat);
+    let wrapped = clamp(select(low, low - size, (low >= size) & repeat), vec2<i32>(0), size - 1);
     let c = unpack4x8unorm(texels[offset + u32(wrapped.y * size.x + wrapped.x)]);
     if t.srgb != 0u {
         return vec4<f32>(srgb_to_linear(c.rgb), c.a);
@@ -221,8 +222,23 @@ fn texel(t: Texture, offset: u32, size: vec2<i32>, at: vec2<i32>) -> vec4<f32> {
     return c;
 }
 
-// Bilinear lookup of texture `index` at uv (repeating), in linear values, from the mip level
-// whose texels are about `footprint` uv units wide (0: the finest).
+#ifdef SAMPLERS
+// A texture coordinate brought into [0, 1] by its wrap mode (Wrap::apply in textures.rs).
+fn wrap_uv(t: f32, mode: u32) -> f32 {
+    if mode == 1u {
+        return clamp(t, 0.0, 1.0);
+    }
+    if mode == 2u {
+        let m = t - 2.0 * floor(0.5 * t);
+        return select(m, 2.0 - m, m > 1.0);
+    }
+    return fract(t);
+}
+#endif
+
+// Lookup of texture `index` at uv, in linear values, from the mip level whose texels are
+// about `footprint` uv units wide (0: the finest): bilinear and repeating, or as the image's
+// sampler says (SAMPLERS).
 fn sample_texture(index: u32, uv: vec2<f32>, footprint: f32) -> vec4<f32> {
     let t = textures[index];
     let texels_across = footprint * f32(max(t.width, t.height));
@@ -236,11 +252,24 @@ fn sample_texture(index: u32, uv: vec2<f32>, footprint: f32) -> vec4<f32> {
         h = max(h / 2u, 1u);
     }
     let size = vec2<i32>(i32(w), i32(h));
-    let p = fract(uv) * vec2<f32>(size) - 0.5;
+#ifdef SAMPLERS
+    let modes = vec2<u32>(t.sampler & 3u, (t.sampler >> 2u) & 3u);
+    let repeat = modes == vec2<u32>(0u);
+    let at = vec2<f32>(wrap_uv(uv.x, modes.x), wrap_uv(uv.y, modes.y)) * vec2<f32>(size);
+    // Magnified where a texel spans more than the footprint.
+    let nearest = select(t.sampler & 32u, t.sampler & 16u, texels_across <= 1.0);
+    if nearest != 0u {
+        return texel(t, offset, size, vec2<i32>(floor(at)), repeat);
+    }
+#else
+    let repeat = vec2<bool>(true);
+    let at = fract(uv) * vec2<f32>(size);
+#endif
+    let p = at - 0.5;
     let i = vec2<i32>(floor(p));
     let f = p - floor(p);
-    let top = mix(texel(t, offset, size, i), texel(t, offset, size, i + vec2<i32>(1, 0)), f.x);
-    let bottom = mix(texel(t, offset, size, i + vec2<i32>(0, 1)), texel(t, offset, size, i + vec2<i32>(1, 1)), f.x);
+    let top = mix(texel(t, offset, size, i, repeat), texel(t, offset, size, i + vec2<i32>(1, 0), repeat), f.x);
+    let bottom = mix(texel(t, offset, size, i + vec2<i32>(0, 1), repeat), texel(t, offset, size, i + vec2<i32>(1, 1), repeat), f.x);
     return mix(top, bottom, f.y);
 }
 

@@ -4,12 +4,15 @@
 use std::sync::Arc;
 
 use bevy::ecs::entity::EntityHashSet;
+use bevy::image::ImageSamplerDescriptor;
 use bevy::mesh::UvChannel;
 use bevy::platform::collections::{HashMap, HashSet};
 use bevy::prelude::*;
 
 use super::material::material_to_gpu;
-use super::textures::{GpuTexture, MAX_TEXTURE_SIZE, NO_TEXTURE, PackedTexture, TEXEL_BUDGET};
+use super::textures::{
+    GpuTexture, MAX_TEXTURE_SIZE, NO_TEXTURE, PackedTexture, TEXEL_BUDGET, TextureSampler,
+};
 use super::{
     GpuInstance, MaterialFlags, RppmScene, SceneData, SceneMesh, deform, emitters, lights, mesh,
 };
@@ -28,8 +31,10 @@ type PackedTable = (Vec<AssetId<Image>>, Vec<GpuTexture>, Arc<Vec<u32>>);
 
 /// Images packed for the tracing stages ([`PackedTexture`]), kept across extractions so a
 /// scene change does not downsample them again.
-#[derive(Resource, Default)]
+#[derive(Resource)]
 pub(super) struct TextureCache {
+    /// The `ImagePlugin`'s sampler, for images that name none.
+    default_sampler: ImageSamplerDescriptor,
     packed: HashMap<AssetId<Image>, Arc<PackedTexture>>,
     /// The images the last extraction asked for, loaded or not: an event on one of them
     /// extracts again (an image still loading, an edited texture).
@@ -37,6 +42,25 @@ pub(super) struct TextureCache {
     /// The last scene's texture table and texels, by the images in it: a scene change that
     /// keeps them (a moved object) shares them instead of copying and uploading them again.
     table: Option<PackedTable>,
+}
+
+impl TextureCache {
+    /// Empty, with `app`'s `ImagePlugin` sampler (Bevy's linear one without the plugin); made
+    /// in `Plugin::finish`, after every plugin's build, whatever their order.
+    pub(super) fn for_app(app: &App) -> Self {
+        let default_sampler = app
+            .get_added_plugins::<bevy::image::ImagePlugin>()
+            .first()
+            .map_or_else(ImageSamplerDescriptor::linear, |p| {
+                p.default_sampler.clone()
+            });
+        Self {
+            default_sampler,
+            packed: HashMap::default(),
+            referenced: HashSet::default(),
+            table: None,
+        }
+    }
 }
 
 type MeshChanged = Or<(
@@ -303,7 +327,8 @@ impl TextureTable {
                     return NO_TEXTURE;
                 };
                 match PackedTexture::from_image(source, MAX_TEXTURE_SIZE) {
-                    Ok(packed) => {
+                    Ok(mut packed) => {
+                        packed.sampler = TextureSampler::of(source, &cache.default_sampler);
                         let packed = Arc::new(packed);
                         cache.packed.insert(id, packed.clone());
                         packed

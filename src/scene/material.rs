@@ -2,7 +2,7 @@
 
 use bevy::prelude::*;
 
-use super::{GpuMaterial, MaterialFlags, NO_TEXTURE, ScatterPaths, luminance};
+use super::{GpuMaterial, GpuTexture, MaterialFlags, NO_TEXTURE, ScatterPaths, luminance};
 use crate::bsdf::{DELTA_ROUGHNESS, specular_energy_average};
 
 bitflags::bitflags! {
@@ -20,13 +20,17 @@ bitflags::bitflags! {
         const NORMAL_MAP = 1 << 4;
         /// Cut-outs or blended alpha: a ray goes on through a hole it hits.
         const ALPHA_TEST = 1 << 5;
+        /// Some texture is read otherwise than repeating and bilinear (clamped or mirrored
+        /// coordinates, nearest texels).
+        const SAMPLERS = 1 << 6;
     }
 }
 
 impl Lookups {
-    /// The lookups `materials` make.
-    pub fn of(materials: &[GpuMaterial]) -> Self {
+    /// The lookups `materials` make, with their `textures`.
+    pub fn of(materials: &[GpuMaterial], textures: &[GpuTexture]) -> Self {
         let mut lookups = Self::empty();
+        lookups.set(Self::SAMPLERS, textures.iter().any(|t| t.sampler != 0));
         for m in materials {
             let flags = MaterialFlags::from_bits_truncate(m.flags);
             if !flags.contains(MaterialFlags::TEXTURED) {
@@ -63,6 +67,7 @@ impl Lookups {
             (Self::EMISSIVE_TEXTURE, "EMISSIVE_TEXTURE"),
             (Self::NORMAL_MAP, "NORMAL_MAP"),
             (Self::ALPHA_TEST, "ALPHA_TEST"),
+            (Self::SAMPLERS, "SAMPLERS"),
         ]
         .into_iter()
         .filter_map(|(lookup, def)| self.contains(lookup).then_some(def))
@@ -261,8 +266,8 @@ mod tests {
     #[test]
     fn lookups_are_those_some_material_makes() {
         let plain = material_to_gpu(&StandardMaterial::default(), [NO_TEXTURE; 4]);
-        assert_eq!(Lookups::of(&[plain]), Lookups::empty());
-        assert!(Lookups::of(&[]).shader_defs().is_empty());
+        assert_eq!(Lookups::of(&[plain], &[]), Lookups::empty());
+        assert!(Lookups::of(&[], &[]).shader_defs().is_empty());
         // A normal map on one material, a cut-out on another: those and no more.
         let bumps = material_to_gpu(
             &StandardMaterial::default(),
@@ -275,7 +280,7 @@ mod tests {
             },
             [1, NO_TEXTURE, NO_TEXTURE, NO_TEXTURE],
         );
-        let lookups = Lookups::of(&[plain, bumps, cut_out]);
+        let lookups = Lookups::of(&[plain, bumps, cut_out], &[]);
         assert_eq!(
             lookups.shader_defs(),
             ["TEXTURED", "BASE_COLOR_TEXTURE", "NORMAL_MAP", "ALPHA_TEST"]
@@ -289,7 +294,7 @@ mod tests {
             [NO_TEXTURE; 4],
         );
         assert_eq!(
-            Lookups::of(&[glassy]),
+            Lookups::of(&[glassy], &[]),
             Lookups::TEXTURED | Lookups::ALPHA_TEST
         );
     }

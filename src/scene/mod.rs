@@ -332,7 +332,7 @@ impl SceneData {
 
     /// The lookups the scene's materials make, which the stages compile ([`texture_defs`]).
     pub fn lookups(&self) -> Lookups {
-        Lookups::of(&self.materials)
+        Lookups::of(&self.materials, &self.textures)
     }
 
     /// Total emitted power (luminance-weighted W) of every light and emitter.
@@ -472,7 +472,6 @@ impl Plugin for ScenePlugin {
         app.register_type::<RppmSky>()
             .init_resource::<RppmScene>()
             .init_resource::<extract::ExtractionWarnings>()
-            .init_resource::<extract::TextureCache>()
             .init_resource::<mesh::MeshCache>()
             .add_plugins(ExtractResourcePlugin::<RppmScene>::default())
             .add_systems(
@@ -493,5 +492,9 @@ impl Plugin for ScenePlugin {
                     prepare::prepare_scene.in_set(RenderSystems::PrepareResources),
                 );
         }
+    }
+
+    fn finish(&self, app: &mut App) {
+        app.insert_resource(extract::TextureCache::for_app(app));
     }
 }

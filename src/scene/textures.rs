@@ -6,7 +6,7 @@
 use std::sync::OnceLock;
 
 use bevy::color::ColorToComponents;
-use bevy::image::Image;
+use bevy::image::{Image, ImageAddressMode, ImageFilterMode, ImageSampler, ImageSamplerDescriptor};
 use bevy::math::{Vec2, Vec4};
 use bevy::render::render_resource::TextureFormat;
 use bytemuck::{Pod, Zeroable};
@@ -33,7 +33,76 @@ pub struct GpuTexture {
     pub levels: u32,
     /// 1: texels hold sRGB-encoded colour (decoded to linear when sampled).
     pub srgb: u32,
-    pub _pad: [u32; 3],
+    /// [`TextureSampler::bits`]: how the texture is read (0: repeating, bilinear).
+    pub sampler: u32,
+    pub _pad: [u32; 2],
+}
+
+/// How a coordinate outside [0, 1] reads the texture (glTF's wrap modes).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Wrap {
+    #[default]
+    Repeat = 0,
+    /// The edge texel (`ClampToEdge`; `ClampToBorder` too, whose border colour is left out).
+    Clamp = 1,
+    /// Repeated, every other copy mirrored.
+    Mirror = 2,
+}
+
+impl Wrap {
+    fn of(mode: ImageAddressMode) -> Self {
+        match mode {
+            ImageAddressMode::Repeat => Self::Repeat,
+            ImageAddressMode::MirrorRepeat => Self::Mirror,
+            ImageAddressMode::ClampToEdge | ImageAddressMode::ClampToBorder => Self::Clamp,
+        }
+    }
+
+    /// `t` brought into [0, 1] (`wrap_uv` in scene.wgsl).
+    pub fn apply(self, t: f32) -> f32 {
+        match self {
+            Self::Repeat => t - t.floor(),
+            Self::Clamp => t.clamp(0.0, 1.0),
+            Self::Mirror => {
+                let m = t - 2.0 * (0.5 * t).floor();
+                if m > 1.0 { 2.0 - m } else { m }
+            }
+        }
+    }
+}
+
+/// How an image is read: its sampler's wrap modes and whether it magnifies or minifies to the
+/// nearest texel (pixel art) instead of blending four. Mip levels are always box-filtered.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct TextureSampler {
+    /// Along u, then v.
+    pub wrap: [Wrap; 2],
+    pub nearest_magnification: bool,
+    pub nearest_minification: bool,
+}
+
+impl TextureSampler {
+    /// `image`'s sampler, or `default` (the `ImagePlugin`'s) where it names none.
+    pub fn of(image: &Image, default: &ImageSamplerDescriptor) -> Self {
+        let d = match &image.sampler {
+            ImageSampler::Default => default,
+            ImageSampler::Descriptor(d) => d,
+        };
+        Self {
+            wrap: [Wrap::of(d.address_mode_u), Wrap::of(d.address_mode_v)],
+            nearest_magnification: d.mag_filter == ImageFilterMode::Nearest,
+            nearest_minification: d.min_filter == ImageFilterMode::Nearest,
+        }
+    }
+
+    /// Wrap along u in bits 0–1, along v in 2–3, nearest magnification in bit 4 and
+    /// minification in 5 (`SAMPLER_*` in scene.wgsl).
+    pub fn bits(self) -> u32 {
+        self.wrap[0] as u32
+            | (self.wrap[1] as u32) << 2
+            | (self.nearest_magnification as u32) << 4
+            | (self.nearest_minification as u32) << 5
+    }
 }
 
 /// An image, downsampled, with its mip chain: RGBA8 texels packed in u32 (r in the low byte).
@@ -44,6 +113,7 @@ pub struct PackedTexture {
     pub srgb: bool,
     /// Level 0 then every smaller level down to 1×1.
     pub texels: Vec<u32>,
+    pub sampler: TextureSampler,
 }
 
 impl PackedTexture {
@@ -107,6 +177,7 @@ impl PackedTexture {
             height,
             srgb,
             texels: all,
+            sampler: TextureSampler::default(),
         })
     }
 
@@ -115,18 +186,28 @@ impl PackedTexture {
         32 - self.width.max(self.height).leading_zeros()
     }
 
-    /// Bilinear lookup at `uv` (repeating) in level 0, in linear values: the CPU twin of
-    /// `sample_texture` in scene.wgsl, for emitter powers.
+    /// Lookup at `uv` in level 0 by the sampler (magnifying), in linear values: the CPU twin
+    /// of `sample_texture` in scene.wgsl, for emitter powers.
     pub fn sample(&self, uv: Vec2) -> Vec4 {
         let size = Vec2::new(self.width as f32, self.height as f32);
-        let p = (uv - uv.floor()) * size - 0.5;
-        let i = p.floor();
-        let f = p - i;
-        let texel = |dx: f32, dy: f32| {
-            let x = (i.x + dx).rem_euclid(size.x) as u32;
-            let y = (i.y + dy).rem_euclid(size.y) as u32;
+        let [wrap_u, wrap_v] = self.sampler.wrap;
+        let at = Vec2::new(wrap_u.apply(uv.x), wrap_v.apply(uv.y)) * size;
+        // A neighbour past the edge: the far edge's texel when repeating, else the edge's.
+        let index = |t: f32, n: f32, wrap: Wrap| match wrap {
+            Wrap::Repeat => t.rem_euclid(n),
+            _ => t.clamp(0.0, n - 1.0),
+        } as u32;
+        let texel = |x: f32, y: f32| {
+            let (x, y) = (index(x, size.x, wrap_u), index(y, size.y, wrap_v));
             self.decode(self.texels[(y * self.width + x) as usize])
         };
+        if self.sampler.nearest_magnification {
+            return texel(at.x.floor(), at.y.floor());
+        }
+        let p = at - 0.5;
+        let i = p.floor();
+        let f = p - i;
+        let texel = |dx: f32, dy: f32| texel(i.x + dx, i.y + dy);
         let top = texel(0.0, 0.0).lerp(texel(1.0, 0.0), f.x);
         let bottom = texel(0.0, 1.0).lerp(texel(1.0, 1.0), f.x);
         top.lerp(bottom, f.y)
@@ -159,7 +240,8 @@ impl PackedTexture {
             height: (self.height >> first).max(1),
             levels: self.levels() - first,
             srgb: self.srgb as u32,
-            _pad: [0; 3],
+            sampler: self.sampler.bits(),
+            _pad: [0; 2],
         }
     }
 }
@@ -296,6 +378,56 @@ mod tests {
         assert_eq!((packed.width, packed.height, packed.srgb), (16, 4, false));
         let s = packed.sample(Vec2::new(3.3, -0.7));
         assert!((s.x - 128.0 / 255.0).abs() < 1e-3 && (s.y - 64.0 / 255.0).abs() < 1e-3);
+    }
+
+    #[test]
+    fn wrap_modes_bring_coordinates_into_the_unit_interval() {
+        for (t, repeat, clamp, mirror) in [
+            (0.25, 0.25, 0.25, 0.25),
+            (-0.25, 0.75, 0.0, 0.25),
+            (1.25, 0.25, 1.0, 0.75),
+            (2.25, 0.25, 1.0, 0.25),
+            (-1.25, 0.75, 0.0, 0.75),
+        ] {
+            assert!((Wrap::Repeat.apply(t) - repeat).abs() < 1e-6, "repeat {t}");
+            assert!((Wrap::Clamp.apply(t) - clamp).abs() < 1e-6, "clamp {t}");
+            assert!((Wrap::Mirror.apply(t) - mirror).abs() < 1e-6, "mirror {t}");
+        }
+    }
+
+    #[test]
+    fn samplers_clamp_mirror_and_pick_the_nearest_texel() {
+        // A 4×1 ramp 0, 1/3, 2/3, 1 (linear values).
+        let ramp = image(4, 1, TextureFormat::Rgba8Unorm, |x, _| {
+            [(x * 85) as u8, 0, 0, 255]
+        });
+        let mut packed = PackedTexture::from_image(&ramp, 1024).unwrap();
+        let red = |p: &PackedTexture, u: f32| p.sample(Vec2::new(u, 0.5)).x;
+        // Repeating: past the right edge blends the last texel with the first.
+        assert!((red(&packed, 1.0) - 0.5).abs() < 0.01);
+        packed.sampler.wrap = [Wrap::Clamp; 2];
+        assert!((red(&packed, 1.0) - 1.0).abs() < 0.01);
+        assert!((red(&packed, 7.0) - 1.0).abs() < 0.01);
+        assert!(red(&packed, -3.0).abs() < 0.01);
+        packed.sampler.wrap = [Wrap::Mirror; 2];
+        // 1.125 mirrors to 0.875, the last texel's centre.
+        assert!((red(&packed, 1.125) - 1.0).abs() < 0.01);
+        assert!((red(&packed, 1.875) - 0.0).abs() < 0.01);
+        packed.sampler.nearest_magnification = true;
+        // 0.49 lies in the second texel: no blend with the third.
+        assert!((red(&packed, 0.49) - 1.0 / 3.0).abs() < 0.01);
+        let default = ImageSamplerDescriptor::linear();
+        assert_eq!(
+            TextureSampler::of(&ramp, &default).bits(),
+            Wrap::Clamp as u32 * 5
+        );
+        let mut nearest = ramp.clone();
+        nearest.sampler = ImageSampler::Descriptor(ImageSamplerDescriptor {
+            address_mode_u: ImageAddressMode::MirrorRepeat,
+            address_mode_v: ImageAddressMode::Repeat,
+            ..ImageSamplerDescriptor::nearest()
+        });
+        assert_eq!(TextureSampler::of(&nearest, &default).bits(), 2 | 16 | 32);
     }
 
     #[test]

@@ -67,6 +67,7 @@ fn suite_energy_is_right_after_four_iterations() {
         ("glossy_metal", 0.08),
         ("textured_box", 0.05),
         ("textured_metal", 0.05),
+        ("texture_samplers", 0.05),
         ("grooved_room", 0.05),
         ("grooved_metal", 0.25),
         ("sun_room", 0.05),

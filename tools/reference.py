@@ -32,7 +32,8 @@ roughness filtered at each point as Bevy filters it (`bevy_metal` reads the text
 variant), a normal texture
 as `normalmap` (its folding of normals that face away from the viewer and its terminator
 term, on by default since Mitsuba 3.7.1, turned off: Bevy has neither);
-KHR_texture_transform and the normal map's scale are left out.
+KHR_texture_transform as the bitmap's `to_uv` (its texCoord is left out), the normal map's
+scale is left out.
 Lights: KHR_lights_punctual point (W/sr = cd; with `extras.rppm_radius` a sphere of that
 radius, radiance I/(πr²), that neither blocks nor reflects), spot (Bevy's falloff, the square of a ramp in
 cos θ from the outer cone to the inner, as a texture the spot projects), directional (W/m² = lux); their
@@ -61,8 +62,6 @@ class Textures:
         import mitsuba as mi
         import numpy as np
 
-        if "KHR_texture_transform" in info.get("extensions", {}):
-            print("reference.py: KHR_texture_transform is ignored", file=sys.stderr)
         image = self.gltf["images"][self.gltf["textures"][info["index"]]["source"]]
         pixels = np.array(mi.Bitmap(os.path.join(self.folder, image["uri"])), dtype=np.float32) / 255.0
         if pixels.ndim == 2:
@@ -91,7 +90,21 @@ class Textures:
         texture = {"type": "bitmap", "filename": path, "raw": True, "filter_type": "bilinear", "wrap_mode": "repeat"}
         if info is not None:
             texture.update(self.sampler(info))
+            transform = info.get("extensions", {}).get("KHR_texture_transform")
+            if transform:
+                texture["to_uv"] = self.uv_transform(transform)
         return texture
+
+    @staticmethod
+    def uv_transform(t):
+        """KHR_texture_transform's matrix, offset · rotation · scale, as Mitsuba's `to_uv`."""
+        import mitsuba as mi
+
+        if "texCoord" in t:
+            print("reference.py: KHR_texture_transform's texCoord is ignored", file=sys.stderr)
+        (ox, oy), r, (sx, sy) = t.get("offset", [0, 0]), t.get("rotation", 0.0), t.get("scale", [1, 1])
+        c, s = math.cos(r), math.sin(r)
+        return mi.ScalarTransform3f([[c * sx, s * sy, ox], [-s * sx, c * sy, oy], [0, 0, 1]])
 
     def colour(self, info, factor):
         """An sRGB colour texture times a linear factor."""
@@ -152,7 +165,7 @@ class Textures:
         a = lambda dy, dx: alpha[(y0 + dy) % h][:, (x0 + dx) % w]
         up = (a(0, 0) * (1 - fx) + a(0, 1) * fx) * (1 - fy) + (a(1, 0) * (1 - fx) + a(1, 1) * fx) * fy
         opacity = (up >= cutoff).astype(np.float32)
-        return self._write(np.stack([opacity] * 3, axis=2), "mask")
+        return self._write(np.stack([opacity] * 3, axis=2), "mask", info)
 
 
 def with_normal_map(material, textures, bsdf, description):

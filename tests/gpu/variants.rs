@@ -251,3 +251,30 @@ fn a_jpeg_texture_renders_as_its_png_does() {
         "textured_box, JPEG",
     );
 }
+
+/// `KHR_texture_transform` (Bevy's `uv_transform`): `textured_box` with its checker floor and
+/// its cut-out screen's holes offset, turned and scaled (`tools/variant.py transform`) matches
+/// its own reference (128², 8192 spp; `reference.py` maps the transform to Mitsuba's `to_uv`,
+/// which it used to leave out: against the untransformed scene the reference reads 0.61).
+#[test]
+fn a_texture_transform_moves_the_texture_as_bevy_does() {
+    let image = render_variant("textured_box", "transformed_textured_box", |gltf, _| {
+        for m in gltf["materials"].as_array_mut().unwrap() {
+            let texture = &mut m["pbrMetallicRoughness"]["baseColorTexture"];
+            if texture.is_object() {
+                texture["extensions"] = json!({ "KHR_texture_transform": {
+                    "offset": [0.1, 0.3], "rotation": 0.4, "scale": [2.5, 1.5] } });
+            }
+        }
+        gltf["extensionsUsed"]
+            .as_array_mut()
+            .unwrap()
+            .push(json!("KHR_texture_transform"));
+    });
+    assert_close(
+        &image,
+        &reference("textured_box.transformed.ref.exr"),
+        0.015,
+        "textured_box, transformed",
+    );
+}

@@ -26,7 +26,7 @@ dielectric's specular layer, which the Lambertian stand-in leaves out.
 Textures (numpy needed): base colour texture × factor and emissive texture × factor as
 bitmaps wrapped and filtered as their glTF sampler says (Mitsuba has one wrap mode for both
 axes; the magnification filter), COLOR_0 as the `vertex_color` mesh attribute, alpha `MASK` as a
-`mask` BSDF, `doubleSided` as `twosided`, a metallic-roughness texture (on a Lambertian
+`mask` BSDF (opacity 0 or 1), alpha `BLEND` as a `mask` of opacity alpha (texture × factor), `doubleSided` as `twosided`, a metallic-roughness texture (on a Lambertian
 base) as a `blendbsdf` of Lambert and the rough metal weighted by metallic, the metal at the
 roughness filtered at each point as Bevy filters it (`bevy_metal` reads the texture; an llvm
 variant), a normal texture
@@ -150,6 +150,14 @@ class Textures:
         texture["wrap_mode"] = "clamp"
         return texture
 
+    def alpha(self, info, alpha_factor):
+        """Opacity of blended alpha: the texture's alpha (1 without one) times the factor."""
+        import numpy as np
+
+        p = self._pixels(info)
+        alpha = (p[..., 3] if p.shape[2] > 3 else np.ones(p.shape[:2], np.float32)) * alpha_factor
+        return self._write(np.stack([alpha] * 3, axis=2), "alpha", info)
+
     def mask(self, info, alpha_factor, cutoff):
         """Opacity of an alpha cut-out: alpha upsampled 4× bilinearly, then thresholded (as
         rppm thresholds its bilinear alpha)."""
@@ -239,8 +247,19 @@ def bsdf_of(material, textures=None, vertex_colors=False):
     if material.get("doubleSided") and not translucent > 0:
         bsdf = {"type": "twosided", "bsdf": bsdf}
         description = f"twosided({description})"
-    if material.get("alphaMode") == "MASK" and textures and "baseColorTexture" in pbr:
-        opacity = textures.mask(pbr["baseColorTexture"], pbr.get("baseColorFactor", [1, 1, 1, 1])[3], material.get("alphaCutoff", 0.5))
+    mode, alpha = material.get("alphaMode", "OPAQUE"), pbr.get("baseColorFactor", [1, 1, 1, 1])[3]
+    opacity = None
+    if mode == "MASK" and textures and "baseColorTexture" in pbr:
+        opacity = textures.mask(pbr["baseColorTexture"], alpha, material.get("alphaCutoff", 0.5))
+    elif mode == "MASK" and alpha < material.get("alphaCutoff", 0.5):
+        opacity = 0.0
+    elif mode == "BLEND" and textures and "baseColorTexture" in pbr:
+        opacity = textures.alpha(pbr["baseColorTexture"], alpha)
+    elif mode == "BLEND" and alpha < 1.0:
+        opacity = alpha
+    if opacity is not None:
+        # Bevy composites a blended surface over what lies behind by its alpha (bevy_rppm
+        # draws the surface or goes through it by alpha): Mitsuba's `mask` does the same.
         bsdf = {"type": "mask", "opacity": opacity, "bsdf": bsdf}
         description = f"mask({description})"
     return bsdf, description

@@ -10,9 +10,11 @@ meshes stored as triangle strips, a wide landscape around a small scene).
     python3 tools/variant.py strips SCENE.gltf OUT.gltf         # image: the scene's
     python3 tools/variant.py ground SCENE.gltf OUT.gltf --half 500  # a new scene: its own reference
     python3 tools/variant.py transform SCENE.gltf OUT.gltf      # a new scene: its own reference
+    python3 tools/variant.py blend SCENE.gltf OUT.gltf          # a new scene: its own reference
 
 `transform` gives every base colour texture a KHR_texture_transform (offset 0.1, 0.3, rotation
-0.4 rad, scale 2.5, 1.5). `ground` adds a grey ground (albedo 0.3) 2·half wide, 5 cm under y = 0, around the scene.
+0.4 rad, scale 2.5, 1.5); `blend` makes every cut-out (alpha MASK) blended (BLEND) at half its
+alpha. `ground` adds a grey ground (albedo 0.3) 2·half wide, 5 cm under y = 0, around the scene.
 `strips` stores every indexed or plain triangle list as one TRIANGLE_STRIP (its triangles
 joined by degenerate ones). Otherwise the meshes go under one new root node (scaled by (-1, 1, 1) or s); lights and the camera stay
 at the root, moved to match. `mirror` needs a camera on x = 0 that turns about x only. External
@@ -180,9 +182,19 @@ def transform(scene, _args):
     scene.setdefault("extensionsUsed", []).append("KHR_texture_transform")
 
 
+def blend(scene, _args):
+    for m in scene.get("materials", []):
+        if m.get("alphaMode") == "MASK":
+            m["alphaMode"] = "BLEND"
+            m.pop("alphaCutoff", None)
+            pbr = m.setdefault("pbrMetallicRoughness", {})
+            pbr["baseColorFactor"] = pbr.get("baseColorFactor", [1, 1, 1, 1])[:3] + [
+                0.5 * pbr.get("baseColorFactor", [1, 1, 1, 1])[3]]
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("kind", choices=["mirror", "scale", "orthographic", "strips", "ground", "transform"])
+    parser.add_argument("kind", choices=["mirror", "scale", "orthographic", "strips", "ground", "transform", "blend"])
     parser.add_argument("scene")
     parser.add_argument("out")
     parser.add_argument("--by", type=float, default=100.0, help="scale: the factor")
@@ -194,7 +206,7 @@ def main():
         raise SystemExit("variant.py: --by must be a positive number")
     scene = load(args.scene)
     {"mirror": mirror, "scale": scale, "orthographic": orthographic, "strips": strips, "ground": ground,
-     "transform": transform}[args.kind](scene, args)
+     "transform": transform, "blend": blend}[args.kind](scene, args)
     json.dump(scene, open(args.out, "w"))
     print(f"wrote {args.out}: {args.kind} of {args.scene}")
 

@@ -278,3 +278,30 @@ fn a_texture_transform_moves_the_texture_as_bevy_does() {
         "textured_box, transformed",
     );
 }
+
+/// Blended alpha (`AlphaMode::Blend`, hashed here: a ray stops at the surface by its alpha):
+/// `textured_box` with its cut-out screen blended at half its alpha (`tools/variant.py blend`)
+/// matches its own reference (128², 8192 spp; `reference.py` maps BLEND to Mitsuba's `mask` of
+/// that opacity, where it used to draw the screen opaque: 0.085 off, energy 1.033).
+#[test]
+fn a_blended_screen_composites_as_bevy_does() {
+    let image = render_variant("textured_box", "blended_textured_box", |gltf, _| {
+        for m in gltf["materials"].as_array_mut().unwrap() {
+            if m["alphaMode"] == "MASK" {
+                m["alphaMode"] = json!("BLEND");
+                m.as_object_mut().unwrap().remove("alphaCutoff");
+                let factor = &mut m["pbrMetallicRoughness"]["baseColorFactor"];
+                if !factor.is_array() {
+                    *factor = json!([1.0, 1.0, 1.0, 1.0]);
+                }
+                factor[3] = json!(0.5 * factor[3].as_f64().unwrap());
+            }
+        }
+    });
+    assert_close(
+        &image,
+        &reference("textured_box.blended.ref.exr"),
+        0.015,
+        "textured_box, blended",
+    );
+}

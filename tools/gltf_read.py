@@ -1,25 +1,61 @@
 """Reading glTF for tools/reference.py and tools/stage.py: buffers, accessors, the node tree's
 world matrices, and PLY meshes for Mitsuba."""
 import base64
+import json
 import os
 import struct
 import sys
+import urllib.parse
 
 
 COMPONENTS = {5120: ("b", 1), 5121: ("B", 1), 5122: ("h", 2), 5123: ("H", 2), 5125: ("I", 4), 5126: ("f", 4)}
 SIZES = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4, "MAT4": 16}
 
 
-def load_buffers(gltf, folder):
-    buffers = []
-    for b in gltf.get("buffers", []):
-        uri = b["uri"]
-        if uri.startswith("data:"):
-            buffers.append(base64.b64decode(uri.split(",", 1)[1]))
-        else:
-            with open(os.path.join(folder, uri), "rb") as f:
-                buffers.append(f.read())
-    return buffers
+def load(path):
+    """A .gltf or a .glb (binary: its JSON chunk and its BIN chunk, the buffer without a URI):
+    the JSON, its buffers' bytes and its folder."""
+    folder = os.path.dirname(os.path.abspath(path))
+    with open(path, "rb") as f:
+        data = f.read()
+    binary = None
+    if data[:4] == b"glTF":
+        _, _, length = struct.unpack_from("<4sII", data, 0)
+        gltf, at = None, 12
+        while at + 8 <= min(length, len(data)):
+            size, kind = struct.unpack_from("<II", data, at)
+            chunk = data[at + 8:at + 8 + size]
+            if kind == 0x4E4F534A:
+                gltf = json.loads(chunk)
+            elif kind == 0x004E4942:
+                binary = chunk
+            at += 8 + size
+        if gltf is None:
+            sys.exit(f"{path}: a GLB without a JSON chunk")
+    else:
+        gltf = json.loads(data)
+    return gltf, load_buffers(gltf, folder, binary), folder
+
+
+def uri_bytes(uri, folder):
+    """The bytes a glTF URI names: a data URI's, or a file's relative to the folder."""
+    if uri.startswith("data:"):
+        return base64.b64decode(uri.split(",", 1)[1])
+    with open(os.path.join(folder, urllib.parse.unquote(uri)), "rb") as f:
+        return f.read()
+
+
+def load_buffers(gltf, folder, binary=None):
+    return [uri_bytes(b["uri"], folder) if "uri" in b else binary for b in gltf.get("buffers", [])]
+
+
+def image_bytes(gltf, buffers, folder, image):
+    """An image's encoded bytes (PNG, JPEG): from its URI or its buffer view (GLB)."""
+    if "uri" in image:
+        return uri_bytes(image["uri"], folder)
+    view = gltf["bufferViews"][image["bufferView"]]
+    start = view.get("byteOffset", 0)
+    return buffers[view["buffer"]][start:start + view["byteLength"]]
 
 
 def accessor(gltf, buffers, index):
@@ -34,6 +70,10 @@ def accessor(gltf, buffers, index):
     for i in range(a["count"]):
         off = start + i * stride
         out.append(struct.unpack_from("<" + fmt * width, data, off))
+    if a.get("normalized") and fmt != "f":
+        # Integers standing for [0, 1] (unsigned) or [-1, 1] (signed), as glTF defines them.
+        top = {"b": 127.0, "B": 255.0, "h": 32767.0, "H": 65535.0}[fmt]
+        out = [tuple(max(c / top, -1.0) for c in v) for v in out]
     return out
 
 

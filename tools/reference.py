@@ -50,20 +50,26 @@ import tempfile
 import time
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from gltf_read import accessor, load_buffers, srgb_to_linear, transform_dir, transform_point, walk, write_ply  # noqa: E402
+from gltf_read import accessor, image_bytes, load, srgb_to_linear, transform_dir, transform_point, walk, write_ply  # noqa: E402
 
 class Textures:
     """glTF textures as linear EXRs for Mitsuba's `bitmap` (factor baked in), made with numpy."""
 
-    def __init__(self, gltf, folder, tmp):
-        self.gltf, self.folder, self.tmp = gltf, folder, tmp
+    def __init__(self, gltf, buffers, folder, tmp):
+        self.gltf, self.buffers, self.folder, self.tmp = gltf, buffers, folder, tmp
 
     def _pixels(self, info):
         import mitsuba as mi
         import numpy as np
 
         image = self.gltf["images"][self.gltf["textures"][info["index"]]["source"]]
-        pixels = np.array(mi.Bitmap(os.path.join(self.folder, image["uri"])), dtype=np.float32) / 255.0
+        encoded = os.path.join(self.tmp, f"image_{len(os.listdir(self.tmp))}")
+        with open(encoded, "wb") as f:
+            f.write(image_bytes(self.gltf, self.buffers, self.folder, image))
+        raw = np.array(mi.Bitmap(encoded))
+        # 8- or 16-bit integers (PNG, JPEG) to [0, 1]; floats as they are.
+        scale = float(np.iinfo(raw.dtype).max) if np.issubdtype(raw.dtype, np.integer) else 1.0
+        pixels = raw.astype(np.float32) / scale
         if pixels.ndim == 2:
             pixels = pixels[..., None]
         if pixels.shape[2] < 3:
@@ -312,11 +318,8 @@ def emission_of(material, textures=None):
 def build_scene(path, width, height, tmp, max_depth=16):
     import mitsuba as mi
 
-    folder = os.path.dirname(os.path.abspath(path))
-    with open(path) as f:
-        gltf = json.load(f)
-    buffers = load_buffers(gltf, folder)
-    textures = Textures(gltf, folder, tmp)
+    gltf, buffers, folder = load(path)
+    textures = Textures(gltf, buffers, folder, tmp)
     materials = gltf.get("materials", [])
     lights = gltf.get("extensions", {}).get("KHR_lights_punctual", {}).get("lights", [])
     scene = {"type": "scene", "integrator": {"type": "path", "max_depth": max_depth, "rr_depth": 8}}

@@ -11,10 +11,14 @@ meshes stored as triangle strips, a wide landscape around a small scene).
     python3 tools/variant.py ground SCENE.gltf OUT.gltf --half 500  # a new scene: its own reference
     python3 tools/variant.py transform SCENE.gltf OUT.gltf      # a new scene: its own reference
     python3 tools/variant.py blend SCENE.gltf OUT.gltf          # a new scene: its own reference
+    python3 tools/variant.py glb SCENE.gltf OUT.glb             # image: the scene's
+    python3 tools/variant.py quantize SCENE.gltf OUT.gltf       # image: the scene's
 
 `transform` gives every base colour texture a KHR_texture_transform (offset 0.1, 0.3, rotation
 0.4 rad, scale 2.5, 1.5); `blend` makes every cut-out (alpha MASK) blended (BLEND) at half its
-alpha. `ground` adds a grey ground (albedo 0.3) 2·half wide, 5 cm under y = 0, around the scene.
+alpha; `glb` packs the scene, its buffers and images into one binary glTF;
+`quantize` stores vertex colours and texture coordinates within [0, 1] as normalized 16-bit
+integers (as exporters do). `ground` adds a grey ground (albedo 0.3) 2·half wide, 5 cm under y = 0, around the scene.
 `strips` stores every indexed or plain triangle list as one TRIANGLE_STRIP (its triangles
 joined by degenerate ones). Otherwise the meshes go under one new root node (scaled by (-1, 1, 1) or s); lights and the camera stay
 at the root, moved to match. `mirror` needs a camera on x = 0 that turns about x only. External
@@ -27,6 +31,10 @@ import json
 import math
 import os
 import struct
+import sys
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from gltf_read import uri_bytes  # noqa: E402
 
 
 def load(path):
@@ -192,9 +200,62 @@ def blend(scene, _args):
                 0.5 * pbr.get("baseColorFactor", [1, 1, 1, 1])[3]]
 
 
+def quantize(scene, args):
+    from gltf_read import accessor, load_buffers
+
+    buffers = load_buffers(scene, os.path.dirname(os.path.abspath(args.scene)))
+    blob = b""
+    for mesh in scene.get("meshes", []):
+        for prim in mesh["primitives"]:
+            for name in ("COLOR_0", "TEXCOORD_0"):
+                index = prim["attributes"].get(name)
+                if index is None or scene["accessors"][index]["componentType"] != 5126:
+                    continue
+                values = accessor(scene, buffers, index)
+                if any(not 0.0 <= c <= 1.0 for v in values for c in v):
+                    continue
+                kind = scene["accessors"][index]["type"]
+                raw = b"".join(struct.pack(f"<{len(v)}H", *(round(c * 65535) for c in v)) for v in values)
+                scene["bufferViews"].append({"buffer": len(scene["buffers"]), "byteOffset": len(blob),
+                                             "byteLength": len(raw)})
+                scene["accessors"].append({"bufferView": len(scene["bufferViews"]) - 1, "componentType": 5123,
+                                           "normalized": True, "count": len(values), "type": kind})
+                prim["attributes"][name] = len(scene["accessors"]) - 1
+                blob += raw + b"\0" * (-len(raw) % 4)
+    scene["buffers"].append({"byteLength": len(blob),
+                             "uri": "data:application/octet-stream;base64," + base64.b64encode(blob).decode()})
+
+
+def glb(scene, args):
+    """Every buffer and image into one BIN chunk (4-byte aligned), written as OUT (GLB)."""
+    folder = os.path.dirname(os.path.abspath(args.scene))
+    blob, starts = b"", []
+    for b in scene.get("buffers", []):
+        starts.append(len(blob))
+        blob += uri_bytes(b["uri"], folder)
+        blob += b"\0" * (-len(blob) % 4)
+    for view in scene.get("bufferViews", []):
+        view["byteOffset"] = view.get("byteOffset", 0) + starts[view["buffer"]]
+        view["buffer"] = 0
+    for image in scene.get("images", []):
+        if "uri" in image:
+            data = uri_bytes(image.pop("uri"), folder)
+            scene["bufferViews"].append({"buffer": 0, "byteOffset": len(blob), "byteLength": len(data)})
+            image["bufferView"] = len(scene["bufferViews"]) - 1
+            image.setdefault("mimeType", "image/jpeg" if data[:2] == b"\xff\xd8" else "image/png")
+            blob += data + b"\0" * (-len(data) % 4)
+    scene["buffers"] = [{"byteLength": len(blob)}]
+    text = json.dumps(scene).encode()
+    text += b" " * (-len(text) % 4)
+    with open(args.out, "wb") as f:
+        f.write(struct.pack("<4sII", b"glTF", 2, 12 + 8 + len(text) + 8 + len(blob)))
+        f.write(struct.pack("<II", len(text), 0x4E4F534A) + text)
+        f.write(struct.pack("<II", len(blob), 0x004E4942) + blob)
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("kind", choices=["mirror", "scale", "orthographic", "strips", "ground", "transform", "blend"])
+    parser.add_argument("kind", choices=["mirror", "scale", "orthographic", "strips", "ground", "transform", "blend", "glb", "quantize"])
     parser.add_argument("scene")
     parser.add_argument("out")
     parser.add_argument("--by", type=float, default=100.0, help="scale: the factor")
@@ -206,8 +267,10 @@ def main():
         raise SystemExit("variant.py: --by must be a positive number")
     scene = load(args.scene)
     {"mirror": mirror, "scale": scale, "orthographic": orthographic, "strips": strips, "ground": ground,
-     "transform": transform, "blend": blend}[args.kind](scene, args)
-    json.dump(scene, open(args.out, "w"))
+     "transform": transform, "blend": blend, "glb": glb,
+     "quantize": quantize}[args.kind](scene, args)
+    if args.kind != "glb":
+        json.dump(scene, open(args.out, "w"))
     print(f"wrote {args.out}: {args.kind} of {args.scene}")
 
 

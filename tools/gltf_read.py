@@ -12,28 +12,30 @@ COMPONENTS = {5120: ("b", 1), 5121: ("B", 1), 5122: ("h", 2), 5123: ("H", 2), 51
 SIZES = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4, "MAT4": 16}
 
 
+def parse(data, path):
+    """A .gltf's or a .glb's bytes: the JSON and a GLB's BIN chunk (None for a .gltf)."""
+    if data[:4] != b"glTF":
+        return json.loads(data), None
+    gltf, binary, at = None, None, 12
+    while at + 8 <= len(data):
+        size, kind = struct.unpack_from("<II", data, at)
+        chunk = data[at + 8:at + 8 + size]
+        if kind == 0x4E4F534A:
+            gltf = json.loads(chunk)
+        elif kind == 0x004E4942:
+            binary = chunk
+        at += 8 + size
+    if gltf is None:
+        sys.exit(f"{path}: a GLB without a JSON chunk")
+    return gltf, binary
+
+
 def load(path):
-    """A .gltf or a .glb (binary: its JSON chunk and its BIN chunk, the buffer without a URI):
-    the JSON, its buffers' bytes and its folder."""
+    """A .gltf or a .glb (its buffer without a URI is the BIN chunk): the JSON, its buffers'
+    bytes and its folder."""
     folder = os.path.dirname(os.path.abspath(path))
     with open(path, "rb") as f:
-        data = f.read()
-    binary = None
-    if data[:4] == b"glTF":
-        _, _, length = struct.unpack_from("<4sII", data, 0)
-        gltf, at = None, 12
-        while at + 8 <= min(length, len(data)):
-            size, kind = struct.unpack_from("<II", data, at)
-            chunk = data[at + 8:at + 8 + size]
-            if kind == 0x4E4F534A:
-                gltf = json.loads(chunk)
-            elif kind == 0x004E4942:
-                binary = chunk
-            at += 8 + size
-        if gltf is None:
-            sys.exit(f"{path}: a GLB without a JSON chunk")
-    else:
-        gltf = json.loads(data)
+        gltf, binary = parse(f.read(), path)
     return gltf, load_buffers(gltf, folder, binary), folder
 
 

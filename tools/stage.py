@@ -16,7 +16,7 @@ import struct
 import sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from gltf_read import transform_point, walk  # noqa: E402
+from gltf_read import parse, transform_point, walk  # noqa: E402
 
 
 def bounds(gltf):
@@ -37,20 +37,7 @@ def bounds(gltf):
 def read_scene(path, out):
     """The scene's JSON; a GLB's binary chunk is written beside `out` and referenced."""
     with open(path, "rb") as f:
-        data = f.read()
-    if data[:4] != b"glTF":
-        return json.loads(data)
-    gltf, binary, offset = None, None, 12
-    while offset + 8 <= len(data):
-        length, kind = struct.unpack_from("<II", data, offset)
-        chunk = data[offset + 8 : offset + 8 + length]
-        if kind == 0x4E4F534A:
-            gltf = json.loads(chunk)
-        elif kind == 0x004E4942:
-            binary = chunk
-        offset += 8 + length
-    if gltf is None:
-        sys.exit(f"stage.py: error: {path} has no JSON chunk")
+        gltf, binary = parse(f.read(), path)
     if binary is not None:
         name = os.path.splitext(os.path.basename(out))[0] + ".bin"
         with open(os.path.join(os.path.dirname(os.path.abspath(out)), name), "wb") as f:

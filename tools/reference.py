@@ -315,6 +315,30 @@ def emission_of(material, textures=None):
     return {"type": "rgb", "value": e}
 
 
+def triangles(idx, mode):
+    """A primitive's triangles as index triples: a list (4), a strip (5, every other one turned
+    to keep the winding) or a fan (6), as glTF defines them; degenerate ones left out."""
+    if mode == 5:
+        faces = [(idx[i], idx[i + 1 + i % 2], idx[i + 2 - i % 2]) for i in range(len(idx) - 2)]
+    elif mode == 6:
+        faces = [(idx[i], idx[i + 1], idx[0]) for i in range(1, len(idx) - 1)]
+    else:
+        faces = [(idx[i], idx[i + 1], idx[i + 2]) for i in range(0, len(idx) - 2, 3)]
+    return [f for f in faces if len(set(f)) == 3]
+
+
+def uv_channel(material):
+    """The texture coordinates (TEXCOORD_n) the material's textures read: Mitsuba has one set a
+    mesh; where its textures name different ones, the base colour's."""
+    pbr = material.get("pbrMetallicRoughness", {})
+    infos = [pbr.get("baseColorTexture"), pbr.get("metallicRoughnessTexture"),
+             material.get("emissiveTexture"), material.get("normalTexture")]
+    channels = [i.get("texCoord", 0) for i in infos if i]
+    if len(set(channels)) > 1:
+        print(f"reference.py: textures on TEXCOORD {sorted(set(channels))}; all read the first", file=sys.stderr)
+    return channels[0] if channels else 0
+
+
 def build_scene(path, width, height, tmp, max_depth=16):
     import mitsuba as mi
 
@@ -329,23 +353,24 @@ def build_scene(path, width, height, tmp, max_depth=16):
         name = node.get("name", "node")
         if "mesh" in node:
             for k, prim in enumerate(gltf["meshes"][node["mesh"]]["primitives"]):
-                if prim.get("mode", 4) != 4:
-                    continue
+                mode = prim.get("mode", 4)
+                if mode not in (4, 5, 6):
+                    continue  # points and lines
                 positions = [transform_point(world, p) for p in accessor(gltf, buffers, prim["attributes"]["POSITION"])]
                 if "indices" in prim:
                     idx = [i[0] for i in accessor(gltf, buffers, prim["indices"])]
                 else:
                     idx = list(range(len(positions)))
+                faces = triangles(idx, mode)
                 if sum(world[r][0] * (world[(r + 1) % 3][1] * world[(r + 2) % 3][2] - world[(r + 1) % 3][2] * world[(r + 2) % 3][1]) for r in range(3)) < 0:
-                    faces = [(idx[i], idx[i + 2], idx[i + 1]) for i in range(0, len(idx) - 2, 3)]
-                else:
-                    faces = [(idx[i], idx[i + 1], idx[i + 2]) for i in range(0, len(idx) - 2, 3)]
+                    faces = [(a, c, b) for a, b, c in faces]
                 ply = os.path.join(tmp, f"{len(scene)}.ply")
                 attributes = prim["attributes"]
-                uvs = accessor(gltf, buffers, attributes["TEXCOORD_0"]) if "TEXCOORD_0" in attributes else None
+                material = materials[prim["material"]] if "material" in prim else {}
+                uv_set = f"TEXCOORD_{uv_channel(material)}"
+                uvs = accessor(gltf, buffers, attributes[uv_set]) if uv_set in attributes else None
                 colors = accessor(gltf, buffers, attributes["COLOR_0"]) if "COLOR_0" in attributes else None
                 write_ply(ply, positions, faces, uvs, colors)
-                material = materials[prim["material"]] if "material" in prim else {}
                 bsdf, description = bsdf_of(material, textures, colors is not None)
                 shape = {"type": "ply", "filename": ply, "bsdf": bsdf, "face_normals": "NORMAL" not in prim["attributes"]}
                 if bsdf["type"] == "mask":

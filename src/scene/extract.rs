@@ -203,18 +203,20 @@ pub(super) fn extract_scene(
             continue;
         };
         let weights = deformers.morph_weights(entity);
-        let local = match meshes_cache.mesh(entity, &mesh3d.0, mesh, joints.as_deref(), weights) {
-            Ok(local) => local,
-            Err(reason) => {
-                if warnings.meshes.insert(mesh3d.0.id()) {
-                    warn!(
-                        "bevy_rppm: mesh {:?} of entity {entity} is left out: {reason}",
-                        mesh3d.0.id()
-                    );
+        let uvs = reads_second_uvs(material);
+        let local =
+            match meshes_cache.mesh(entity, &mesh3d.0, mesh, joints.as_deref(), weights, uvs) {
+                Ok(local) => local,
+                Err(reason) => {
+                    if warnings.meshes.insert(mesh3d.0.id()) {
+                        warn!(
+                            "bevy_rppm: mesh {:?} of entity {entity} is left out: {reason}",
+                            mesh3d.0.id()
+                        );
+                    }
+                    continue;
                 }
-                continue;
-            }
-        };
+            };
         if local.triangles.is_empty() {
             continue;
         }
@@ -225,21 +227,6 @@ pub(super) fn extract_scene(
             let mut slot = |image: &Option<Handle<Image>>| {
                 textures.slot(image.as_ref(), &image_assets, &mut cache, &mut warnings)
             };
-            let second_uvs = [
-                (&material.base_color_texture, &material.base_color_channel),
-                (
-                    &material.metallic_roughness_texture,
-                    &material.metallic_roughness_channel,
-                ),
-                (&material.emissive_texture, &material.emissive_channel),
-                (&material.normal_map_texture, &material.normal_map_channel),
-            ];
-            if (second_uvs.iter()).any(|(t, c)| t.is_some() && **c == UvChannel::Uv1) {
-                warn_once!(
-                    "bevy_rppm: a material reads a texture through the second UV set \
-                     (UvChannel::Uv1); bevy_rppm reads every texture through the first"
-                );
-            }
             let slots = [
                 slot(&material.base_color_texture),
                 slot(&material.metallic_roughness_texture),
@@ -292,6 +279,32 @@ pub(super) fn extract_scene(
         scene.data = Arc::new(data);
         scene.epoch += 1;
     }
+}
+
+/// Whether a material's textures read the second UV set (Bevy's `UvChannel::Uv1`): the base
+/// colour texture's set, or the first other texture's. Triangles hold one set, so textures
+/// that read the other are read through it (warned once).
+fn reads_second_uvs(material: &StandardMaterial) -> bool {
+    let second: Vec<bool> = [
+        (&material.base_color_texture, &material.base_color_channel),
+        (
+            &material.metallic_roughness_texture,
+            &material.metallic_roughness_channel,
+        ),
+        (&material.emissive_texture, &material.emissive_channel),
+        (&material.normal_map_texture, &material.normal_map_channel),
+    ]
+    .into_iter()
+    .filter_map(|(texture, channel)| texture.is_some().then_some(*channel == UvChannel::Uv1))
+    .collect();
+    let first = second.first().copied().unwrap_or(false);
+    if second.iter().any(|&s| s != first) {
+        warn_once!(
+            "bevy_rppm: a material's textures read both UV sets; bevy_rppm reads them all \
+             through the base colour texture's"
+        );
+    }
+    first
 }
 
 /// The textures of one extraction: each image once, in order of first use.

@@ -22,8 +22,9 @@ type PlacedBounds = (Arc<SceneMesh>, GpuInstance, (Vec3, Vec3));
 /// a new pose remakes only that entity's.
 #[derive(Resource, Default)]
 pub(super) struct MeshCache {
-    /// Meshes placed by their entity's transform alone, by asset.
-    rigid: HashMap<AssetId<Mesh>, Result<Arc<SceneMesh>, String>>,
+    /// Meshes placed by their entity's transform alone, by asset and whether they hold the
+    /// second UV set.
+    rigid: HashMap<(AssetId<Mesh>, bool), Result<Arc<SceneMesh>, String>>,
     /// Skinned or morphed meshes, by entity, with what posed them.
     posed: HashMap<Entity, (PoseKey, Arc<SceneMesh>)>,
     /// World bounds by entity.
@@ -33,7 +34,7 @@ pub(super) struct MeshCache {
 impl MeshCache {
     /// Drops what was made from `id` (it changed).
     pub(super) fn forget(&mut self, id: AssetId<Mesh>) {
-        self.rigid.remove(&id);
+        self.rigid.retain(|(mesh, _), _| *mesh != id);
         self.posed.retain(|_, ((mesh, _), _)| *mesh != id);
     }
 
@@ -43,8 +44,10 @@ impl MeshCache {
         self.bounds.retain(|e, _| seen.contains(e));
     }
 
-    /// `entity`'s mesh as triangles: shared by every entity of the asset, or posed by
-    /// `joints` (world space) and morph `weights` (remade only when they change).
+    /// `entity`'s mesh as triangles with texture coordinates from its second UV set
+    /// (`second_uvs`) or its first: shared by every
+    /// entity of the asset, or posed by `joints` (world space) and morph `weights` (remade
+    /// only when they change).
     pub(super) fn mesh(
         &mut self,
         entity: Entity,
@@ -52,17 +55,19 @@ impl MeshCache {
         mesh: &Mesh,
         joints: Option<&[Affine3A]>,
         weights: &[f32],
+        second_uvs: bool,
     ) -> Result<Arc<SceneMesh>, String> {
         let id = handle.id();
         if joints.is_none() && weights.iter().all(|&w| w == 0.0) {
             self.posed.remove(&entity);
-            return self
-                .rigid
-                .entry(id)
-                .or_insert_with(|| make(mesh, &Pose::Rigid(Affine3A::IDENTITY), &[]).map(Arc::new))
+            return (self.rigid.entry((id, second_uvs)))
+                .or_insert_with(|| {
+                    make(mesh, &Pose::Rigid(Affine3A::IDENTITY), &[], second_uvs).map(Arc::new)
+                })
                 .clone();
         }
-        let mut key = weights.to_vec();
+        let mut key = vec![second_uvs as u8 as f32];
+        key.extend_from_slice(weights);
         for j in joints.unwrap_or_default() {
             key.extend_from_slice(&j.to_cols_array());
         }
@@ -73,7 +78,7 @@ impl MeshCache {
             return Ok(made.clone());
         }
         let pose = joints.map_or(Pose::Rigid(Affine3A::IDENTITY), Pose::Skinned);
-        let mut made = make(mesh, &pose, weights)?;
+        let mut made = make(mesh, &pose, weights, second_uvs)?;
         // A new pose keeps the attributes of the last.
         if let Some((_, last)) = self.posed.get(&entity)
             && last.attributes == made.attributes
@@ -106,9 +111,17 @@ impl MeshCache {
 }
 
 /// A mesh's triangles posed by `pose` after its morph targets at `weights`.
-fn make(mesh: &Mesh, pose: &Pose, weights: &[f32]) -> Result<SceneMesh, String> {
+fn make(mesh: &Mesh, pose: &Pose, weights: &[f32], second_uvs: bool) -> Result<SceneMesh, String> {
     let (mut triangles, mut attributes) = (Vec::new(), Vec::new());
-    let colored = append_triangles(mesh, pose, weights, 0, &mut triangles, &mut attributes)?;
+    let colored = append_triangles(
+        mesh,
+        pose,
+        weights,
+        0,
+        second_uvs,
+        &mut triangles,
+        &mut attributes,
+    )?;
     Ok(SceneMesh {
         triangles,
         attributes: Arc::new(attributes),
@@ -128,7 +141,7 @@ pub(super) enum Pose<'a> {
 }
 
 /// Appends the mesh's triangles, posed ([`Pose`], after the morph targets at `morph_weights`)
-/// in world space, with the given material, and their texture coordinates (`UV_0`) and
+/// in world space, with the given material, and their texture coordinates (`UV_0` or `UV_1`) and
 /// vertex colours (`COLOR`) to `attributes`. Accepts u16, u32 or no indices, with or without
 /// normals (flat normals then), UVs (zero then) and colours (white then); degenerate
 /// triangles are dropped. Returns whether the mesh has vertex colours, or why it cannot be
@@ -138,6 +151,7 @@ pub(super) fn append_triangles(
     pose: &Pose,
     morph_weights: &[f32],
     material: u32,
+    second_uvs: bool,
     out: &mut Vec<GpuTriangle>,
     attributes: &mut Vec<GpuTriangleAttributes>,
 ) -> Result<bool, String> {
@@ -163,7 +177,11 @@ pub(super) fn append_triangles(
         }
         _ => None,
     };
-    let uvs = match mesh.try_attribute_option(Mesh::ATTRIBUTE_UV_0) {
+    let uv_set = match second_uvs {
+        false => Mesh::ATTRIBUTE_UV_0,
+        true => Mesh::ATTRIBUTE_UV_1,
+    };
+    let uvs = match mesh.try_attribute_option(uv_set) {
         Ok(Some(VertexAttributeValues::Float32x2(uv))) if uv.len() == positions.len() => Some(uv),
         _ => None,
     };

@@ -202,17 +202,30 @@ def bsdf_of(material, textures=None, vertex_colors=False):
     transmission = ext.get("KHR_materials_transmission", {}).get("transmissionFactor", 0.0)
     ior = ext.get("KHR_materials_ior", {}).get("ior", 1.5)
     rgb = {"type": "rgb", "value": base}
-    if transmission > 0 and roughness < 0.02:
-        return with_normal_map(material, textures, {"type": "dielectric", "int_ior": ior, "ext_ior": 1.0},
-                               f"dielectric(ior={ior})")
-    if transmission > 0:
-        if transmission < 1:
-            print("reference.py: partial transmission is rendered as full", file=sys.stderr)
-        alpha = roughness * roughness
-        return with_normal_map(material, textures, {"type": "roughdielectric", "distribution": "ggx", "alpha": alpha,
-                                                    "int_ior": ior, "ext_ior": 1.0},
-                               f"roughdielectric(ior={ior}, alpha={alpha:.3f})")
+    glass = transmission * (1.0 - metallic)
+    if glass > 0:
+        if roughness < 0.02:
+            bsdf, description = {"type": "dielectric", "int_ior": ior, "ext_ior": 1.0}, f"dielectric(ior={ior})"
+        else:
+            alpha = roughness * roughness
+            bsdf = {"type": "roughdielectric", "distribution": "ggx", "alpha": alpha, "int_ior": ior, "ext_ior": 1.0}
+            description = f"roughdielectric(ior={ior}, alpha={alpha:.3f})"
+        if glass < 1:
+            # Bevy's specular transmission t: the surface is t glass and 1 − t the opaque
+            # material without it.
+            rest = dict(material, extensions={k: v for k, v in ext.items() if k != "KHR_materials_transmission"})
+            opaque, kind = bsdf_of(rest, textures, vertex_colors)
+            bsdf = {"type": "blendbsdf", "weight": glass, "bsdf_0": opaque, "bsdf_1": bsdf}
+            return bsdf, f"blend({kind}, {description}) by transmission {glass}"
+        return with_normal_map(material, textures, bsdf, description)
     textured_metal = "metallicRoughnessTexture" in pbr and textures
+    if 0 < metallic < 1 and not textured_metal:
+        # glTF's metallic mixes the dielectric and the metal linearly (bevy_rppm too).
+        rest = dict(material, pbrMetallicRoughness=dict(pbr, metallicFactor=0.0))
+        dielectric, kind = bsdf_of(rest, textures, vertex_colors)
+        metal, metal_kind = bsdf_of(dict(material, pbrMetallicRoughness=dict(pbr, metallicFactor=1.0)), textures)
+        return ({"type": "blendbsdf", "weight": metallic, "bsdf_0": dielectric, "bsdf_1": metal},
+                f"blend({kind}, {metal_kind}) by metallic {metallic}")
     if metallic > 0 and roughness < 0.02 and not textured_metal:
         return with_normal_map(material, textures, {"type": "conductor", "material": "none", "specular_reflectance": rgb},
                                "conductor(none)")

@@ -13,12 +13,14 @@ meshes stored as triangle strips, a wide landscape around a small scene).
     python3 tools/variant.py blend SCENE.gltf OUT.gltf          # a new scene: its own reference
     python3 tools/variant.py glb SCENE.gltf OUT.glb             # image: the scene's
     python3 tools/variant.py quantize SCENE.gltf OUT.gltf       # image: the scene's
+    python3 tools/variant.py half_metal SCENE.gltf OUT.gltf     # a new scene: its own reference
 
 `transform` gives every base colour texture a KHR_texture_transform (offset 0.1, 0.3, rotation
 0.4 rad, scale 2.5, 1.5); `blend` makes every cut-out (alpha MASK) blended (BLEND) at half its
 alpha; `glb` packs the scene, its buffers and images into one binary glTF;
 `quantize` stores vertex colours and texture coordinates within [0, 1] as normalized 16-bit
-integers (as exporters do). `ground` adds a grey ground (albedo 0.3) 2·half wide, 5 cm under y = 0, around the scene.
+integers (as exporters do); `half_metal` makes every glass a smooth half-metal (metallic 0.5, roughness 0,
+colour 0.9, 0.7, 0.35). `ground` adds a grey ground (albedo 0.3) 2·half wide, 5 cm under y = 0, around the scene.
 `strips` stores every indexed or plain triangle list as one TRIANGLE_STRIP (its triangles
 joined by degenerate ones). Otherwise the meshes go under one new root node (scaled by (-1, 1, 1) or s); lights and the camera stay
 at the root, moved to match. `mirror` needs a camera on x = 0 that turns about x only. External
@@ -226,6 +228,14 @@ def quantize(scene, args):
                              "uri": "data:application/octet-stream;base64," + base64.b64encode(blob).decode()})
 
 
+def half_metal(scene, _args):
+    for m in scene.get("materials", []):
+        if "KHR_materials_transmission" in m.get("extensions", {}):
+            m["extensions"] = {}
+            m["pbrMetallicRoughness"] = {"baseColorFactor": [0.9, 0.7, 0.35, 1], "metallicFactor": 0.5,
+                                         "roughnessFactor": 0.0}
+
+
 def glb(scene, args):
     """Every buffer and image into one BIN chunk (4-byte aligned), written as OUT (GLB)."""
     folder = os.path.dirname(os.path.abspath(args.scene))
@@ -255,7 +265,7 @@ def glb(scene, args):
 
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("kind", choices=["mirror", "scale", "orthographic", "strips", "ground", "transform", "blend", "glb", "quantize"])
+    parser.add_argument("kind", choices=["mirror", "scale", "orthographic", "strips", "ground", "transform", "blend", "glb", "quantize", "half_metal"])
     parser.add_argument("scene")
     parser.add_argument("out")
     parser.add_argument("--by", type=float, default=100.0, help="scale: the factor")
@@ -268,7 +278,7 @@ def main():
     scene = load(args.scene)
     {"mirror": mirror, "scale": scale, "orthographic": orthographic, "strips": strips, "ground": ground,
      "transform": transform, "blend": blend, "glb": glb,
-     "quantize": quantize}[args.kind](scene, args)
+     "quantize": quantize, "half_metal": half_metal}[args.kind](scene, args)
     if args.kind != "glb":
         json.dump(scene, open(args.out, "w"))
     print(f"wrote {args.out}: {args.kind} of {args.scene}")

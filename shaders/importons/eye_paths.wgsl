@@ -74,6 +74,21 @@ fn specular_bounce(m: Material, d: vec3<f32>, n: vec3<f32>, front: bool, rng: pt
 #endif
 }
 
+// What a smooth surface's delta lobes carry (specular_bounce's total), 0 on rough ones.
+fn delta_share(m: Material) -> f32 {
+    if m.perceptual_roughness >= DELTA_ROUGHNESS {
+        return 0.0;
+    }
+    var share = 0.0;
+#ifdef MIRRORS
+    share += luminance(m.base_color.rgb) * m.metallic;
+#endif
+#ifdef REFRACTION
+    share += glass_share(m);
+#endif
+    return share;
+}
+
 // The camera path's next direction at a surface it goes on through: a delta lobe, or the
 // glossy lobes sampled as photons sample them (the BSDF is reciprocal but for refraction).
 fn next_bounce(m: Material, d: vec3<f32>, n: vec3<f32>, front: bool, rng: ptr<function, u32>) -> Bounce {
@@ -271,6 +286,17 @@ fn camera_path(pixel: u32, first: Vertex, rng: ptr<function, u32>) -> vec3<f32> 
                 continue;
             }
 #endif
+            // A smooth surface only partly glass or metal (Bevy's specular transmission or
+            // metallic under 1): photons are gathered on its other lobes, and the path goes on
+            // through its delta lobes from the first hit (later vertices keep one importon).
+            if depth == 1u && delta_share(v.m) > 0.0 && depth < params.max_eye_depth {
+                bounce = next_bounce(v.m, -v.wo, v.n, v.front, rng);
+                throughput *= bounce.weight;
+#ifdef ABSORPTION
+                medium = medium_after(medium, v.m, v.front, dot(bounce.direction, v.n) < 0.0);
+#endif
+                continue;
+            }
 #endif
             return found;
         }

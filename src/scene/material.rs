@@ -3,7 +3,7 @@
 use bevy::prelude::*;
 
 use super::{GpuMaterial, GpuTexture, MaterialFlags, NO_TEXTURE, ScatterPaths, luminance};
-use crate::bsdf::{DELTA_ROUGHNESS, specular_energy_average};
+use crate::bsdf::{DELTA_ROUGHNESS, GLOSSY_STORE_ROUGHNESS, specular_energy_average};
 
 bitflags::bitflags! {
     /// What the scene's materials look up per surface point (material_at, normal_at,
@@ -87,6 +87,36 @@ pub fn material_defs(lookups: Lookups, paths: ScatterPaths) -> Vec<bevy::shader:
     let layers = paths & ScatterPaths::LAYERS;
     defs.extend(layers.shader_defs().into_iter().map(Into::into));
     defs
+}
+
+/// Whether camera paths go on past some surface: a mirror, glass, or a smooth glossy metal
+/// (roughness under [`GLOSSY_STORE_ROUGHNESS`], no diffuse lobe), where no photon is
+/// stored (`!stores_photons` in bsdf.wgsl), a smooth surface partly mirror or glass (from
+/// the first hit), or a clearcoat that smooth (`coat_traced`). A texture counts at its
+/// darkest, smoothest and most metallic texel.
+pub fn has_path_surfaces(materials: &[GpuMaterial]) -> bool {
+    materials.iter().any(|m| {
+        if m.clearcoat[0] > 0.0 && m.clearcoat[1] < GLOSSY_STORE_ROUGHNESS {
+            return true;
+        }
+        let [base, metal_rough, ..] = m.textures.map(|t| t != NO_TEXTURE);
+        let metallic = if metal_rough && m.metallic > 0.0 {
+            1.0
+        } else {
+            m.metallic
+        };
+        let roughness = if metal_rough {
+            0.0
+        } else {
+            m.perceptual_roughness
+        };
+        let diffuse = (1.0 - metallic) * (1.0 - m.specular_transmission);
+        let albedo = luminance([m.base_color[0], m.base_color[1], m.base_color[2]]);
+        // Glass of any roughness stores no photons.
+        let glass = GpuMaterial { metallic, ..*m }.glass_share() > 0.0;
+        let delta = roughness < DELTA_ROUGHNESS && (glass || metallic * albedo > 0.0);
+        delta || (roughness < GLOSSY_STORE_ROUGHNESS || glass) && (base || diffuse * albedo <= 0.0)
+    })
 }
 
 pub(super) fn material_to_gpu(m: &StandardMaterial, textures: [u32; 4]) -> GpuMaterial {

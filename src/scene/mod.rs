@@ -28,7 +28,7 @@ use bevy::render::{Render, RenderApp, RenderStartup, RenderSystems};
 use bevy::transform::TransformSystems;
 use bytemuck::{Pod, Zeroable};
 
-use crate::bsdf::{DELTA_ROUGHNESS, GLOSSY_STORE_ROUGHNESS, specular_energy_average};
+use crate::bsdf::{DELTA_ROUGHNESS, specular_energy_average};
 
 pub use instances::{GpuInstance, SceneMesh};
 pub use lights::{LightKind, RppmSky, spot_cone_fraction};
@@ -351,33 +351,9 @@ impl SceneData {
         ((lo + hi) * 0.5, ((hi - lo) * 0.5).length())
     }
 
-    /// Whether camera paths go on past some surface: a mirror, glass, or a smooth
-    /// glossy metal (roughness under [`GLOSSY_STORE_ROUGHNESS`], no diffuse lobe), where no
-    /// photon is stored (`!stores_photons` in shaders/common/bsdf.wgsl), or a clearcoat that
-    /// smooth (`coat_traced`). A texture counts at its darkest, smoothest and most metallic
-    /// texel.
+    /// Whether camera paths go on past some surface (`has_path_surfaces` in material.rs).
     pub fn has_path_surfaces(&self) -> bool {
-        self.materials.iter().any(|m| {
-            if m.clearcoat[0] > 0.0 && m.clearcoat[1] < GLOSSY_STORE_ROUGHNESS {
-                return true;
-            }
-            let [base, metal_rough, ..] = m.textures.map(|t| t != NO_TEXTURE);
-            let metallic = if metal_rough && m.metallic > 0.0 {
-                1.0
-            } else {
-                m.metallic
-            };
-            let roughness = if metal_rough {
-                0.0
-            } else {
-                m.perceptual_roughness
-            };
-            let diffuse = (1.0 - metallic) * (1.0 - m.specular_transmission);
-            let albedo = luminance([m.base_color[0], m.base_color[1], m.base_color[2]]);
-            // Glass of any roughness stores no photons.
-            let glass = GpuMaterial { metallic, ..*m }.glass_share() > 0.0;
-            (roughness < GLOSSY_STORE_ROUGHNESS || glass) && (base || diffuse * albedo <= 0.0)
-        })
+        material::has_path_surfaces(&self.materials)
     }
 
     /// Which scattering lobes the scene's materials have.

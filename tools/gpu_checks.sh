@@ -167,7 +167,8 @@ run() {
     done
     want 5 && log "5. ours alone"
     want 5 && for name in ${REST:-cornell_point frosted_lantern glossy_metal clearcoat \
-        cornell_matte frosted_lamp sky_court sun_room textured_box textured_metal translucent}; do
+        cornell_matte frosted_lamp sky_court sun_room textured_box textured_metal translucent \
+        grooved_room grooved_metal lamp_globe many_lights studio texture_samplers}; do
         [ "$(left)" -lt 20 ] && { echo "skip $name: time"; continue; }
         one "$name" --no-path-tracer
     done

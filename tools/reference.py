@@ -25,7 +25,8 @@ textures are left out, as in bevy_rppm). `KHR_materials_specular` tints only the
 dielectric's specular layer, which the Lambertian stand-in leaves out.
 Textures (numpy needed): base colour texture × factor and emissive texture × factor as
 bitmaps wrapped and filtered as their glTF sampler says (Mitsuba has one wrap mode for both
-axes; the magnification filter), COLOR_0 as the `vertex_color` mesh attribute, alpha `MASK` as a
+axes; the magnification filter), COLOR_0 (× the base colour factor) as the `vertex_color` mesh attribute (under a base colour
+texture, folded into its factor where all alike, else left out), alpha `MASK` as a
 `mask` BSDF (opacity 0 or 1), alpha `BLEND` as a `mask` of opacity alpha (texture × factor), `doubleSided` as `twosided`, a metallic-roughness texture (on a Lambertian
 base) as a `blendbsdf` of Lambert and the rough metal weighted by metallic, the metal at the
 roughness filtered at each point as Bevy filters it (`bevy_metal` reads the texture; an llvm
@@ -109,8 +110,6 @@ def bsdf_of(material, textures=None, vertex_colors=False):
         if vertex_colors:
             print("reference.py: vertex colours under a base colour texture are ignored", file=sys.stderr)
     elif vertex_colors:
-        if any(c != 1 for c in base):
-            print("reference.py: the base colour factor under vertex colours is ignored", file=sys.stderr)
         rgb = {"type": "mesh_attribute", "name": "vertex_color"}
         description += " x vertex colours"
     bsdf = {"type": "diffuse", "reflectance": rgb}
@@ -199,6 +198,22 @@ def emission_of(material, textures=None):
     return {"type": "rgb", "value": e}
 
 
+def with_vertex_colors(material, colors):
+    """Bevy multiplies the base colour by the (linear) vertex colours: without a base colour
+    texture the factor goes into the colours the mesh carries; with one, colours that are all
+    alike go into its factor (Mitsuba multiplies no textures; varying ones are left out)."""
+    pbr = material.get("pbrMetallicRoughness", {})
+    base = pbr.get("baseColorFactor", [1, 1, 1, 1])
+    if colors is None:
+        return material, None
+    if "baseColorTexture" not in pbr:
+        return material, [tuple(c[k] * base[k] for k in range(3)) for c in colors]
+    if all(tuple(c[:3]) == tuple(colors[0][:3]) for c in colors):
+        factor = [base[k] * colors[0][k] for k in range(3)] + base[3:]
+        return dict(material, pbrMetallicRoughness=dict(pbr, baseColorFactor=factor)), None
+    return material, colors
+
+
 def triangles(idx, mode):
     """A primitive's triangles as index triples: a list (4), a strip (5, every other one turned
     to keep the winding) or a fan (6), as glTF defines them; degenerate ones left out."""
@@ -254,6 +269,7 @@ def build_scene(path, width, height, tmp, max_depth=16):
                 uv_set = f"TEXCOORD_{uv_channel(material)}"
                 uvs = accessor(gltf, buffers, attributes[uv_set]) if uv_set in attributes else None
                 colors = accessor(gltf, buffers, attributes["COLOR_0"]) if "COLOR_0" in attributes else None
+                material, colors = with_vertex_colors(material, colors)
                 write_ply(ply, positions, faces, uvs, colors)
                 bsdf, description = bsdf_of(material, textures, colors is not None)
                 shape = {"type": "ply", "filename": ply, "bsdf": bsdf, "face_normals": "NORMAL" not in prim["attributes"]}

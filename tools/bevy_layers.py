@@ -7,12 +7,18 @@ Smith) with Schlick's Fresnel from 0.04 to 1, times the coat's strength c, below
 what the lobe reflects from cosine μ. Single scattering, as Bevy's coat; what it loses
 between the two passes is not given back.
 
+`bevy_plastic`, the opaque dielectric: the coat above at strength 1 over Lambert, with
+what the lobe loses by single scattering returned (F0 (1 − E(μi)) (1 − E(μo)) / (π (1 − E_avg)))
+and the Lambertian reflectance remapped so that, averaged over directions, the two reflect
+the base colour (`cosine_lobes` in bsdf.wgsl; `plastic_diffuse` gives the remapped colour).
+
 `bevy_translucent`, diffuse transmission: Lambert of albedo ρ that reflects (1 − t) of what it
 scatters and sends t through to the other side (Bevy's `diffuse_transmission` t), alike from
 both sides.
 
     import bevy_layers; bevy_layers.register()  # after mi.set_variant
     {"type": "bevy_coat", "strength": 1.0, "roughness": 0.1, "bsdf": {"type": "diffuse", ...}}
+    {"type": "bevy_plastic", "roughness": 0.3, "bsdf": {"type": "diffuse", "reflectance": plastic_diffuse(...)}}
     {"type": "bevy_translucent", "transmission": 0.5, "reflectance": {"type": "rgb", ...}}
 """
 
@@ -20,10 +26,27 @@ import math
 
 import numpy as np
 
-from bevy_metal import TABLE, as_table, directional_albedo, ggx_pdf, ggx_reflect, ggx_terms, table_at
+from bevy_metal import TABLE, as_table, directional_albedo, ggx_pdf, ggx_reflect, ggx_terms, lost_tables, table_at
 
 DELTA_ROUGHNESS = 0.02
 F0 = 0.04
+
+
+def plastic_tables(roughness):
+    """E(μ) of bsdf.wgsl's dielectric (the lobe at F0 from F0 to 1, plus F0 times what single
+    scattering loses) at TABLE cosines, its cosine-weighted average, and 1 − E1(μ) with its
+    average (E1 the lobe's at F = 1)."""
+    mus = (np.arange(TABLE) + 0.5) / TABLE
+    lost, lost_avg = lost_tables([roughness])
+    energy = np.minimum(directional_albedo(roughness, mus, f0=F0) + F0 * lost[0], 1.0)
+    return energy, min(np.sum(2 * energy * mus) / TABLE, 0.999), lost[0], lost_avg[0]
+
+
+def plastic_diffuse(base, roughness):
+    """The Lambertian colour under `bevy_plastic`: max(base − E_avg, 0) / (1 − E_avg) (the
+    BSDF divides by 1 − E_avg once more, which would take a colour past 1)."""
+    avg = plastic_tables(roughness)[1]
+    return [max(c - avg, 0.0) / (1 - avg) for c in base]
 
 
 def register():
@@ -127,6 +150,30 @@ def register():
             return f"BevyCoat[strength={self.strength}, roughness={self.roughness}, base={self.base}]"
 
     mi.register_bsdf("bevy_coat", lambda props: BevyCoat(props))
+
+    class BevyPlastic(BevyCoat):
+        def __init__(self, props):
+            BevyCoat.__init__(self, props)
+            energy, self.energy_avg, lost, lost_avg = plastic_tables(self.roughness)
+            self.albedo = as_table(mi, energy)
+            self.lost = as_table(mi, lost)
+            self.lost_avg = float(lost_avg)
+
+        def through(self, wi, wo):
+            return BevyCoat.through(self, wi, wo) / (1 - self.energy_avg)
+
+        def eval_pdf(self, ctx, si, wo, active=True):
+            value, pdf = BevyCoat.eval_pdf(self, ctx, si, wo, active)
+            mu_i, mu_o = mi.Frame3f.cos_theta(si.wi), mi.Frame3f.cos_theta(wo)
+            multiple = F0 * table_at(dr, mi, self.lost, mu_i) * table_at(dr, mi, self.lost, mu_o) / (
+                math.pi * self.lost_avg) * mu_o
+            ok = active & (mu_i > 0) & (mu_o > 0)
+            return value + dr.select(ok, multiple, 0.0), pdf
+
+        def to_string(self):
+            return f"BevyPlastic[roughness={self.roughness}, base={self.base}]"
+
+    mi.register_bsdf("bevy_plastic", lambda props: BevyPlastic(props))
 
     class BevyTranslucent(mi.BSDF):
         def __init__(self, props):

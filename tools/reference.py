@@ -12,7 +12,9 @@ variants need an LLVM that drjit accepts: on Debian 12 install `libllvm19` and t
 points DRJIT_LIBLLVM_PATH at it; otherwise it falls back to `scalar_rgb`, which is slower.
 
 Material mapping (as the references in shared/scenes): metallic 0 and no transmission →
-Lambertian `diffuse` (Bevy's 4% specular layer is left out, see CONVENTIONS.md); metallic with
+Lambertian `diffuse` at roughness 1 or below 0.02 (Bevy's 4% specular layer is left out, see
+CONVENTIONS.md), else (untextured) `bevy_plastic` (tools/bevy_layers.py: bevy_rppm's dielectric,
+that layer over an albedo-keeping diffuse lobe); partial metallic → a `blendbsdf` of the two; metallic with
 roughness < 0.02 → perfect `conductor`; metallic otherwise → `bevy_metal` (tools/bevy_metal.py:
 bevy_rppm's GGX with multiple scattering and Schlick's Fresnel; `--metal mitsuba` gives
 Mitsuba's single-scattering `roughconductor`, α = roughness², instead); transmission with roughness < 0.02 → `dielectric`, rougher → `roughdielectric` (GGX, α =
@@ -114,6 +116,15 @@ def bsdf_of(material, textures=None, vertex_colors=False):
         description += " x vertex colours"
     bsdf = {"type": "diffuse", "reflectance": rgb}
     translucent = ext.get("KHR_materials_diffuse_transmission", {}).get("diffuseTransmissionFactor", 0.0)
+    if 0.02 <= roughness < 1 and metallic == 0 and rgb["type"] == "rgb" and not translucent > 0 \
+            and not textured_metal:
+        # A dielectric smoother than the convention's Lambertian one (roughness 1): bevy_rppm's
+        # own, Bevy's 4 % GGX lobe over a diffuse lobe that keeps the base colour's albedo.
+        from bevy_layers import plastic_diffuse
+
+        bsdf = {"type": "bevy_plastic", "roughness": roughness,
+                "bsdf": {"type": "diffuse", "reflectance": {"type": "rgb", "value": plastic_diffuse(base, roughness)}}}
+        description = f"bevy_plastic(roughness={roughness})"
     if translucent > 0:
         # Two-sided by itself: `twosided` below would hide what passes through.
         bsdf = {"type": "bevy_translucent", "transmission": translucent, "reflectance": rgb}

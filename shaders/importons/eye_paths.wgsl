@@ -55,8 +55,7 @@ struct Bounce {
 // of glass. `n` faces the incoming side; `front` tells which side of the surface that is.
 fn specular_bounce(m: Material, d: vec3<f32>, n: vec3<f32>, front: bool, rng: ptr<function, u32>) -> Bounce {
     let mirror = luminance(m.base_color.rgb) * m.metallic;
-    let glass = glass_share(m);
-    let total = max(mirror + glass, 1e-6);
+    let total = max(delta_share(m), 1e-6);
 #ifdef MIRRORS
     if random(rng) * total < mirror {
         return Bounce(reflect(d, n), m.base_color.rgb * (total / luminance(m.base_color.rgb)));
@@ -74,19 +73,10 @@ fn specular_bounce(m: Material, d: vec3<f32>, n: vec3<f32>, front: bool, rng: pt
 #endif
 }
 
-// What a smooth surface's delta lobes carry (specular_bounce's total), 0 on rough ones.
+// What a surface's delta lobes carry where it is smooth: the mirror of its metal part and
+// its glass (`GpuMaterial::delta_share` on the CPU).
 fn delta_share(m: Material) -> f32 {
-    if m.perceptual_roughness >= DELTA_ROUGHNESS {
-        return 0.0;
-    }
-    var share = 0.0;
-#ifdef MIRRORS
-    share += luminance(m.base_color.rgb) * m.metallic;
-#endif
-#ifdef REFRACTION
-    share += glass_share(m);
-#endif
-    return share;
+    return luminance(m.base_color.rgb) * m.metallic + glass_share(m);
 }
 
 // The camera path's next direction at a surface it goes on through: a delta lobe, or the
@@ -289,7 +279,8 @@ fn camera_path(pixel: u32, first: Vertex, rng: ptr<function, u32>) -> vec3<f32> 
             // A smooth surface only partly glass or metal (Bevy's specular transmission or
             // metallic under 1): photons are gathered on its other lobes, and the path goes on
             // through its delta lobes from the first hit (later vertices keep one importon).
-            if depth == 1u && delta_share(v.m) > 0.0 && depth < params.max_eye_depth {
+            let mirror_like = v.m.perceptual_roughness < DELTA_ROUGHNESS;
+            if depth == 1u && mirror_like && delta_share(v.m) > 0.0 && depth < params.max_eye_depth {
                 bounce = next_bounce(v.m, -v.wo, v.n, v.front, rng);
                 throughput *= bounce.weight;
 #ifdef ABSORPTION

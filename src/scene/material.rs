@@ -113,8 +113,9 @@ pub fn has_path_surfaces(materials: &[GpuMaterial]) -> bool {
         let diffuse = (1.0 - metallic) * (1.0 - m.specular_transmission);
         let albedo = luminance([m.base_color[0], m.base_color[1], m.base_color[2]]);
         // Glass of any roughness stores no photons.
-        let glass = GpuMaterial { metallic, ..*m }.glass_share() > 0.0;
-        let delta = roughness < DELTA_ROUGHNESS && (glass || metallic * albedo > 0.0);
+        let placed = GpuMaterial { metallic, ..*m };
+        let glass = placed.glass_share() > 0.0;
+        let delta = roughness < DELTA_ROUGHNESS && placed.delta_share() > 0.0;
         delta || (roughness < GLOSSY_STORE_ROUGHNESS || glass) && (base || diffuse * albedo <= 0.0)
     })
 }
@@ -200,13 +201,20 @@ impl GpuMaterial {
             && !MaterialFlags::from_bits_truncate(self.flags).intersects(cut)
     }
 
+    /// What its delta lobes carry where it is smooth: the mirror of its metal part and its
+    /// glass (`delta_share` in shaders/importons/eye_paths.wgsl).
+    pub(super) fn delta_share(&self) -> f32 {
+        let base = [self.base_color[0], self.base_color[1], self.base_color[2]];
+        luminance(base) * self.metallic + self.glass_share()
+    }
+
     /// `SceneData::max_scatter_probability` of the layers under a clearcoat.
     pub(super) fn under_coat_scatter_probability(&self) -> f32 {
         let m = self;
         let base = [m.base_color[0], m.base_color[1], m.base_color[2]];
         let diffuse = (1.0 - m.metallic) * (1.0 - m.specular_transmission);
         if m.perceptual_roughness < DELTA_ROUGHNESS {
-            let delta = luminance(base) * m.metallic + m.glass_share();
+            let delta = m.delta_share();
             return (diffuse * luminance(base) + delta).min(1.0);
         }
         // The tint's largest channel, as `dielectric_f0` in microfacet.wgsl.

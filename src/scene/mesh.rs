@@ -12,8 +12,9 @@ use bevy::prelude::*;
 
 use super::{GpuInstance, GpuTriangle, GpuTriangleAttributes, SceneMesh};
 
-/// What posed a skinned or morphed mesh: its asset, then the weights and joint matrices.
-type PoseKey = (AssetId<Mesh>, Vec<f32>);
+/// What posed a skinned or morphed mesh: its asset, whether it holds the second UV set, then
+/// the weights and joint matrices.
+type PoseKey = (AssetId<Mesh>, bool, Vec<f32>);
 
 /// World bounds, with the mesh and placement they were made for.
 type PlacedBounds = (Arc<SceneMesh>, GpuInstance, (Vec3, Vec3));
@@ -35,7 +36,7 @@ impl MeshCache {
     /// Drops what was made from `id` (it changed).
     pub(super) fn forget(&mut self, id: AssetId<Mesh>) {
         self.rigid.retain(|(mesh, _), _| *mesh != id);
-        self.posed.retain(|_, ((mesh, _), _)| *mesh != id);
+        self.posed.retain(|_, ((mesh, ..), _)| *mesh != id);
     }
 
     /// Drops the entities not in `seen` (gone or hidden).
@@ -45,9 +46,8 @@ impl MeshCache {
     }
 
     /// `entity`'s mesh as triangles with texture coordinates from its second UV set
-    /// (`second_uvs`) or its first: shared by every
-    /// entity of the asset, or posed by `joints` (world space) and morph `weights` (remade
-    /// only when they change).
+    /// (`second_uvs`) or its first: shared by every entity of the asset, or posed by `joints`
+    /// (world space) and morph `weights` (remade only when they change).
     pub(super) fn mesh(
         &mut self,
         entity: Entity,
@@ -66,12 +66,11 @@ impl MeshCache {
                 })
                 .clone();
         }
-        let mut key = vec![second_uvs as u8 as f32];
-        key.extend_from_slice(weights);
+        let mut key = weights.to_vec();
         for j in joints.unwrap_or_default() {
             key.extend_from_slice(&j.to_cols_array());
         }
-        let key = (id, key);
+        let key = (id, second_uvs, key);
         if let Some((seen, made)) = self.posed.get(&entity)
             && *seen == key
         {

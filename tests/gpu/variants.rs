@@ -28,6 +28,11 @@ fn render_variant(scene: &str, name: &str, edit: impl FnOnce(&mut Value, &Path))
     render_gltf_64(path, 16)
 }
 
+/// The scene's materials, to edit.
+fn materials(gltf: &mut Value) -> impl Iterator<Item = &mut Value> {
+    gltf["materials"].as_array_mut().unwrap().iter_mut()
+}
+
 fn reference(name: &str) -> RgbImage {
     let image = read_exr(&suite().join(name)).unwrap_or_else(|e| panic!("{name}: {e}"));
     let factor = image.width / 64;
@@ -259,7 +264,7 @@ fn a_jpeg_texture_renders_as_its_png_does() {
 #[test]
 fn a_texture_transform_moves_the_texture_as_bevy_does() {
     let image = render_variant("textured_box", "transformed_textured_box", |gltf, _| {
-        for m in gltf["materials"].as_array_mut().unwrap() {
+        for m in materials(gltf) {
             let texture = &mut m["pbrMetallicRoughness"]["baseColorTexture"];
             if texture.is_object() {
                 texture["extensions"] = json!({ "KHR_texture_transform": {
@@ -286,7 +291,7 @@ fn a_texture_transform_moves_the_texture_as_bevy_does() {
 #[test]
 fn a_blended_screen_composites_as_bevy_does() {
     let image = render_variant("textured_box", "blended_textured_box", |gltf, _| {
-        for m in gltf["materials"].as_array_mut().unwrap() {
+        for m in materials(gltf) {
             if m["alphaMode"] == "MASK" {
                 m["alphaMode"] = json!("BLEND");
                 m.as_object_mut().unwrap().remove("alphaCutoff");
@@ -360,7 +365,7 @@ fn a_texture_on_the_second_uv_set_reads_it() {
 #[test]
 fn a_smooth_half_metal_keeps_its_mirror_half() {
     let image = render_variant("glass_slab", "half_metal_slab", |gltf, _| {
-        for m in gltf["materials"].as_array_mut().unwrap() {
+        for m in materials(gltf) {
             if m["extensions"]["KHR_materials_transmission"].is_object() {
                 m["extensions"] = json!({});
                 m["pbrMetallicRoughness"] = json!({

@@ -14,6 +14,7 @@
 #     7. `rppm bench motion` (Reset against Reuse) on the pool's waves, a slide, an orbit, a
 #        moving light and the fox, at k iterations a frame, window w and seed s (MOTION:
 #        name:k:w[:s] …; rows of every run in motion.csv).
+#   8. (after 6) each stage's wall time submitted alone (--profile) on ALONE (default: the suite).
 #   STEPS (default "2 3 6 4 5"), SUB, REST, BUDGET (4) and LIMIT (seconds, 560) trim it; each
 #   step is skipped when the time left would not hold it. Results: $OUT/{stage_times,suite}.md,
 #   pool.txt, log.txt. The numbers of 2026-11-26 are in the README's GPU section.
@@ -109,6 +110,14 @@ run() {
         RPPM=$b/rppm ITERATIONS=16 tools/stage_times.sh /tmp/gpu_stages_bvh assets/suite/*.gltf \
             .gpu/shared/*.gltf -- --tracer bvh >"$out/stage_times_bvh.md" 2>&1
         cat "$out/stage_times_bvh.md"
+    fi
+    if want 8; then
+        # Each stage submitted and waited for alone: its wall time, free of overlap with the
+        # passes before it (to check a stage whose timestamps read high).
+        log "8. wall ms per stage, each alone (--profile), under the BVH"
+        RPPM=$b/rppm ITERATIONS=8 tools/stage_times.sh /tmp/gpu_stages_alone ${ALONE:-assets/suite/*.gltf} \
+            -- --tracer bvh --profile >"$out/stage_times_alone.md" 2>&1
+        cat "$out/stage_times_alone.md"
     fi
     if want 7; then
         log "7. motion: Reset against Reuse, iterations a frame (k) and windows (w)"

@@ -14,13 +14,15 @@ meshes stored as triangle strips, a wide landscape around a small scene).
     python3 tools/variant.py glb SCENE.gltf OUT.glb             # image: the scene's
     python3 tools/variant.py quantize SCENE.gltf OUT.gltf       # image: the scene's
     python3 tools/variant.py half_metal SCENE.gltf OUT.gltf     # a new scene: its own reference
+    python3 tools/variant.py camera SCENE.gltf OUT.gltf --at 0,-0.45,1.35 --look 0,-0.1,-0.8  # the same
 
 `transform` gives every base colour texture a KHR_texture_transform (offset 0.1, 0.3, rotation
 0.4 rad, scale 2.5, 1.5); `blend` makes every cut-out (alpha MASK) blended (BLEND) at half its
 alpha; `glb` packs the scene, its buffers and images into one binary glTF;
 `quantize` stores vertex colours and texture coordinates within [0, 1] as normalized 16-bit
 integers (as exporters do); `half_metal` makes every glass a smooth half-metal (metallic 0.5, roughness 0,
-colour 0.9, 0.7, 0.35). `ground` adds a grey ground (albedo 0.3) 2·half wide, 5 cm under y = 0, around the scene.
+colour 0.9, 0.7, 0.35); `camera` moves the camera to `--at`, looking at `--look` (water_pool's at
+0,-0.45,1.35 looking at 0,-0.1,-0.8 is under the water, seeing its surface from below). `ground` adds a grey ground (albedo 0.3) 2·half wide, 5 cm under y = 0, around the scene.
 `strips` stores every indexed or plain triangle list as one TRIANGLE_STRIP (its triangles
 joined by degenerate ones). Otherwise the meshes go under one new root node (scaled by (-1, 1, 1) or s); lights and the camera stay
 at the root, moved to match. `mirror` needs a camera on x = 0 that turns about x only. External
@@ -36,6 +38,7 @@ import struct
 import sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from gltf_kit import look  # noqa: E402
 from gltf_read import uri_bytes  # noqa: E402
 
 
@@ -236,6 +239,16 @@ def half_metal(scene, _args):
                                          "roughnessFactor": 0.0}
 
 
+def camera(scene, args):
+    at, target = ([float(v) for v in text.split(",")] for text in (args.at, args.look))
+    if len(at) != 3 or len(target) != 3 or at == target:
+        raise SystemExit("variant.py: --at and --look are two different points x,y,z")
+    for node in scene["nodes"]:
+        if "camera" in node:
+            node.pop("matrix", None)
+            node["translation"], node["rotation"] = at, look([t - a for t, a in zip(target, at)])
+
+
 def glb(scene, args):
     """Every buffer and image into one BIN chunk (4-byte aligned), written as OUT (GLB)."""
     folder = os.path.dirname(os.path.abspath(args.scene))
@@ -265,20 +278,22 @@ def glb(scene, args):
 
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("kind", choices=["mirror", "scale", "orthographic", "strips", "ground", "transform", "blend", "glb", "quantize", "half_metal"])
+    parser.add_argument("kind", choices=["mirror", "scale", "orthographic", "strips", "ground", "transform", "blend", "glb", "quantize", "half_metal", "camera"])
     parser.add_argument("scene")
     parser.add_argument("out")
     parser.add_argument("--by", type=float, default=100.0, help="scale: the factor")
     parser.add_argument("--width", type=float, default=2.0, help="orthographic: the view's width, m")
     parser.add_argument("--back", type=float, default=0.0, help="orthographic: move the camera back, m")
     parser.add_argument("--half", type=float, default=500.0, help="ground: half its width, m")
+    parser.add_argument("--at", default="0,-0.45,1.35", help="camera: where it stands, x,y,z in m")
+    parser.add_argument("--look", default="0,-0.1,-0.8", help="camera: the point it looks at, x,y,z in m")
     args = parser.parse_args()
     if not math.isfinite(args.by) or args.by <= 0:
         raise SystemExit("variant.py: --by must be a positive number")
     scene = load(args.scene)
     {"mirror": mirror, "scale": scale, "orthographic": orthographic, "strips": strips, "ground": ground,
      "transform": transform, "blend": blend, "glb": glb,
-     "quantize": quantize, "half_metal": half_metal}[args.kind](scene, args)
+     "quantize": quantize, "half_metal": half_metal, "camera": camera}[args.kind](scene, args)
     if args.kind != "glb":
         json.dump(scene, open(args.out, "w"))
     print(f"wrote {args.out}: {args.kind} of {args.scene}")

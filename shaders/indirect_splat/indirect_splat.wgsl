@@ -2,7 +2,7 @@
 // tile (photons/sort.wgsl); each importon visits the tiles its own gather sphere reaches, on
 // every face (a sphere near a face's edge reaches the next face), and adds the photons inside
 // its radius, on its surface: throughput · f(wo, wi) · Φ over the area of its disc that lies on
-// surface (π r² times `disc_on_surface`). The work is the photons
+// surface (π r² times the share `disc_of` finds). The work is the photons
 // near importons, each importon's sum stays in registers (no atomics), and a large radius
 // elsewhere costs no one else.
 #import bevy_rppm::common::{Material, Outgoing, Photon, Importon, IterationParams, PI, NO_IMPORTON, basis_around, faces_reached, splat_weight, unpack_normal}
@@ -19,15 +19,18 @@
 @group(2) @binding(3) var<storage, read_write> importon_radiance: array<vec4<f32>>;
 
 // The photons of run `run` of the map that importon `imp` (of `pixel`, on material `m`, `out`
-// its bsdf_from) gathers.
-fn gather_run(imp: Importon, m: Material, out: Outgoing, pixel: u32, run: vec2<u32>) -> vec3<f32> {
+// its bsdf_from) gathers, but those past glass that meets its surface (`disc`).
+fn gather_run(imp: Importon, m: Material, out: Outgoing, pixel: u32, run: vec2<u32>, disc: Disc) -> vec3<f32> {
     var sum = vec3<f32>(0.0);
     let both_sides = translucency(m) > 0.0;
     var i = next_in_kernel(run.x, run.y, params, imp.position, imp.normal, imp.radius, pixel, both_sides);
     while i < run.y {
         let p = photons[i];
-        sum += bsdf_toward(m, out, imp.normal, imp.outgoing, unpack_normal(p.incoming)) * p.flux;
         i = next_in_kernel(i + 1u, run.y, params, imp.position, imp.normal, imp.radius, pixel, both_sides);
+        if past_glass(disc, p.position) {
+            continue;
+        }
+        sum += bsdf_toward(m, out, imp.normal, imp.outgoing, unpack_normal(p.incoming)) * p.flux;
     }
     return sum;
 }
@@ -35,29 +38,116 @@ fn gather_run(imp: Importon, m: Material, out: Outgoing, pixel: u32, run: vec2<u
 // Points of an importon's disc checked for a surface (`disc_point`; the direct splat's
 // G-buffer test, shaders/splat/splat.wgsl, has no G-buffer here).
 const DISC_POINTS: u32 = 8u;
+// Glass surfaces met within a disc that are kept as its cuts.
+const CUTS: u32 = 2u;
 
-// The share of an importon's disc that lies on surface: a point of the disc does not count
-// where a ray along the plane, just above it, from the centre meets an opaque surface before
-// it (a corner, an object standing on the surface: no photon lands beyond). At least a
-// quarter.
-fn disc_on_surface(imp: Importon) -> f32 {
+#ifdef GLASS
+// The points a disc's share past its cuts is counted on.
+const CUT_POINTS: u32 = 32u;
+
+// Of the traced points' directions (`disc_point`'s golden angle), the nearest to point j of
+// CUT_POINTS.
+fn nearest_direction(j: u32) -> u32 {
+    let turn = 2.3999632 / (2.0 * PI);
+    var best = 0u;
+    var gap = 1.0;
+    for (var i = 0u; i < DISC_POINTS; i += 1u) {
+        let d = fract(f32(j) * turn - f32(i) * turn + 0.5) - 0.5;
+        if abs(d) < gap {
+            gap = abs(d);
+            best = i;
+        }
+    }
+    return best;
+}
+
+// The plane of glass triangle `t`, met at `hit`, turned to face `centre`.
+fn cut_plane(t: u32, hit: vec3<f32>, centre: vec3<f32>) -> vec4<f32> {
+    let tri = triangle_at(t);
+    var n = normalize(cross(tri.position_b - tri.position_a, tri.position_c - tri.position_a));
+    n = select(n, -n, dot(n, centre - hit) < 0.0);
+    return vec4<f32>(n, -dot(n, hit));
+}
+#endif
+
+// An importon's disc: the share of it that lies on surface, and the planes of the glass or
+// water that meets the surface within it (the centre on their positive side).
+struct Disc {
+    share: f32,
+    cut_count: u32,
+    cuts: array<vec4<f32>, CUTS>,
+}
+
+// Whether q lies past one of the disc's cuts: under glass or water that meets the surface (a
+// wall below the water line), where other light arrives than at the centre, as the direct
+// splat's `disc_view` finds it through the G-buffer.
+fn past_glass(disc: Disc, q: vec3<f32>) -> bool {
+    var past = false;
+#ifdef GLASS
+    for (var c = 0u; c < disc.cut_count; c += 1u) {
+        past = past || dot(disc.cuts[c].xyz, q) + disc.cuts[c].w < 0.0;
+    }
+#endif
+    return past;
+}
+
+// An importon's disc: a point of it does not count where a ray along the plane, just above
+// it, from the centre meets an opaque surface before it (a corner, an object standing on the
+// surface: no photon lands beyond), nor where it lies past glass or water met so (the
+// photons there are left out too). At least a quarter.
+fn disc_of(imp: Importon) -> Disc {
     let frame = basis_around(imp.normal);
     let r = imp.radius;
     let origin = imp.position + imp.normal * (0.5 * params.kernel_flattening * r);
-    var on = 0.0;
+    var disc = Disc(1.0, 0u, array<vec4<f32>, CUTS>(vec4<f32>(0.0), vec4<f32>(0.0)));
+    // How far along each point's direction the plane is open (an opaque surface's distance).
+    var open: array<f32, DISC_POINTS>;
     for (var i = 0u; i < DISC_POINTS; i += 1u) {
         let q = disc_point(frame, r, i, DISC_POINTS);
         let rho = length(q);
-        let hit = trace_ray(origin, q / rho, 0.0, rho, imp.triangle);
-        var counts = hit.triangle == NO_HIT;
-        if !counts {
-            // Past glass or water the disc counts, unlike the direct splat's (`disc_view`):
-            // with no G-buffer to look its photons up in, they all count here, so its area does.
-            counts = glass_share(material_at(hit.triangle, hit.uv, 0.0)) > 0.0;
+        open[i] = r;
+#ifdef GLASS
+        // To the rim, not to the point: glass met past the point still cuts the disc.
+        let reach = r;
+#else
+        let reach = rho;
+#endif
+        let hit = trace_ray(origin, q / rho, 0.0, reach, imp.triangle);
+        if hit.triangle == NO_HIT {
+            continue;
         }
-        on += select(0.0, 1.0, counts);
+#ifdef GLASS
+        if glass_share(material_at(hit.triangle, hit.uv, 0.0)) > 0.0 {
+            if disc.cut_count < CUTS {
+                let at = origin + hit.t * q / rho;
+                disc.cuts[disc.cut_count] = cut_plane(hit.triangle, at, imp.position);
+                disc.cut_count += 1u;
+            }
+            continue;
+        }
+#endif
+        open[i] = hit.t;
     }
-    return disc_share(on, DISC_POINTS);
+    var on = 0.0;
+    for (var i = 0u; i < DISC_POINTS; i += 1u) {
+        let q = disc_point(frame, r, i, DISC_POINTS);
+        on += select(0.0, 1.0, length(q) <= open[i]);
+    }
+    disc.share = disc_share(on, DISC_POINTS);
+#ifdef GLASS
+    if disc.cut_count > 0u {
+        // A cut is a plane: its share is counted on finer points, each open as far as the
+        // traced direction nearest its own.
+        on = 0.0;
+        for (var j = 0u; j < CUT_POINTS; j += 1u) {
+            let q = disc_point(frame, r, j, CUT_POINTS);
+            let k = nearest_direction(j);
+            on += select(0.0, 1.0, length(q) <= open[k] && !past_glass(disc, imp.position + q));
+        }
+        disc.share = disc_share(on, CUT_POINTS);
+    }
+#endif
+    return disc;
 }
 
 @compute @workgroup_size(64, 1, 1)
@@ -69,16 +159,17 @@ fn gather(@builtin(global_invocation_id) id: vec3<u32>) {
     let imp = importons[pixel];
     let m = material_at(imp.triangle, barycentrics(triangle_at(imp.triangle), imp.position), 0.0);
     let out = bsdf_from(m, imp.normal, imp.outgoing);
+    let disc = disc_of(imp);
     var sum = vec3<f32>(0.0);
     let faces = faces_reached(cubemap, imp.position, imp.radius);
     for (var i = 0u; i < faces.y; i += 1u) {
         let face = (faces.x + i) % 6u;
         let seen = face_gather(cubemap, imp.position, imp.radius, imp.normal, params.kernel_flattening, face);
         for (var y = seen.tiles.z; y <= seen.tiles.w; y += 1) {
-            sum += gather_run(imp, m, out, pixel, gather_row_run(seen, face, y));
+            sum += gather_run(imp, m, out, pixel, gather_row_run(seen, face, y), disc);
         }
     }
     let r = imp.radius;
-    let area = PI * r * r * disc_on_surface(imp);
+    let area = PI * r * r * disc.share;
     importon_radiance[pixel] = vec4<f32>(imp.throughput * sum * (splat_weight(params) / area), 0.0);
 }

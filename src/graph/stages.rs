@@ -130,6 +130,7 @@ pub(super) fn select_stages(
                     lookups,
                     layers,
                     bvh: state.key.bvh,
+                    glass: scene.paths.intersects(ScatterPaths::GLASS),
                 },
             )
         }),

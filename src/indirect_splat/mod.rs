@@ -51,6 +51,8 @@ pub struct IndirectSplatKey {
     pub layers: ScatterPaths,
     /// Rays (the importons' discs checked for corners) walk the scene's BVH.
     pub bvh: bool,
+    /// The scene has glass or water, past which a disc's photons are left out (`GLASS`).
+    pub glass: bool,
 }
 
 impl SpecializedComputePipeline for IndirectSplatPipeline {
@@ -62,6 +64,9 @@ impl SpecializedComputePipeline for IndirectSplatPipeline {
                 let mut defs = material_defs(key.lookups, key.layers);
                 if key.bvh {
                     defs.push("BVH".into());
+                }
+                if key.glass {
+                    defs.push("GLASS".into());
                 }
                 defs
             },

@@ -15,6 +15,7 @@ meshes stored as triangle strips, a wide landscape around a small scene).
     python3 tools/variant.py quantize SCENE.gltf OUT.gltf       # image: the scene's
     python3 tools/variant.py half_metal SCENE.gltf OUT.gltf     # a new scene: its own reference
     python3 tools/variant.py camera SCENE.gltf OUT.gltf --at 0,-0.45,1.35 --look 0,-0.1,-0.8  # the same
+    python3 tools/variant.py polish SCENE.gltf OUT.gltf --node floor --roughness 0.15  # the same
 
 `transform` gives every base colour texture a KHR_texture_transform (offset 0.1, 0.3, rotation
 0.4 rad, scale 2.5, 1.5); `blend` makes every cut-out (alpha MASK) blended (BLEND) at half its
@@ -22,7 +23,9 @@ alpha; `glb` packs the scene, its buffers and images into one binary glTF;
 `quantize` stores vertex colours and texture coordinates within [0, 1] as normalized 16-bit
 integers (as exporters do); `half_metal` makes every glass a smooth half-metal (metallic 0.5, roughness 0,
 colour 0.9, 0.7, 0.35); `camera` moves the camera to `--at`, looking at `--look` (water_pool's at
-0,-0.45,1.35 looking at 0,-0.1,-0.8 is under the water, seeing its surface from below). `ground` adds a grey ground (albedo 0.3) 2·half wide, 5 cm under y = 0, around the scene.
+0,-0.45,1.35 looking at 0,-0.1,-0.8 is under the water, seeing its surface from below); `polish`
+gives the node named `--node` its own copies of its materials at roughness `--roughness` (a
+polished floor: glossy plastic). `ground` adds a grey ground (albedo 0.3) 2·half wide, 5 cm under y = 0, around the scene.
 `strips` stores every indexed or plain triangle list as one TRIANGLE_STRIP (its triangles
 joined by degenerate ones). Otherwise the meshes go under one new root node (scaled by (-1, 1, 1) or s); lights and the camera stay
 at the root, moved to match. `mirror` needs a camera on x = 0 that turns about x only. External
@@ -249,6 +252,19 @@ def camera(scene, args):
             node["translation"], node["rotation"] = at, look([t - a for t, a in zip(target, at)])
 
 
+def polish(scene, args):
+    nodes = [n for n in scene["nodes"] if n.get("name") == args.node and "mesh" in n]
+    if not nodes:
+        raise SystemExit(f"variant.py: no node named {args.node!r} holds a mesh")
+    for node in nodes:
+        for prim in scene["meshes"][node["mesh"]]["primitives"]:
+            material = json.loads(json.dumps(scene["materials"][prim.get("material", 0)]))
+            material["name"] = f"{material.get('name', 'material')}_polished"
+            material.setdefault("pbrMetallicRoughness", {})["roughnessFactor"] = args.roughness
+            scene["materials"].append(material)
+            prim["material"] = len(scene["materials"]) - 1
+
+
 def glb(scene, args):
     """Every buffer and image into one BIN chunk (4-byte aligned), written as OUT (GLB)."""
     folder = os.path.dirname(os.path.abspath(args.scene))
@@ -278,7 +294,7 @@ def glb(scene, args):
 
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("kind", choices=["mirror", "scale", "orthographic", "strips", "ground", "transform", "blend", "glb", "quantize", "half_metal", "camera"])
+    parser.add_argument("kind", choices=["mirror", "scale", "orthographic", "strips", "ground", "transform", "blend", "glb", "quantize", "half_metal", "camera", "polish"])
     parser.add_argument("scene")
     parser.add_argument("out")
     parser.add_argument("--by", type=float, default=100.0, help="scale: the factor")
@@ -287,13 +303,15 @@ def main():
     parser.add_argument("--half", type=float, default=500.0, help="ground: half its width, m")
     parser.add_argument("--at", default="0,-0.45,1.35", help="camera: where it stands, x,y,z in m")
     parser.add_argument("--look", default="0,-0.1,-0.8", help="camera: the point it looks at, x,y,z in m")
+    parser.add_argument("--node", default="floor", help="polish: the node whose materials it polishes")
+    parser.add_argument("--roughness", type=float, default=0.15, help="polish: the roughness they get")
     args = parser.parse_args()
     if not math.isfinite(args.by) or args.by <= 0:
         raise SystemExit("variant.py: --by must be a positive number")
     scene = load(args.scene)
     {"mirror": mirror, "scale": scale, "orthographic": orthographic, "strips": strips, "ground": ground,
      "transform": transform, "blend": blend, "glb": glb,
-     "quantize": quantize, "half_metal": half_metal, "camera": camera}[args.kind](scene, args)
+     "quantize": quantize, "half_metal": half_metal, "camera": camera, "polish": polish}[args.kind](scene, args)
     if args.kind != "glb":
         json.dump(scene, open(args.out, "w"))
     print(f"wrote {args.out}: {args.kind} of {args.scene}")

@@ -100,6 +100,11 @@ fn bsdf_from(m: Material, n: vec3<f32>, wo: vec3<f32>) -> Outgoing {
 // f(wo, wi) from `out = bsdf_from(m, n, wo)`.
 fn bsdf_toward(m: Material, out: Outgoing, n: vec3<f32>, wo: vec3<f32>, wi: vec3<f32>) -> vec3<f32> {
     var f = bsdf_gathered(m, out, n, wo, wi);
+#ifdef GLOSSY_TRACED
+    if glossy_traced(m) {
+        f += glossy_lobe(m, out, n, wo, wi);
+    }
+#endif
 #ifdef CLEARCOAT
     if coat_traced(m) {
         f += vec3<f32>(coat_lobe(m, n, wo, wi));
@@ -109,9 +114,15 @@ fn bsdf_toward(m: Material, out: Outgoing, n: vec3<f32>, wo: vec3<f32>, wi: vec3
 }
 
 // The part of f(wo, wi) a photon gather at the camera's first hit estimates: all of it but a
-// clearcoat smooth enough that the camera path follows it instead (`coat_traced`).
+// clearcoat or a glossy lobe smooth enough that the camera path follows it instead
+// (`coat_traced`, `glossy_traced`).
 fn bsdf_gathered(m: Material, out: Outgoing, n: vec3<f32>, wo: vec3<f32>, wi: vec3<f32>) -> vec3<f32> {
     var f = under_coat(m, out, n, wo, wi);
+#ifdef GLOSSY_TRACED
+    if glossy_traced(m) {
+        f = max(f - glossy_lobe(m, out, n, wo, wi), vec3<f32>(0.0));
+    }
+#endif
 #ifdef CLEARCOAT
     f *= coat_through(m, out, n, wi);
     if !coat_traced(m) {
@@ -154,16 +165,45 @@ fn layers_toward(m: Material, out: Outgoing, n: vec3<f32>, wo: vec3<f32>, wi: ve
     }
     let i = specular_at(m, out.fresnel, n_dot_l);
     let o = Specular(out.single, out.lost, out.dielectric);
-    var f = cosine_lobes(m, out.fresnel, o, i, out.average) / PI;
-    if has_glossy_lobe(m) {
-        let a = m.perceptual_roughness * m.perceptual_roughness;
-        let h = normalize(wi + wo);
-        let d = ggx_d(max(dot(n, h), 0.0), a);
-        let v = smith_visibility(out.n_dot_v, n_dot_l, a);
-        f += d * v * fresnel_schlick(out.fresnel, specular_f90(out.fresnel), dot(wo, h));
-    }
-    return f;
+    return cosine_lobes(m, out.fresnel, o, i, out.average) / PI + glossy_lobe(m, out, n, wo, wi);
 }
+
+// The GGX lobe of f(wo, wi) (0 below DELTA_ROUGHNESS, whose lobe is a delta).
+fn glossy_lobe(m: Material, out: Outgoing, n: vec3<f32>, wo: vec3<f32>, wi: vec3<f32>) -> vec3<f32> {
+    let n_dot_l = dot(n, wi);
+    if !has_glossy_lobe(m) || n_dot_l <= 0.0 || out.n_dot_v <= 0.0 {
+        return vec3<f32>(0.0);
+    }
+    let a = m.perceptual_roughness * m.perceptual_roughness;
+    let h = normalize(wi + wo);
+    let d = ggx_d(max(dot(n, h), 0.0), a);
+    let v = smith_visibility(out.n_dot_v, n_dot_l, a);
+    return d * v * fresnel_schlick(out.fresnel, specular_f90(out.fresnel), dot(wo, h));
+}
+
+#ifdef GLOSSY_TRACED
+// Whether camera paths follow a surface's glossy lobe from the camera's first hit rather than
+// gather it: a lobe smoother than photons are stored under (GLOSSY_STORE_ROUGHNESS), where
+// each photon near its peak is a blotch of its light's colour, on a surface that stores them
+// for its diffuse lobe (glossy plastic, a polished floor). Beside a coat, glass or diffuse
+// transmission the lobe stays gathered.
+fn glossy_traced(m: Material) -> bool {
+    return has_glossy_lobe(m) && m.perceptual_roughness < GLOSSY_STORE_ROUGHNESS
+        && any(diffuse_color(m) > vec3<f32>(0.0)) && glass_share(m) <= 0.0
+        && translucency(m) <= 0.0 && m.clearcoat.x <= 0.0;
+}
+
+// Draws the glossy lobe alone from wo (`glossy_traced`): its direction and f cos / pdf.
+fn scatter_glossy(m: Material, n: vec3<f32>, wo: vec3<f32>, rng: ptr<function, u32>) -> Scatter {
+    let s = sample_ggx(m, n, wo, vec2<f32>(random(rng), random(rng)));
+    if s.w <= 0.0 {
+        return Scatter(s.xyz, vec3<f32>(0.0));
+    }
+    let f0 = specular_f0(m);
+    let f = fresnel_schlick(f0, specular_f90(f0), dot(wo, normalize(wo + s.xyz)));
+    return Scatter(s.xyz, f * s.w);
+}
+#endif
 
 // Photons are stored at glossy surfaces at least this rough (density estimation needs a
 // lobe wide enough to gather over: at 0.3 each photon near a lobe's peak was a blotch of

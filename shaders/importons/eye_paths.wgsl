@@ -13,6 +13,9 @@
 #ifdef CLEARCOAT
 #import bevy_rppm::bsdf::{coat_traced, scatter_coat}
 #endif
+#ifdef GLOSSY_TRACED
+#import bevy_rppm::bsdf::{glossy_traced, scatter_glossy}
+#endif
 #import bevy_rppm::common::{DELTA_ROUGHNESS, luminance}
 #import bevy_rppm::cubemap::{cubemap, trace_ray, NO_HIT}
 #ifdef ABSORPTION
@@ -273,6 +276,16 @@ fn camera_path(pixel: u32, first: Vertex, rng: ptr<function, u32>) -> vec3<f32> 
                 bounce = Bounce(s.direction, s.weight);
                 throughput *= s.weight;
                 sampled = v.m.clearcoat.y >= DELTA_ROUGHNESS && params.indirect_only == 0u && params.direct_photons == 0u;
+                continue;
+            }
+#endif
+#ifdef GLOSSY_TRACED
+            // Likewise a glossy lobe too sharp to gather over (`glossy_traced`).
+            if depth == 1u && glossy_traced(v.m) {
+                let s = scatter_glossy(v.m, v.n, v.wo, rng);
+                bounce = Bounce(s.direction, s.weight);
+                throughput *= s.weight;
+                sampled = params.indirect_only == 0u && params.direct_photons == 0u;
                 continue;
             }
 #endif

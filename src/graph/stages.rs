@@ -72,7 +72,13 @@ pub(super) fn select_stages(
     let traced = state.photons > 0 && state.cubemap.cubemap.is_some();
     let subsampled = state.key.subsampling > 1;
     let lookups = scene.lookups;
-    let layers = scene.paths & ScatterPaths::LAYERS;
+    let mut layers = scene.paths & ScatterPaths::LAYERS;
+    // Without camera paths past the first hit (eye depth 1, a target too large for their
+    // buffers) no path follows a sharp glossy lobe: the first hit gathers it too.
+    layers.set(
+        ScatterPaths::GLOSSY_TRACED,
+        layers.contains(ScatterPaths::GLOSSY_TRACED) && state.importons,
+    );
     // Camera paths go on past the G-buffer and trace their shadow rays.
     let paths_lit = state.importons && state.traced_shadows;
     StageIds {

@@ -92,8 +92,9 @@ pub fn material_defs(lookups: Lookups, paths: ScatterPaths) -> Vec<bevy::shader:
 /// Whether camera paths go on past some surface: a mirror, glass, or a smooth glossy metal
 /// (roughness under [`GLOSSY_STORE_ROUGHNESS`], no diffuse lobe), where no photon is
 /// stored (`!stores_photons` in bsdf.wgsl), a smooth surface partly mirror or glass (from
-/// the first hit), or a clearcoat that smooth (`coat_traced`). A texture counts at its
-/// darkest, smoothest and most metallic texel.
+/// the first hit), a clearcoat that smooth (`coat_traced`), or a glossy lobe that smooth
+/// beside a diffuse one ([`GpuMaterial::glossy_traced`], from the first hit). A texture
+/// counts at its darkest, smoothest and most metallic texel.
 pub fn has_path_surfaces(materials: &[GpuMaterial]) -> bool {
     materials.iter().any(|m| {
         if m.clearcoat[0] > 0.0 && m.clearcoat[1] < GLOSSY_STORE_ROUGHNESS {
@@ -116,7 +117,9 @@ pub fn has_path_surfaces(materials: &[GpuMaterial]) -> bool {
         let placed = GpuMaterial { metallic, ..*m };
         let glass = placed.glass_share() > 0.0;
         let delta = roughness < DELTA_ROUGHNESS && placed.delta_share() > 0.0;
-        delta || (roughness < GLOSSY_STORE_ROUGHNESS || glass) && (base || diffuse * albedo <= 0.0)
+        delta
+            || m.glossy_traced()
+            || (roughness < GLOSSY_STORE_ROUGHNESS || glass) && (base || diffuse * albedo <= 0.0)
     })
 }
 
@@ -199,6 +202,28 @@ impl GpuMaterial {
             && self.clearcoat[0] <= 0.0
             && self.diffuse_transmission <= 0.0
             && !MaterialFlags::from_bits_truncate(self.flags).intersects(cut)
+    }
+
+    /// A glossy lobe too sharp to gather over (under [`GLOSSY_STORE_ROUGHNESS`]) beside a
+    /// diffuse lobe: glossy plastic, a polished floor. Camera paths follow it from the first
+    /// hit (`glossy_traced` in shaders/common/bsdf.wgsl). A metallic-roughness texture counts
+    /// at its smoothest and least metallic texel.
+    pub(super) fn glossy_traced(&self) -> bool {
+        let [base, metal_rough, ..] = self.textures.map(|t| t != NO_TEXTURE);
+        let (roughness, metallic) = if metal_rough {
+            (DELTA_ROUGHNESS, 0.0)
+        } else {
+            (self.perceptual_roughness, self.metallic)
+        };
+        let colour = luminance([self.base_color[0], self.base_color[1], self.base_color[2]]);
+        let diffuse = base || (1.0 - metallic) * (1.0 - self.specular_transmission) * colour > 0.0;
+        let lobe = self.reflectance > 0.0 || self.metallic > 0.0 || metal_rough;
+        (DELTA_ROUGHNESS..GLOSSY_STORE_ROUGHNESS).contains(&roughness)
+            && lobe
+            && diffuse
+            && self.glass_share() <= 0.0
+            && self.clearcoat[0] <= 0.0
+            && self.diffuse_transmission <= 0.0
     }
 
     /// What its delta lobes carry where it is smooth: the mirror of its metal part and its
@@ -335,5 +360,45 @@ mod tests {
             Lookups::of(&[glassy], &[]),
             Lookups::TEXTURED | Lookups::ALPHA_TEST
         );
+    }
+
+    #[test]
+    fn camera_paths_follow_a_glossy_lobe_too_sharp_to_gather_beside_a_diffuse_one() {
+        let gpu = |m: StandardMaterial| material_to_gpu(&m, [NO_TEXTURE; 4]);
+        let plastic = |roughness| StandardMaterial {
+            perceptual_roughness: roughness,
+            ..default()
+        };
+        // Bevy's default (roughness 0.5) gathers its lobe; a polished floor (0.15) does not.
+        assert!(!gpu(plastic(0.5)).glossy_traced());
+        assert!(gpu(plastic(0.15)).glossy_traced());
+        assert!(has_path_surfaces(&[gpu(plastic(0.15))]));
+        assert!(!has_path_surfaces(&[gpu(plastic(0.5))]));
+        // No specular layer, a mirror-smooth one, or beside a coat, glass or diffuse
+        // transmission (their own paths): not traced.
+        for m in [
+            StandardMaterial {
+                reflectance: 0.0,
+                ..plastic(0.15)
+            },
+            plastic(0.0),
+            StandardMaterial {
+                clearcoat: 1.0,
+                ..plastic(0.15)
+            },
+            StandardMaterial {
+                specular_transmission: 0.5,
+                ..plastic(0.15)
+            },
+            StandardMaterial {
+                diffuse_transmission: 0.5,
+                ..plastic(0.15)
+            },
+        ] {
+            assert!(!gpu(m).glossy_traced());
+        }
+        // A metallic-roughness texture may hold such texels.
+        let textured = material_to_gpu(&plastic(1.0), [NO_TEXTURE, 0, NO_TEXTURE, NO_TEXTURE]);
+        assert!(textured.glossy_traced());
     }
 }

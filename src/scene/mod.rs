@@ -62,8 +62,13 @@ bitflags::bitflags! {
         /// Panes: clear glass with flat faces facing opposite ways, which light crosses
         /// straight through (direct light to shadow rays, shaders/common/panes.wgsl).
         const PANES = 1 << 8;
+        /// A glossy lobe too sharp to gather over beside a diffuse one, which camera paths
+        /// follow from the first hit and the first hit's gather leaves out.
+        const GLOSSY_TRACED = 1 << 9;
         /// The layers every stage that evaluates the BSDF needs, gathers included.
-        const LAYERS = Self::CLEARCOAT.bits() | Self::DIFFUSE_TRANSMISSION.bits();
+        const LAYERS = Self::CLEARCOAT.bits()
+            | Self::DIFFUSE_TRANSMISSION.bits()
+            | Self::GLOSSY_TRACED.bits();
         /// Glass or water, smooth or rough.
         const GLASS = Self::REFRACTION.bits() | Self::ROUGH_REFRACTION.bits();
     }
@@ -82,6 +87,7 @@ impl ScatterPaths {
             (Self::CLEARCOAT, "CLEARCOAT"),
             (Self::DIFFUSE_TRANSMISSION, "DIFFUSE_TRANSMISSION"),
             (Self::PANES, "PANES"),
+            (Self::GLOSSY_TRACED, "GLOSSY_TRACED"),
         ]
         .into_iter()
         .filter_map(|(path, def)| self.contains(path).then_some(def))
@@ -383,6 +389,8 @@ impl SceneData {
         paths.set(ScatterPaths::SKY, self.sky[3] > 0.0);
         paths.set(ScatterPaths::CLEARCOAT, clearcoat);
         paths.set(ScatterPaths::DIFFUSE_TRANSMISSION, translucent);
+        let traced = self.materials.iter().any(|m| m.glossy_traced());
+        paths.set(ScatterPaths::GLOSSY_TRACED, traced && glossy);
         paths.set(ScatterPaths::PANES, self.has_panes());
         paths.set(
             ScatterPaths::ABSORPTION,

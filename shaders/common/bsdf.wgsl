@@ -117,12 +117,17 @@ fn bsdf_toward(m: Material, out: Outgoing, n: vec3<f32>, wo: vec3<f32>, wi: vec3
 // clearcoat or a glossy lobe smooth enough that the camera path follows it instead
 // (`coat_traced`, `glossy_traced`).
 fn bsdf_gathered(m: Material, out: Outgoing, n: vec3<f32>, wo: vec3<f32>, wi: vec3<f32>) -> vec3<f32> {
-    var f = under_coat(m, out, n, wo, wi);
 #ifdef GLOSSY_TRACED
+    // Such a surface has no coat, glass or diffuse transmission: its layers alone.
     if glossy_traced(m) {
-        f = max(f - glossy_lobe(m, out, n, wo, wi), vec3<f32>(0.0));
+        let n_dot_l = dot(n, wi);
+        if n_dot_l <= 0.0 || out.n_dot_v <= 0.0 {
+            return vec3<f32>(0.0);
+        }
+        return diffuse_layers(m, out, n_dot_l);
     }
 #endif
+    var f = under_coat(m, out, n, wo, wi);
 #ifdef CLEARCOAT
     f *= coat_through(m, out, n, wi);
     if !coat_traced(m) {
@@ -163,9 +168,14 @@ fn layers_toward(m: Material, out: Outgoing, n: vec3<f32>, wo: vec3<f32>, wi: ve
     if n_dot_l <= 0.0 || out.n_dot_v <= 0.0 {
         return vec3<f32>(0.0);
     }
+    return diffuse_layers(m, out, n_dot_l) + glossy_lobe(m, out, n, wo, wi);
+}
+
+// The layers of f(wo, wi) without a direction of their own (`cosine_lobes`), for n·wi > 0.
+fn diffuse_layers(m: Material, out: Outgoing, n_dot_l: f32) -> vec3<f32> {
     let i = specular_at(m, out.fresnel, n_dot_l);
     let o = Specular(out.single, out.lost, out.dielectric);
-    return cosine_lobes(m, out.fresnel, o, i, out.average) / PI + glossy_lobe(m, out, n, wo, wi);
+    return cosine_lobes(m, out.fresnel, o, i, out.average) / PI;
 }
 
 // The GGX lobe of f(wo, wi) (0 below DELTA_ROUGHNESS, whose lobe is a delta).

@@ -155,32 +155,51 @@ fn light_samples(i: u32) -> f32 {
 }
 #endif
 
+#ifdef SPHERE_LIGHTS_SEEN
+// The sphere light `l` (a punctual light's radius) as a ray from x along d meets it before
+// t_max: its radiance I/(πR²), a spot's falloff that of its centre, as its shadow rays see
+// it, and (w) the cap 1 − cos θ it subtends from x; 0 where the ray misses it. The sphere
+// blocks nothing, as Bevy's lights do not.
+fn sphere_met(l: Light, x: vec3<f32>, d: vec3<f32>, t_max: f32) -> vec4<f32> {
+    let r = l.position.w;
+    if l.kind == LIGHT_DIRECTIONAL || r <= 0.0 {
+        return vec4<f32>(0.0);
+    }
+    let to_light = l.position.xyz - x;
+    let d2 = dot(to_light, to_light);
+    let b = dot(d, to_light);
+    let disc = b * b - (d2 - r * r);
+    let cap = sphere_cap(r, d2);
+    if cap <= 0.0 || b <= 0.0 || disc <= 0.0 || b - sqrt(disc) >= t_max {
+        return vec4<f32>(0.0);
+    }
+    return vec4<f32>(l.radiance.rgb / (PI * r * r) * spot_falloff(l, -to_light * inverseSqrt(d2)), cap);
+}
+
+// The sphere lights a ray from x along d sees before t_max, where no shadow ray could have
+// drawn them (the camera's own rays, and rays a smooth surface reflects or refracts).
+fn sphere_lights_seen(x: vec3<f32>, d: vec3<f32>, t_max: f32) -> vec3<f32> {
+    var sum = vec3<f32>(0.0);
+    for (var i = 0u; i < params.light_count; i += 1u) {
+        sum += sphere_met(lights[i], x, d, t_max).rgb;
+    }
+    return sum;
+}
+#endif
+
 #ifdef SPHERE_LIGHTS
-// Light from the sphere lights (a punctual light's radius) that a camera path's ray from x
-// along d meets before `t_max`, having left a rough vertex whose shadow rays sample them too:
-// each weighted by the power heuristic against those (a sphere seen in a sharp lobe is found
-// by the path far more often than by a point drawn on it). The sphere blocks nothing, as
-// Bevy's lights do not; its radiance is I/(πR²), a spot's falloff that of its centre, as
-// its shadow rays see it.
+// Light from the sphere lights that a camera path's ray from x along d meets before `t_max`,
+// having left a rough vertex whose shadow rays sample them too: each weighted by the power
+// heuristic against those (a sphere seen in a sharp lobe is found by the path far more often
+// than by a point drawn on it).
 fn sphere_lights_met(x: vec3<f32>, d: vec3<f32>, t_max: f32, drawn_density: f32) -> vec3<f32> {
     var sum = vec3<f32>(0.0);
     for (var i = 0u; i < params.light_count; i += 1u) {
-        let l = lights[i];
-        let r = l.position.w;
-        if l.kind == LIGHT_DIRECTIONAL || r <= 0.0 {
-            continue;
+        let met = sphere_met(lights[i], x, d, t_max);
+        if met.w > 0.0 {
+            let density = light_samples(i) / (2.0 * PI * met.w);
+            sum += met.rgb * power_heuristic(drawn_density, density);
         }
-        let to_light = l.position.xyz - x;
-        let d2 = dot(to_light, to_light);
-        let b = dot(d, to_light);
-        let disc = b * b - (d2 - r * r);
-        let cap = sphere_cap(r, d2);
-        if cap <= 0.0 || b <= 0.0 || disc <= 0.0 || b - sqrt(disc) >= t_max {
-            continue;
-        }
-        let density = light_samples(i) / (2.0 * PI * cap);
-        let radiance = l.radiance.rgb / (PI * r * r) * spot_falloff(l, -to_light * inverseSqrt(d2));
-        sum += radiance * power_heuristic(drawn_density, density);
     }
     return sum;
 }

@@ -99,6 +99,7 @@ pub(super) fn select_stages(
                     && scene.paths.contains(ScatterPaths::ROUGH_REFRACTION)
                     && !scene.data.lights.is_empty(),
                 sphere_lights: paths_lit && scene.sphere_lights,
+                spheres_seen: scene.data.has_sphere_lights(),
                 reflected_emission: state.importons
                     && scene.paths.contains(ScatterPaths::REFRACTION)
                     && (!scene.data.emitters.is_empty() || scene.paths.contains(ScatterPaths::SKY)),

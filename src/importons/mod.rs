@@ -91,6 +91,9 @@ pub struct EyePathKey {
     /// and rough lobes (`SceneBuffers::sphere_lights`), and camera paths go on with traced
     /// shadows.
     pub sphere_lights: bool,
+    /// The camera's rays and camera paths off delta lobes (mirrors, smooth glass) see the
+    /// sphere lights (`SPHERE_LIGHTS_SEEN`): the scene has one.
+    pub spheres_seen: bool,
     /// Camera paths at smooth glass look up the emission along its reflection besides going
     /// on (`REFLECTED_EMISSION`): the scene has smooth glass and emitters or a sky.
     pub reflected_emission: bool,
@@ -126,6 +129,9 @@ impl SpecializedComputePipeline for EyePathPipeline {
         }
         if key.sphere_lights {
             shader_defs.push("SPHERE_LIGHTS".into());
+        }
+        if key.spheres_seen || key.sphere_lights {
+            shader_defs.push("SPHERE_LIGHTS_SEEN".into());
         }
         if key.reflected_emission {
             shader_defs.push("REFLECTED_EMISSION".into());

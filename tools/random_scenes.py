@@ -29,6 +29,10 @@ def colour(draw, lo, hi):
 
 
 def object_material(g, draw, kind):
+    if kind == "mirror":
+        return g.material([0.95, 0.95, 0.95], roughness=draw.choice([0.0, draw.uniform(0.05, 0.15)]), metallic=1.0)
+    if kind == "lamp":
+        return g.emitter([1.0, draw.uniform(0.7, 1.0), draw.uniform(0.5, 0.9)], draw.uniform(5.0, 20.0))
     if kind == "diffuse":
         return g.material(colour(draw, 0.1, 0.85))
     if kind == "metal":
@@ -43,7 +47,17 @@ def object_material(g, draw, kind):
     return g.tinted_glass(1.5, colour(draw, 0.2, 0.9), draw.uniform(0.2, 0.6))
 
 
-def scene(path, seed):
+def window_wall(x, h, d, draw):
+    """The wall at x (facing +x, into the room) with a window hole: four quads around it."""
+    y0, y1 = draw.uniform(0.6, 1.0), h - draw.uniform(0.3, 0.6)
+    z0, z1 = -d / 2 + draw.uniform(0.3, d / 3), d / 2 - draw.uniform(0.3, d / 3)
+    def quad(za, zb, ya, yb):
+        return [[x, ya, za], [x, ya, zb], [x, yb, zb], [x, yb, za]]
+    return [quad(-d / 2, z0, 0, h), quad(z1, d / 2, 0, h), quad(z0, z1, 0, y0), quad(z0, z1, y1, h)]
+
+
+def scene(path, seed, wide=False):
+    """One room; `wide` also draws mirrors, emissive balls and a window with the sun in it."""
     draw = random.Random(seed)
     w, h, d = draw.uniform(2.5, 5.0), draw.uniform(2.2, 3.4), draw.uniform(2.5, 5.0)
     closed = draw.random() < 0.5
@@ -51,11 +65,14 @@ def scene(path, seed):
     faces = box([-w / 2, 0, -d / 2], [w / 2, h, d / 2], inward=True)
     floor, ceiling, back, front, left, right = faces
     g.quads([floor], object_material(g, draw, draw.choice(["diffuse", "diffuse", "metal", "plastic"])))
-    for wall in (ceiling, back, left, right) + ((front,) if closed else ()):
-        g.quads([wall], g.material(colour(draw, 0.1, 0.85)))
-
-    kinds = [draw.choice(["diffuse", "metal", "plastic", "glass", "frosted", "tinted"]) for _ in range(draw.randint(1, 3))]
+    walls = [(wall, colour(draw, 0.1, 0.85)) for wall in (ceiling, back, left, right) + ((front,) if closed else ())]
+    kinds = ["diffuse", "metal", "plastic", "glass", "frosted", "tinted"] + (["mirror", "lamp"] if wide else [])
+    kinds = [draw.choice(kinds) for _ in range(draw.randint(1, 3))]
     has_glass = any(k in ("glass", "frosted", "tinted") for k in kinds)
+    window = wide and closed and not has_glass and draw.random() < 0.5
+    for wall, rgb in walls:
+        g.quads(window_wall(-w / 2, h, d, draw) if window and wall is left else [wall], g.material(rgb))
+
     slots = [(-w / 4, -d / 4), (w / 4, -d / 4), (0.0, d / 8)]
     draw.shuffle(slots)
     for kind, (x, z) in zip(kinds, slots):
@@ -92,6 +109,11 @@ def scene(path, seed):
                 light["extras"] = {"rppm_radius": draw.uniform(0.05, 0.2)}
             g.light(light, translation=at)
     sky = None
+    if window:
+        # The sun through the window in the left wall, onto the floor; the sky outside it.
+        sky = colour(draw, 0.1, 0.5)
+        g.light({"type": "directional", "color": [1.0, 0.95, 0.85], "intensity": draw.uniform(2.0, 8.0)},
+                direction=[draw.uniform(0.5, 1.0), -draw.uniform(0.3, 0.8), draw.uniform(-0.4, 0.4)])
     if not closed:
         if draw.random() < 0.5:
             sky = colour(draw, 0.1, 0.5)
@@ -103,7 +125,7 @@ def scene(path, seed):
     eye = [draw.uniform(-w / 4, w / 4), draw.uniform(1.0, h - 0.4), eye_z]
     g.camera(eye, [draw.uniform(-0.3, 0.3), draw.uniform(0.2, 0.8), -d / 4], yfov=draw.uniform(0.8, 1.1))
     g.write(path, f"bevy_rppm tools/random_scenes.py seed {seed}", sky=sky)
-    return {"closed": closed, "objects": kinds, "lights": lights, "sky": sky is not None}
+    return {"closed": closed, "objects": kinds, "lights": lights, "sky": sky is not None, "window": window}
 
 
 def main():
@@ -111,11 +133,12 @@ def main():
     parser.add_argument("out", help="folder for the .gltf files")
     parser.add_argument("--count", type=int, default=12)
     parser.add_argument("--seed", type=int, default=1)
+    parser.add_argument("--wide", action="store_true", help="mirrors, emissive balls and windows too")
     args = parser.parse_args()
     os.makedirs(args.out, exist_ok=True)
     for i in range(args.count):
         path = os.path.join(args.out, f"r{args.seed}_{i:02}.gltf")
-        print(path, scene(path, args.seed * 1000 + i))
+        print(path, scene(path, args.seed * 1000 + i, args.wide))
 
 
 if __name__ == "__main__":

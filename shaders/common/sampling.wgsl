@@ -1,5 +1,5 @@
 // The random numbers of every stage: a PCG hash of (iteration, item, draw), and for a camera
-// path's first draws a Kronecker sequence over iterations (`stratified_draws`).
+// path's first draws Owen-scrambled Sobol pairs over iterations (`stratified_draws`).
 #define_import_path bevy_rppm::sampling
 
 // A PCG hash: the random numbers of every stage come from hashing (iteration, item, draw).
@@ -17,28 +17,58 @@ var<private> stratified_shift: u32;
 // Numbers of dimensions a camera path draws from a sequence rather than the hash.
 const STRATIFIED_DIMENSIONS: u32 = 8u;
 
-// From here the invocation's first STRATIFIED_DIMENSIONS `random` draws come from a Kronecker
-// sequence (Roberts' R_8) indexed by the iteration and shifted per `item`: over iterations an
-// item's draws (a pixel's Fresnel choice, light sample) stratify instead of falling
-// independently, while each iteration's stays uniform (unbiased).
+// From here the invocation's first STRATIFIED_DIMENSIONS `random` draws come from a
+// sequence indexed by the iteration and scrambled per `item`: over iterations an item's draws
+// (a pixel's Fresnel choice, light sample) stratify instead of falling independently, while
+// each iteration's stays uniform (unbiased).
 fn stratified_draws(item: u32, index: u32) {
     stratified_left = STRATIFIED_DIMENSIONS;
     stratified_index = index;
     stratified_shift = pcg_hash(item ^ 0x2545f491u);
 }
 
-// Step of R_8's dimension d, in units of 2⁻³²: (1/φ₈)^(d+1), φ₈ the root of x⁹ = x + 1.
-fn kronecker_step(d: u32) -> u32 {
-    switch d {
-        case 0u: { return 0xebedeed9u; }
-        case 1u: { return 0xd96eb1a8u; }
-        case 2u: { return 0xc862b36du; }
-        case 3u: { return 0xb8acd90cu; }
-        case 4u: { return 0xaa324f90u; }
-        case 5u: { return 0x9cda5e69u; }
-        case 6u: { return 0x908e3d2cu; }
-        default: { return 0x8538ecb5u; }
+// Laine and Karras's hash: a permutation of the bits in which each bit depends only on those
+// below it, so on reversed bits an Owen scrambling (Burley 2020, "Practical hash-based Owen
+// scrambling").
+fn laine_karras(x: u32, seed: u32) -> u32 {
+    var v = x + seed;
+    v ^= v * 0x6c50b47cu;
+    v ^= v * 0xb82f1e52u;
+    v ^= v * 0xc7afe638u;
+    v ^= v * 0x8d22f6e6u;
+    return v;
+}
+
+fn owen_scramble(x: u32, seed: u32) -> u32 {
+    return reverseBits(laine_karras(reverseBits(x), seed));
+}
+
+// Sobol's second dimension of point n, as a 32-bit fraction (its first is reverseBits(n)).
+fn sobol_second(n: u32) -> u32 {
+    var r = 0u;
+    var v = 0x80000000u;
+    var i = n;
+    while i != 0u {
+        if (i & 1u) != 0u {
+            r ^= v;
+        }
+        i >>= 1u;
+        v ^= v >> 1u;
     }
+    return r;
+}
+
+// Draw d of the sequence: pairs of draws are 2D Sobol points, the index shuffled and each
+// coordinate Owen-scrambled by a seed of the item and the pair, so that pairs stay
+// independent of each other (Roberts' R₈ over all eight had consecutive draws nearly in
+// step: a light sample drawn from them stratified worse than none).
+fn sequence_draw(d: u32) -> u32 {
+    let seed = pcg_hash(stratified_shift + (d / 2u) * 0x9e3779b9u);
+    let n = owen_scramble(stratified_index, seed);
+    if d % 2u == 0u {
+        return owen_scramble(reverseBits(n), pcg_hash(seed ^ 0x68bc21ebu));
+    }
+    return owen_scramble(sobol_second(n), pcg_hash(seed ^ 0x02e5be93u));
 }
 
 // Uniform in [0, 1), advancing `state`.
@@ -46,9 +76,7 @@ fn random(state: ptr<function, u32>) -> f32 {
     if stratified_left > 0u {
         let d = STRATIFIED_DIMENSIONS - stratified_left;
         stratified_left -= 1u;
-        // Modulo 2³² exactly: no precision lost however far the index runs.
-        let u = pcg_hash(stratified_shift + d * 0x9e3779b9u) + stratified_index * kronecker_step(d);
-        return f32(u >> 8u) / 16777216.0;
+        return f32(sequence_draw(d) >> 8u) / 16777216.0;
     }
     *state = pcg_hash(*state);
     return f32(*state >> 8u) / 16777216.0;

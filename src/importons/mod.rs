@@ -130,7 +130,8 @@ impl SpecializedComputePipeline for EyePathPipeline {
         if key.sphere_lights {
             shader_defs.push("SPHERE_LIGHTS".into());
         }
-        if key.spheres_seen || key.sphere_lights {
+        // `sphere_lights` implies a sphere light, so this is set wherever that is.
+        if key.spheres_seen {
             shader_defs.push("SPHERE_LIGHTS_SEEN".into());
         }
         if key.reflected_emission {

@@ -16,7 +16,7 @@ macro_rules! wgsl {
 /// Handles of every stage's shader.
 #[derive(Resource, Clone)]
 pub struct RppmShaders {
-    /// Import-only libraries (`bevy_rppm::sampling`, `common`, `scene`, `microfacet`, `bsdf`, `mis`, `panes`, `cubemap`, `pane_rays`, `lighting`,
+    /// Import-only libraries (`bevy_rppm::sampling`, `common`, `camera`, `scene`, `microfacet`, `bsdf`, `mis`, `panes`, `cubemap`, `pane_rays`, `lighting`,
     /// `photon_map`),
     /// held so they stay loaded.
     _libraries: Vec<Handle<Shader>>,
@@ -47,6 +47,7 @@ impl RppmShaders {
             _libraries: vec![
                 wgsl!(shaders, "common/sampling.wgsl"),
                 wgsl!(shaders, "common/common.wgsl"),
+                wgsl!(shaders, "common/camera.wgsl"),
                 wgsl!(shaders, "common/microfacet.wgsl"),
                 wgsl!(shaders, "common/bsdf.wgsl"),
                 wgsl!(shaders, "common/mis.wgsl"),

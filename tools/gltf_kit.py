@@ -34,6 +34,13 @@ class Gltf:
         self.buf = bytearray()
         self.views, self.accessors, self.meshes, self.nodes, self.materials = [], [], [], [], []
         self.lights, self.extensions = [], {"KHR_lights_punctual"}
+        self.images = []
+
+    def texture(self, uri):
+        """The index of a texture reading the image at `uri` (relative to the .gltf)."""
+        if uri not in self.images:
+            self.images.append(uri)
+        return self.images.index(uri)
 
     def push(self, fmt, rows, kind, target, minmax=False, component=5126):
         offset = len(self.buf)
@@ -77,23 +84,29 @@ class Gltf:
         return self.material([0, 0, 0], emissiveFactor=list(rgb), extensions={
             "KHR_materials_emissive_strength": {"emissiveStrength": strength}})
 
-    def mesh(self, positions, normals, indices, material):
+    def mesh(self, positions, normals, indices, material, uvs=None):
         prim = {"attributes": {"POSITION": self.push("<3f", positions, "VEC3", 34962, True),
                                "NORMAL": self.push("<3f", normals, "VEC3", 34962)},
                 "indices": self.push("<I", indices, "SCALAR", 34963, component=5125), "material": material}
+        if uvs:
+            prim["attributes"]["TEXCOORD_0"] = self.push("<2f", uvs, "VEC2", 34962)
         self.meshes.append({"primitives": [prim]})
         self.nodes.append({"mesh": len(self.meshes) - 1})
 
-    def quads(self, quads, material):
-        """Quads given counter-clockwise as seen from the side they face."""
-        pos, nor, idx = [], [], []
+    def quads(self, quads, material, uv_size=None):
+        """Quads given counter-clockwise as seen from the side they face; with `uv_size` (m),
+        UVs run along the first and last edges, one unit every `uv_size` metres."""
+        pos, nor, idx, uvs = [], [], [], []
         for q in quads:
             n = unit(cross(sub(q[1], q[0]), sub(q[2], q[0])))
             b = len(pos)
             pos += q
             nor += [n] * 4
             idx += [b, b + 1, b + 2, b, b + 2, b + 3]
-        self.mesh(pos, nor, idx, material)
+            if uv_size:
+                u, v = (math.dist(q[1], q[0]) / uv_size, math.dist(q[3], q[0]) / uv_size)
+                uvs += [[0, v], [u, v], [u, 0], [0, 0]]
+        self.mesh(pos, nor, idx, material, uvs)
 
     def light(self, light, translation=None, direction=None):
         self.lights.append(light)
@@ -124,6 +137,9 @@ class Gltf:
                          "uri": "data:application/octet-stream;base64," + base64.b64encode(bytes(self.buf)).decode()}],
             "bufferViews": self.views, "accessors": self.accessors,
         }
+        if self.images:
+            doc["images"] = [{"uri": uri} for uri in self.images]
+            doc["textures"] = [{"source": i} for i in range(len(self.images))]
         with open(path, "w") as f:
             json.dump(doc, f)
 

@@ -3,7 +3,9 @@
 reference: each draws a room (closed with the camera inside, or open at the front under a sky
 and a sun), wall albedos from dark to bright, objects (boxes and spheres of diffuse, metal,
 plastic, clear, frosted or tinted glass) and lights (point, sphere, spot, emissive panels).
-A seed gives the same scenes on every machine.
+A seed gives the same scenes on every machine. `--wide` adds mirrors, emissive boxes and balls
+and windows with the sun; `--textured` adds checkered floors, normal-mapped walls, cut-out
+screens (alpha-masked, double-sided) and dense spheres of ~10⁵ triangles.
 
     python3 tools/random_scenes.py out/random --count 12 --seed 1
     python3 tools/reference.py out/random/r1_00.gltf --out out/random/r1_00.ref.exr --width 128 --height 128 --spp 4096
@@ -16,6 +18,7 @@ import argparse
 import math
 import os
 import random
+import shutil
 
 from gltf_kit import Gltf, box, rotate_y, sphere
 
@@ -56,27 +59,69 @@ def window_wall(x, h, d, draw):
     return [quad(-d / 2, z0, 0, h), quad(z1, d / 2, 0, h), quad(z0, z1, 0, y0), quad(z0, z1, y1, h)]
 
 
-def scene(path, seed, wide=False):
-    """One room; `wide` also draws mirrors, emissive balls and a window with the sun in it."""
+TEXTURES = os.path.join(os.path.dirname(os.path.abspath(__file__)), "../assets/suite/textures")
+
+
+def textured(g, draw, rgb):
+    """A wall material of colour `rgb`: plain, or under a normal map of bumps or tiles."""
+    if draw.random() < 0.5:
+        return g.material(rgb), None
+    normal = g.texture("textures/" + draw.choice(["bumps.png", "tiles.png"]))
+    return g.material(rgb, normalTexture={"index": normal}), draw.uniform(0.3, 1.0)
+
+
+def screen(g, draw, x, z, s):
+    """A double-sided cut-out screen of round holes (alpha-masked), upright or flat, at (x, z)."""
+    leaf = g.texture("textures/holes.png")
+    material = g.material([1, 1, 1], roughness=1.0, alphaMode="MASK", alphaCutoff=0.5, doubleSided=True)
+    g.materials[material]["pbrMetallicRoughness"]["baseColorTexture"] = {"index": leaf}
+    y = LIFT + draw.uniform(0.3, 1.0)
+    if draw.random() < 0.5:
+        quad = [[x - s, y + s, z], [x - s, y - s, z], [x + s, y - s, z], [x + s, y + s, z]][::-1]
+        quad = rotate_y(quad, draw.uniform(0, math.pi), [x, 0, z])
+    else:
+        quad = [[x - s, y, z + s], [x + s, y, z + s], [x + s, y, z - s], [x - s, y, z - s]]
+    g.quads([quad], material, uv_size=2 * s / draw.choice([1, 2]))
+
+
+def scene(path, seed, wide=False, textures=False):
+    """One room; `wide` also draws mirrors, emissive balls and a window with the sun in it;
+    `textures` checkered floors, normal-mapped walls, cut-out screens and dense spheres."""
     draw = random.Random(seed)
     w, h, d = draw.uniform(2.5, 5.0), draw.uniform(2.2, 3.4), draw.uniform(2.5, 5.0)
     closed = draw.random() < 0.5
     g = Gltf()
     faces = box([-w / 2, 0, -d / 2], [w / 2, h, d / 2], inward=True)
     floor, ceiling, back, front, left, right = faces
-    g.quads([floor], object_material(g, draw, draw.choice(["diffuse", "diffuse", "metal", "plastic"])))
+    floor_material = object_material(g, draw, draw.choice(["diffuse", "diffuse", "metal", "plastic"]))
+    floor_uv = None
+    if textures and draw.random() < 0.6:
+        checker = g.texture("textures/checker.png")
+        g.materials[floor_material]["pbrMetallicRoughness"]["baseColorTexture"] = {"index": checker}
+        floor_uv = draw.uniform(0.5, 2.0)
+    g.quads([floor], floor_material, uv_size=floor_uv)
     walls = [(wall, colour(draw, 0.1, 0.85)) for wall in (ceiling, back, left, right) + ((front,) if closed else ())]
     kinds = ["diffuse", "metal", "plastic", "glass", "frosted", "tinted"] + (["mirror", "lamp"] if wide else [])
+    kinds += ["screen", "dense", "screen"] if textures else []
     kinds = [draw.choice(kinds) for _ in range(draw.randint(1, 3))]
     has_glass = any(k in ("glass", "frosted", "tinted") for k in kinds)
     window = wide and closed and not has_glass and draw.random() < 0.5
     for wall, rgb in walls:
-        g.quads(window_wall(-w / 2, h, d, draw) if window and wall is left else [wall], g.material(rgb))
+        material, uv = textured(g, draw, rgb) if textures else (g.material(rgb), None)
+        g.quads(window_wall(-w / 2, h, d, draw) if window and wall is left else [wall], material, uv)
 
     slots = [(-w / 4, -d / 4), (w / 4, -d / 4), (0.0, d / 8)]
     draw.shuffle(slots)
     for kind, (x, z) in zip(kinds, slots):
         s = draw.uniform(0.2, 0.45)
+        if kind == "screen":
+            screen(g, draw, x, z, s * 1.5)
+            continue
+        if kind == "dense":
+            # ~10⁵ triangles of diffuse or metal: many triangles per deep-cubemap pixel.
+            pos, nor, idx = sphere([x, LIFT + s, z], s, rings=180, segments=360)
+            g.mesh(pos, nor, idx, object_material(g, draw, draw.choice(["diffuse", "metal"])))
+            continue
         material = object_material(g, draw, kind)
         if draw.random() < 0.5:
             pos, nor, idx = sphere([x, LIFT + s, z], s)
@@ -134,11 +179,15 @@ def main():
     parser.add_argument("--count", type=int, default=12)
     parser.add_argument("--seed", type=int, default=1)
     parser.add_argument("--wide", action="store_true", help="mirrors, emissive balls and windows too")
+    parser.add_argument("--textured", action="store_true",
+                        help="checkered floors, normal-mapped walls, cut-out screens and dense spheres too")
     args = parser.parse_args()
     os.makedirs(args.out, exist_ok=True)
+    if args.textured:
+        shutil.copytree(TEXTURES, os.path.join(args.out, "textures"), dirs_exist_ok=True)
     for i in range(args.count):
         path = os.path.join(args.out, f"r{args.seed}_{i:02}.gltf")
-        print(path, scene(path, args.seed * 1000 + i, args.wide))
+        print(path, scene(path, args.seed * 1000 + i, args.wide, args.textured))
 
 
 if __name__ == "__main__":

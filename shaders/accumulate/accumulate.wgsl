@@ -2,7 +2,8 @@
 // (directly on the G-buffer, and through importons), averaged into the radiance of all
 // iterations since the last reset (w: the pixel's count), or with HISTORY of the pixel's
 // history kept through motion.
-#import bevy_rppm::common::{IterationParams, MOVED_TRIANGLE, DELTA_ROUGHNESS, subsample_representative, toward_eye}
+#import bevy_rppm::common::{IterationParams, MOVED_TRIANGLE, DELTA_ROUGHNESS, subsample_representative}
+#import bevy_rppm::camera::{camera_ray, toward_eye}
 #ifdef SUBSAMPLED
 #import bevy_rppm::bsdf::{bsdf_from, bsdf_gathered}
 #import bevy_rppm::scene::{gbuffer_material, scene_material, triangles}
@@ -229,10 +230,7 @@ fn clamped(history: vec3<f32>, local: vec2<u32>, part: u32) -> vec3<f32> {
 fn reprojected(position: vec4<f32>, pixel: vec2<u32>) -> i32 {
     var point = vec4<f32>(position.xyz, 1.0);
     if position.w == 0.0 {
-        let ndc = (vec2<f32>(pixel) + 0.5) / vec2<f32>(params.size) * vec2<f32>(2.0, -2.0)
-            + vec2<f32>(-1.0, 1.0);
-        let near = params.world_from_clip * vec4<f32>(ndc, 1.0, 1.0);
-        point = vec4<f32>(near.xyz / near.w - params.camera_position.xyz, 0.0);
+        point = vec4<f32>(camera_ray(params, pixel).direction, 0.0);
     }
     let clip = params.previous_clip_from_world * point;
     if clip.w <= 0.0 {

@@ -352,15 +352,6 @@ fn gather_radius(params: IterationParams, pixels: f32, footprint: f32) -> f32 {
     return clamp(pixels * footprint, 1e-6 * scale, 0.1 * scale);
 }
 
-// The unit direction from `p` toward the eye: the view's back direction under an orthographic
-// projection (its rays are parallel), which world_from_clip maps clip depth's axis to.
-fn toward_eye(params: IterationParams, p: vec3<f32>) -> vec3<f32> {
-    if params.orthographic != 0u {
-        return normalize((params.world_from_clip * vec4<f32>(0.0, 0.0, 1.0, 0.0)).xyz);
-    }
-    return normalize(params.camera_position.xyz - p);
-}
-
 // The full-resolution pixel that stands for subsampled texel `texel` (the block's centre).
 fn subsample_representative(params: IterationParams, texel: vec2<u32>) -> vec2<i32> {
     let n = params.indirect_subsampling;

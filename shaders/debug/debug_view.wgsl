@@ -1,6 +1,7 @@
 // Debug images: shading normals of the camera G-buffer, or of primary rays traced through the
 // deep cubemap with the same jitter, as this iteration's sample. The two should match.
 #import bevy_rppm::common::{IterationParams, triangle_normal}
+#import bevy_rppm::camera::camera_ray
 #import bevy_rppm::scene::{triangle_at, interpolated_normal}
 #import bevy_rppm::cubemap::{trace_cubemap, NO_HIT}
 
@@ -32,13 +33,9 @@ fn cubemap_normals(@builtin(global_invocation_id) id: vec3<u32>) {
     if any(id.xy >= params.size) {
         return;
     }
-    let size = vec2<f32>(params.size);
-    let ndc = vec2<f32>((f32(id.x) + 0.5) / size.x * 2.0 - 1.0, 1.0 - (f32(id.y) + 0.5) / size.y * 2.0);
-    // Reverse Z: depth 1 is the near plane; 0.5 is another point on the same camera ray.
-    let near = params.world_from_clip * vec4<f32>(ndc, 1.0, 1.0);
-    let mid = params.world_from_clip * vec4<f32>(ndc, 0.5, 1.0);
-    let o = near.xyz / near.w;
-    let d = normalize(mid.xyz / mid.w - o);
+    let ray = camera_ray(params, id.xy);
+    let o = ray.origin;
+    let d = ray.direction;
     let hit = trace_cubemap(o, d, 0.0, 1.0e30, NO_HIT);
     var sample = vec3<f32>(0.0);
     if hit.triangle != NO_HIT {

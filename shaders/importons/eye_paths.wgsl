@@ -3,7 +3,8 @@
 // With IMPORTONS, a pixel that sees a specular surface (mirror, glass) follows the camera path
 // through the deep cubemap to the first non-specular surface, lights it the same way, and
 // leaves an importon there for indirect splatting.
-#import bevy_rppm::common::{Material, IterationParams, Importon, NO_IMPORTON, gather_radius, toward_eye}
+#import bevy_rppm::common::{Material, IterationParams, Importon, NO_IMPORTON, gather_radius}
+#import bevy_rppm::camera::{camera_ray, toward_eye}
 #import bevy_rppm::sampling::{random, pcg_hash, stratified_draws}
 #import bevy_rppm::scene::{triangle_at, gbuffer_material, resolve_surface, kernel_normal, material_at, as_seen_from, normal_at, interpolated_normal}
 #import bevy_rppm::lighting::{params, surface_light}
@@ -431,14 +432,9 @@ fn see(pixel: vec2<u32>, lane: u32) {
 // sees before its surface: Bevy draws no light, but a light with a radius is a lamp's bulb,
 // which the references (and a camera) see.
 fn spheres_in_pixel(pixel: vec2<u32>, gp: vec4<f32>) -> vec3<f32> {
-    let size = vec2<f32>(params.size);
-    let ndc = (vec2<f32>(pixel) + 0.5) / size * vec2<f32>(2.0, -2.0) + vec2<f32>(-1.0, 1.0);
-    // Reverse Z: depth 1 is the near plane; 0.5 is another point on the same ray.
-    let near = params.world_from_clip * vec4<f32>(ndc, 1.0, 1.0);
-    let mid = params.world_from_clip * vec4<f32>(ndc, 0.5, 1.0);
-    let o = near.xyz / near.w;
-    let d = normalize(mid.xyz / mid.w - o);
-    return sphere_lights_seen(o, d, select(1.0e30, dot(gp.xyz - o, d), gp.w != 0.0));
+    let ray = camera_ray(params, pixel);
+    let far = select(1.0e30, dot(gp.xyz - ray.origin, ray.direction), gp.w != 0.0);
+    return sphere_lights_seen(ray.origin, ray.direction, far);
 }
 #endif
 

@@ -25,7 +25,7 @@ the BSDF above; its textures and normal are left out); `KHR_materials_diffuse_tr
 `bevy_translucent` (bevy_layers.py: Lambert reflecting 1 − t, transmitting t, both sides; its colour and
 textures are left out, as in bevy_rppm). `KHR_materials_specular` tints only the
 dielectric's specular layer, which the Lambertian stand-in leaves out.
-Textures (numpy needed): base colour texture × factor and emissive texture × factor as
+Textures (numpy needed): base colour texture × factor (a metal's reflectance too) and emissive texture × factor as
 bitmaps wrapped and filtered as their glTF sampler says (Mitsuba has one wrap mode for both
 axes; the magnification filter), COLOR_0 (× the base colour factor) as the `vertex_color` mesh attribute (under a base colour
 texture, folded into its factor where all alike, else left out), alpha `MASK` as a
@@ -100,11 +100,13 @@ def bsdf_of(material, textures=None, vertex_colors=False):
         metal, metal_kind = bsdf_of(dict(material, pbrMetallicRoughness=dict(pbr, metallicFactor=1.0)), textures)
         return ({"type": "blendbsdf", "weight": metallic, "bsdf_0": dielectric, "bsdf_1": metal},
                 f"blend({kind}, {metal_kind}) by metallic {metallic}")
+    # A metal's base colour texture tints its reflection.
+    metal_rgb = textures.colour(pbr["baseColorTexture"], base) if "baseColorTexture" in pbr and textures else rgb
     if metallic > 0 and roughness < 0.02 and not textured_metal:
-        return with_normal_map(material, textures, {"type": "conductor", "material": "none", "specular_reflectance": rgb},
-                               "conductor(none)")
+        return with_normal_map(material, textures, {"type": "conductor", "material": "none",
+                                                    "specular_reflectance": metal_rgb}, "conductor(none)")
     if metallic > 0 and not textured_metal:
-        return with_normal_map(material, textures, *rough_metal(rgb, None, roughness))
+        return with_normal_map(material, textures, *rough_metal(metal_rgb, None, roughness))
     description = "diffuse(lambert)"
     if "baseColorTexture" in pbr and textures:
         rgb = textures.colour(pbr["baseColorTexture"], base)

@@ -1,5 +1,6 @@
 // The random numbers of every stage: a PCG hash of (iteration, item, draw), and for a camera
-// path's first draws Owen-scrambled Sobol pairs over iterations (`stratified_draws`).
+// path's first draws Owen-scrambled Sobol pairs over iterations (`stratified_draws`); and
+// the draws of a direction toward a sphere or a triangle.
 #define_import_path bevy_rppm::sampling
 
 // A PCG hash: the random numbers of every stage come from hashing (iteration, item, draw).
@@ -99,4 +100,74 @@ fn cone_local(one_minus: f32, u: vec2<f32>) -> vec3<f32> {
     let sin_t = sqrt(max(u.x * one_minus * (2.0 - u.x * one_minus), 0.0));
     let phi = 6.2831855 * u.y;
     return vec3<f32>(sin_t * cos(phi), sin_t * sin(phi), cos_t);
+}
+
+// A direction uniform in the solid angle the triangle (a, b, c) subtends from x (Arvo 1995, as
+// pbrt-v4 writes it), as barycentrics (b, c) of where it meets the triangle, and that solid
+// angle in z (0: too thin to sample, the caller draws by area instead). No inverse
+// trigonometry: a GPU's asin and a sum of angles less π lose a small triangle's area.
+fn spherical_triangle(a: vec3<f32>, b: vec3<f32>, c: vec3<f32>, x: vec3<f32>, u: vec2<f32>) -> vec3<f32> {
+    let wa = normalize(a - x);
+    let wb = normalize(b - x);
+    let wc = normalize(c - x);
+    // Van Oosterom and Strackee's solid angle.
+    let area = 2.0 * atan2(abs(dot(wa, cross(wb, wc))), 1.0 + dot(wa, wb) + dot(wb, wc) + dot(wc, wa));
+    let cab = cross(wa, wb);
+    let cca = cross(wc, wa);
+    if area <= 0.0 || min(dot(cab, cab), dot(cca, cca)) < 1e-12 {
+        return vec3<f32>(0.0);
+    }
+    // The angle at a, between the planes through a and b and through a and c.
+    let n_ab = normalize(cab);
+    let n_ca = normalize(cca);
+    let cos_alpha = -dot(n_ab, n_ca);
+    let sin_alpha = length(cross(n_ab, n_ca));
+    // The sub-triangle of area u.x × area, then a point along its last edge.
+    let swept = u.x * area;
+    let sin_s = sin(swept);
+    let cos_s = cos(swept);
+    let sin_phi = cos_s * sin_alpha - sin_s * cos_alpha;
+    let cos_phi = -cos_s * cos_alpha - sin_s * sin_alpha;
+    let k1 = cos_phi + cos_alpha;
+    let k2 = sin_phi - sin_alpha * dot(wa, wb);
+    let cos_bp = clamp((k2 + (k2 * cos_phi - k1 * sin_phi) * cos_alpha) / ((k2 * sin_phi + k1 * cos_phi) * sin_alpha), -1.0, 1.0);
+    let sin_bp = sqrt(max(1.0 - cos_bp * cos_bp, 0.0));
+    let cp = cos_bp * wa + sin_bp * normalize(wc - dot(wc, wa) * wa);
+    let cos_t = 1.0 - u.y * (1.0 - dot(cp, wb));
+    let sin_t = sqrt(max(1.0 - cos_t * cos_t, 0.0));
+    let w = cos_t * wb + sin_t * normalize(cp - dot(cp, wb) * wb);
+    // Where w meets the triangle's plane (Möller–Trumbore).
+    let e1 = b - a;
+    let e2 = c - a;
+    let s1 = cross(w, e2);
+    let divisor = dot(s1, e1);
+    if abs(divisor) < 1e-20 {
+        return vec3<f32>(0.0);
+    }
+    let s = x - a;
+    var b1 = clamp(dot(s, s1) / divisor, 0.0, 1.0);
+    var b2 = clamp(dot(w, cross(s, e1)) / divisor, 0.0, 1.0);
+    let sum = b1 + b2;
+    if sum > 1.0 {
+        b1 /= sum;
+        b2 /= sum;
+    }
+    return vec3<f32>(b1, b2, area);
+}
+
+// x in [0, 1) drawn with density linear from a (at 0) to b (at 1), from u.
+fn linear_sample(u: f32, a: f32, b: f32) -> f32 {
+    return min(u * (a + b) / (a + sqrt(mix(a * a, b * b, u))), 0.99999994);
+}
+
+// A point of [0, 1)² drawn with density bilinear in the corner weights w (00, 10, 01, 11).
+fn bilinear_sample(u: vec2<f32>, w: vec4<f32>) -> vec2<f32> {
+    let y = linear_sample(u.y, w.x + w.y, w.z + w.w);
+    return vec2<f32>(linear_sample(u.x, mix(w.x, w.z, y), mix(w.y, w.w, y)), y);
+}
+
+// The density of `bilinear_sample` at p.
+fn bilinear_density(p: vec2<f32>, w: vec4<f32>) -> f32 {
+    let q = 1.0 - p;
+    return 4.0 * (q.x * q.y * w.x + p.x * q.y * w.y + q.x * p.y * w.z + p.x * p.y * w.w) / (w.x + w.y + w.z + w.w);
 }

@@ -7,7 +7,7 @@
 #define_import_path bevy_rppm::lighting
 
 #import bevy_rppm::common::{Material, Light, IterationParams, PI, LIGHT_SPOT, LIGHT_DIRECTIONAL, face_of, basis_around, cosine_direction, luminance}
-#import bevy_rppm::sampling::{random, sphere_cap, cone_local}
+#import bevy_rppm::sampling::{random, sphere_cap, cone_local, spherical_triangle, bilinear_sample, bilinear_density}
 #import bevy_rppm::bsdf::{bsdf_eval, translucency, layered}
 #import bevy_rppm::scene::{shadow_views, lights, triangles, triangle_at, material_at, emitters, light_cdf, find_source, triangle_point, uniform_barycentrics, part_barycentrics}
 #ifdef TRACED_SHADOWS
@@ -206,8 +206,11 @@ fn sphere_lights_met(x: vec3<f32>, d: vec3<f32>, t_max: f32, drawn_density: f32)
 #endif
 
 #ifdef TRACED_SHADOWS
-// The emissive triangles seen from x: one triangle drawn by power, one point on it by area.
-fn emitter_sample(x: vec3<f32>, origin_triangle: u32, rng: ptr<function, u32>) -> LightSample {
+// The emissive triangles seen from x (normal n): one triangle drawn by power, one point on it
+// by area, or where `by_solid_angle` by the solid angle it subtends, whose weight stays bounded
+// however near x is (a floor beside a glowing box); MIS keeps the area's density, which its
+// weights are computed with for both strategies.
+fn emitter_sample(x: vec3<f32>, n: vec3<f32>, origin_triangle: u32, by_solid_angle: bool, rng: ptr<function, u32>) -> LightSample {
     // The emitters' entries of the source CDF: past the lights, before the sky.
     let end = params.source_count - u32(params.sky.w > 0.5);
     if end <= params.light_count {
@@ -223,18 +226,41 @@ fn emitter_sample(x: vec3<f32>, origin_triangle: u32, rng: ptr<function, u32>) -
     let p = max(light_cdf[index] - previous, 1e-12) / share;
     let e = emitters[index - params.light_count];
     let t = triangle_at(e.triangle);
-    let u = random(rng);
-    let b = part_barycentrics(e.part, uniform_barycentrics(u, random(rng)));
+    let normal = normalize(cross(t.position_b - t.position_a, t.position_c - t.position_a));
+    let u = vec2<f32>(random(rng), random(rng));
+    if dot(normal, x - t.position_a) <= 0.0 || e.triangle == origin_triangle {
+        return no_light();
+    }
+    var part = uniform_barycentrics(u.x, u.y);
+    var solid_angle = 0.0;
+    if by_solid_angle {
+        // Arvo's sampling loses precision on a thin or far triangle, where area does well.
+        let corners = array(part_barycentrics(e.part, vec2<f32>(0.0)), part_barycentrics(e.part, vec2<f32>(1.0, 0.0)), part_barycentrics(e.part, vec2<f32>(0.0, 1.0)));
+        let a = triangle_point(t, corners[0]);
+        let b = triangle_point(t, corners[1]);
+        let c = triangle_point(t, corners[2]);
+        // Warped toward x's cosine at the corners (pbrt-v4), as area sampling partly is.
+        let cosines = max(abs(vec3<f32>(dot(n, normalize(a - x)), dot(n, normalize(b - x)), dot(n, normalize(c - x)))), vec3<f32>(0.01));
+        let warp = vec4<f32>(cosines.y, cosines.y, cosines.x, cosines.z);
+        let v = bilinear_sample(u, warp);
+        let drawn = spherical_triangle(a, b, c, x, v);
+        if drawn.z > 3e-4 && drawn.z < 6.2 {
+            part = drawn.xy;
+            solid_angle = drawn.z / bilinear_density(v, warp);
+        }
+    }
+    let b = part_barycentrics(e.part, part);
     let y = triangle_point(t, b);
     let to_light = y - x;
     let d2 = max(dot(to_light, to_light), 1e-12);
     let wi = to_light * inverseSqrt(d2);
-    let cos_y = -dot(normalize(cross(t.position_b - t.position_a, t.position_c - t.position_a)), wi);
-    if cos_y <= 0.0 || e.triangle == origin_triangle {
+    let cos_y = -dot(normal, wi);
+    if cos_y <= 0.0 {
         return no_light();
     }
     let radiance = material_at(e.triangle, b, 0.0).emissive.rgb;
-    return LightSample(wi, sqrt(d2), radiance * (cos_y * e.area / (d2 * p)), false, emitter_density(radiance, d2, cos_y));
+    let weight = select(cos_y * e.area / d2, solid_angle, solid_angle > 0.0) / p;
+    return LightSample(wi, sqrt(d2), radiance * weight, false, emitter_density(radiance, d2, cos_y));
 }
 
 // The density (solid angle) of drawing an emitter's point of radiance L at distance² d2 and
@@ -300,7 +326,7 @@ fn surface_light(m: Material, x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, front: 
             s = LightSample(wi, 1.0e30, li, true, 0.0);
 #endif
         } else {
-            s = emitter_sample(x, origin_triangle, rng);
+            s = emitter_sample(x, n, origin_triangle, !mis, rng);
         }
         if all(s.li <= vec3<f32>(0.0)) {
             continue;

@@ -289,6 +289,15 @@ fn surface_light(m: Material, x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, front: 
     let many = params.light_count > MANY_LIGHTS;
     let punctual = select(params.light_count, MANY_LIGHTS, many);
     let samples = punctual + select(0u, 2u, emitters || mis);
+#ifdef NORMAL_MAP
+    // An opaque surface takes no light from behind its own triangle, whatever its bent
+    // normal says: the shadow ray leaves that triangle, so it would not see the wall it is on
+    // (the sun through a one-sided wall's back onto its bumps).
+    let tri = triangle_at(origin_triangle);
+    let face = cross(tri.position_b - tri.position_a, tri.position_c - tri.position_a);
+    let outside = select(-face, face, dot(face, wo) >= 0.0);
+    let opaque = m.specular_transmission == 0.0 && translucency(m) == 0.0;
+#endif
 #ifdef SPHERE_LIGHTS
     var spheres: array<vec4<f32>, MANY_LIGHTS>;
     var sphere_directions: array<vec3<f32>, MANY_LIGHTS>;
@@ -331,6 +340,11 @@ fn surface_light(m: Material, x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, front: 
         if all(s.li <= vec3<f32>(0.0)) {
             continue;
         }
+#ifdef NORMAL_MAP
+        if opaque && dot(outside, s.wi) <= 0.0 {
+            continue;
+        }
+#endif
         // |cos|: light from behind reaches only what lets diffuse light through (bsdf_eval).
         let c = abs(dot(n, s.wi));
         var evaluated = m;

@@ -77,6 +77,16 @@ class Textures:
         linear = np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
         return self._write(linear * np.array(factor[:3], dtype=np.float32), "colour", info)
 
+    def plastic_colour(self, info, factor, avg):
+        """The Lambertian colour under `bevy_plastic` of a textured base colour, per texel
+        (tools/bevy_layers.py `plastic_diffuse`): max(base − E_avg, 0) / (1 − E_avg)."""
+        import numpy as np
+
+        c = self._pixels(info)[..., :3]
+        linear = np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
+        base = linear * np.array(factor[:3], dtype=np.float32)
+        return self._write(np.maximum(base - avg, 0.0) / (1.0 - avg), f"plastic{avg:.4f}", info)
+
     def metallic_roughness(self, info, metallic, roughness):
         """Metallic (B × factor) as a blend weight, the roughness (G × factor) and GGX
         α = (G × factor)² as bitmaps."""

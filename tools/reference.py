@@ -13,8 +13,8 @@ points DRJIT_LIBLLVM_PATH at it; otherwise it falls back to `scalar_rgb`, which 
 
 Material mapping (as the references in shared/scenes): metallic 0 and no transmission →
 Lambertian `diffuse` at roughness 1 or below 0.02 (Bevy's 4% specular layer is left out, see
-CONVENTIONS.md), else (untextured) `bevy_plastic` (tools/bevy_layers.py: bevy_rppm's dielectric,
-that layer over an albedo-keeping diffuse lobe); partial metallic → a `blendbsdf` of the two; metallic with
+CONVENTIONS.md), else `bevy_plastic` (tools/bevy_layers.py: bevy_rppm's dielectric,
+that layer over an albedo-keeping diffuse lobe, per texel under a base colour texture); partial metallic → a `blendbsdf` of the two; metallic with
 roughness < 0.02 → perfect `conductor`; metallic otherwise → `bevy_metal` (tools/bevy_metal.py:
 bevy_rppm's GGX with multiple scattering and Schlick's Fresnel; `--metal mitsuba` gives
 Mitsuba's single-scattering `roughconductor`, α = roughness², instead); transmission with roughness < 0.02 → `dielectric`, rougher → `roughdielectric` (GGX, α =
@@ -127,6 +127,15 @@ def bsdf_of(material, textures=None, vertex_colors=False):
         bsdf = {"type": "bevy_plastic", "roughness": roughness,
                 "bsdf": {"type": "diffuse", "reflectance": {"type": "rgb", "value": plastic_diffuse(base, roughness)}}}
         description = f"bevy_plastic(roughness={roughness})"
+    elif 0.02 <= roughness < 1 and metallic == 0 and "baseColorTexture" in pbr and textures \
+            and not translucent > 0 and not textured_metal:
+        # The same over a base colour texture, its Lambertian colour per texel.
+        from bevy_layers import plastic_tables
+
+        avg = plastic_tables(roughness)[1]
+        bsdf = {"type": "bevy_plastic", "roughness": roughness,
+                "bsdf": {"type": "diffuse", "reflectance": textures.plastic_colour(pbr["baseColorTexture"], base, avg)}}
+        description = f"bevy_plastic(roughness={roughness}) x base colour texture"
     if translucent > 0:
         # Two-sided by itself: `twosided` below would hide what passes through.
         bsdf = {"type": "bevy_translucent", "transmission": translucent, "reflectance": rgb}

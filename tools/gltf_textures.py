@@ -99,13 +99,14 @@ class Textures:
         return tuple(self._write(np.stack([x] * 3, axis=2), name, info)
                      for x, name in ((metal, "metallic"), (rough, "roughness"), (alpha, "alpha")))
 
-    def normal_map(self, info):
+    def normal_map(self, info, opposite=True):
         """A glTF normal map for Mitsuba's `normalmap`: its frame's second axis is n × ∂p/∂u,
-        glTF's is −∂p/∂v (texture +Y up, v down the image); for UVs laid out without a mirror
-        the two are opposite, so green is flipped."""
+        glTF's is −∂p/∂v (texture +Y up, v down the image); where the two are `opposite` (UVs
+        whose (∂p/∂u, ∂p/∂v, n) turn right-handed), green is flipped."""
         p = self._pixels(info)[..., :3].copy()
-        p[..., 1] = 1.0 - p[..., 1]
-        return self._write(p, "normal", info)
+        if opposite:
+            p[..., 1] = 1.0 - p[..., 1]
+        return self._write(p, "normal" if opposite else "normal_kept", info)
 
     def spot_falloff(self, inner, outer, size=1024):
         """Bevy's spot falloff, the square of a ramp in cos θ from the outer cone to the inner,

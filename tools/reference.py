@@ -56,18 +56,36 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from gltf_read import accessor, load, srgb_to_linear, transform_dir, transform_point, walk, write_ply  # noqa: E402
 from gltf_textures import Textures  # noqa: E402
 
-def with_normal_map(material, textures, bsdf, description):
+def green_opposite(positions, faces, uvs):
+    """Whether Mitsuba's second tangent axis (n × ∂p/∂u) is opposite to glTF's (−∂p/∂v) on
+    this primitive, read off its first triangle whose UVs span an area."""
+    for a, b, c in faces:
+        e1, e2 = [positions[b][i] - positions[a][i] for i in range(3)], [positions[c][i] - positions[a][i] for i in range(3)]
+        d1, d2 = [uvs[b][i] - uvs[a][i] for i in range(2)], [uvs[c][i] - uvs[a][i] for i in range(2)]
+        r = d1[0] * d2[1] - d1[1] * d2[0]
+        if abs(r) < 1e-12:
+            continue
+        dpdu = [(e1[i] * d2[1] - e2[i] * d1[1]) / r for i in range(3)]
+        dpdv = [(e2[i] * d1[0] - e1[i] * d2[0]) / r for i in range(3)]
+        n = [e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]]
+        t = [n[1] * dpdu[2] - n[2] * dpdu[1], n[2] * dpdu[0] - n[0] * dpdu[2], n[0] * dpdu[1] - n[1] * dpdu[0]]
+        return sum(t[i] * -dpdv[i] for i in range(3)) < 0
+    return True
+
+
+def with_normal_map(material, textures, bsdf, description, opposite=True):
     """The BSDF under the material's normal texture, bent as Bevy bends it: Mitsuba's folding
     of normals that face away from the viewer and its terminator term (on by default since
     3.7.1) off, as Bevy has neither."""
     if "normalTexture" not in material or not textures:
         return bsdf, description
-    return ({"type": "normalmap", "normalmap": textures.normal_map(material["normalTexture"]), "bsdf": bsdf,
+    return ({"type": "normalmap", "normalmap": textures.normal_map(material["normalTexture"], opposite), "bsdf": bsdf,
              "flip_invalid_normals": False, "use_shadowing_function": False}, f"normalmap({description})")
 
 
-def bsdf_of(material, textures=None, vertex_colors=False):
-    """Mitsuba BSDF dict and a one-line description, per the mapping in this file's header."""
+def bsdf_of(material, textures=None, vertex_colors=False, opposite=True):
+    """Mitsuba BSDF dict and a one-line description, per the mapping in this file's header;
+    `opposite` as `green_opposite` says of the primitive."""
     pbr = material.get("pbrMetallicRoughness", {})
     base = pbr.get("baseColorFactor", [1, 1, 1, 1])[:3]
     metallic = pbr.get("metallicFactor", 1.0)
@@ -88,25 +106,26 @@ def bsdf_of(material, textures=None, vertex_colors=False):
             # Bevy's specular transmission t: the surface is t glass and 1 − t the opaque
             # material without it.
             rest = dict(material, extensions={k: v for k, v in ext.items() if k != "KHR_materials_transmission"})
-            opaque, kind = bsdf_of(rest, textures, vertex_colors)
+            opaque, kind = bsdf_of(rest, textures, vertex_colors, opposite)
             bsdf = {"type": "blendbsdf", "weight": glass, "bsdf_0": opaque, "bsdf_1": bsdf}
             return bsdf, f"blend({kind}, {description}) by transmission {glass}"
-        return with_normal_map(material, textures, bsdf, description)
+        return with_normal_map(material, textures, bsdf, description, opposite)
     textured_metal = "metallicRoughnessTexture" in pbr and textures
     if 0 < metallic < 1 and not textured_metal:
         # glTF's metallic mixes the dielectric and the metal linearly (bevy_rppm too).
         rest = dict(material, pbrMetallicRoughness=dict(pbr, metallicFactor=0.0))
-        dielectric, kind = bsdf_of(rest, textures, vertex_colors)
-        metal, metal_kind = bsdf_of(dict(material, pbrMetallicRoughness=dict(pbr, metallicFactor=1.0)), textures)
+        dielectric, kind = bsdf_of(rest, textures, vertex_colors, opposite)
+        metal, metal_kind = bsdf_of(dict(material, pbrMetallicRoughness=dict(pbr, metallicFactor=1.0)), textures,
+                                     opposite=opposite)
         return ({"type": "blendbsdf", "weight": metallic, "bsdf_0": dielectric, "bsdf_1": metal},
                 f"blend({kind}, {metal_kind}) by metallic {metallic}")
     # A metal's base colour texture tints its reflection.
     metal_rgb = textures.colour(pbr["baseColorTexture"], base) if "baseColorTexture" in pbr and textures else rgb
     if metallic > 0 and roughness < 0.02 and not textured_metal:
         return with_normal_map(material, textures, {"type": "conductor", "material": "none",
-                                                    "specular_reflectance": metal_rgb}, "conductor(none)")
+                                                    "specular_reflectance": metal_rgb}, "conductor(none)", opposite)
     if metallic > 0 and not textured_metal:
-        return with_normal_map(material, textures, *rough_metal(metal_rgb, None, roughness))
+        return with_normal_map(material, textures, *rough_metal(metal_rgb, None, roughness), opposite)
     description = "diffuse(lambert)"
     if "baseColorTexture" in pbr and textures:
         rgb = textures.colour(pbr["baseColorTexture"], base)
@@ -146,7 +165,7 @@ def bsdf_of(material, textures=None, vertex_colors=False):
         conductor, kind = rough_metal(rgb, alpha, rough)
         bsdf = {"type": "blendbsdf", "weight": metal, "bsdf_0": bsdf, "bsdf_1": conductor}
         description = f"blend({description}, {kind}) by metallic texture"
-    bsdf, description = with_normal_map(material, textures, bsdf, description)
+    bsdf, description = with_normal_map(material, textures, bsdf, description, opposite)
     coat = material.get("extensions", {}).get("KHR_materials_clearcoat", {})
     if coat.get("clearcoatFactor", 0.0) > 0:
         strength, rough = coat["clearcoatFactor"], coat.get("clearcoatRoughnessFactor", 0.0)
@@ -293,7 +312,8 @@ def build_scene(path, width, height, tmp, max_depth=16):
                 colors = accessor(gltf, buffers, attributes["COLOR_0"]) if "COLOR_0" in attributes else None
                 material, colors = with_vertex_colors(material, colors)
                 write_ply(ply, positions, faces, uvs, colors)
-                bsdf, description = bsdf_of(material, textures, colors is not None)
+                opposite = green_opposite(positions, faces, uvs) if uvs and "normalTexture" in material else True
+                bsdf, description = bsdf_of(material, textures, colors is not None, opposite)
                 shape = {"type": "ply", "filename": ply, "bsdf": bsdf, "face_normals": "NORMAL" not in prim["attributes"]}
                 if bsdf["type"] == "mask":
                     # `path` treats a cut-out as opaque to shadow rays (a point light's light

@@ -69,23 +69,24 @@ class Textures:
         c, s = math.cos(r), math.sin(r)
         return mi.ScalarTransform3f([[c * sx, s * sy, ox], [-s * sx, c * sy, oy], [0, 0, 1]])
 
-    def colour(self, info, factor):
-        """An sRGB colour texture times a linear factor."""
+    def _linear(self, info, factor):
+        """An sRGB colour texture's pixels in linear values, times a linear factor."""
         import numpy as np
 
         c = self._pixels(info)[..., :3]
         linear = np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
-        return self._write(linear * np.array(factor[:3], dtype=np.float32), "colour", info)
+        return linear * np.array(factor[:3], dtype=np.float32)
+
+    def colour(self, info, factor):
+        """An sRGB colour texture times a linear factor."""
+        return self._write(self._linear(info, factor), "colour", info)
 
     def plastic_colour(self, info, factor, avg):
         """The Lambertian colour under `bevy_plastic` of a textured base colour, per texel
         (tools/bevy_layers.py `plastic_diffuse`): max(base − E_avg, 0) / (1 − E_avg)."""
         import numpy as np
 
-        c = self._pixels(info)[..., :3]
-        linear = np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
-        base = linear * np.array(factor[:3], dtype=np.float32)
-        return self._write(np.maximum(base - avg, 0.0) / (1.0 - avg), f"plastic{avg:.4f}", info)
+        return self._write(np.maximum(self._linear(info, factor) - avg, 0.0) / (1.0 - avg), f"plastic{avg:.4f}", info)
 
     def metallic_roughness(self, info, metallic, roughness):
         """Metallic (B × factor) as a blend weight, the roughness (G × factor) and GGX

@@ -42,10 +42,8 @@ fn fragment(in: VertexOut, @builtin(front_facing) front: bool) -> GBuffer {
     if params.orthographic == 0u {
         footprint *= distance(in.world, params.camera_position.xyz);
     }
-    // The normal map's finest level, not the footprint's: a mip averages normals, and a pixel
-    // lit through its averaged normal is brighter than the mean of its texels' light (a
-    // wall of small bumps 4 % over its reference). The jitter averages the texels instead.
-    var n = normal_at(in.triangle, b, normalize(in.normal), 0.0);
+    // The normal map at its finest level (normal_at); the jitter averages its texels.
+    var n = normal_at(in.triangle, b, normalize(in.normal));
     if !front {
         n = -n;
     }

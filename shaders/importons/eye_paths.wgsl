@@ -235,7 +235,7 @@ fn camera_path(pixel: u32, first: Vertex, leaves_importon: bool, rng: ptr<functi
             let geometric = cross(t.position_b - t.position_a, t.position_c - t.position_a);
             let front = dot(geometric, d) < 0.0;
             var interpolated = interpolated_normal(t, hit.uv);
-            var n = normal_at(hit.triangle, hit.uv, interpolated, 0.0);
+            var n = normal_at(hit.triangle, hit.uv, interpolated);
             if !front {
                 n = -n;
                 interpolated = -interpolated;

@@ -311,7 +311,7 @@ fn trace(@builtin(global_invocation_id) id: vec3<u32>, @builtin(local_invocation
             // Shading normal (normal map applied) and the kernel's (stored), on the side the
             // photon arrives from.
             var interpolated = interpolated_normal(t, hit.uv);
-            var n = normal_at(hit.triangle, hit.uv, interpolated, 0.0);
+            var n = normal_at(hit.triangle, hit.uv, interpolated);
             if !front {
                 n = -n;
                 interpolated = -interpolated;

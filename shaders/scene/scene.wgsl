@@ -346,14 +346,16 @@ fn opaque_at(triangle: u32, b: vec2<f32>) -> bool {
 
 // The shading normal at barycentrics b: the interpolated normal `n` bent by the normal map in
 // the tangent frame of the triangle's texture coordinates (glTF's: texture +Y towards −v).
-fn normal_at(triangle: u32, b: vec2<f32>, n: vec3<f32>, footprint: f32) -> vec3<f32> {
+fn normal_at(triangle: u32, b: vec2<f32>, n: vec3<f32>) -> vec3<f32> {
 #ifdef NORMAL_MAP
     let m = scene_material(triangles[triangle].material);
     if (m.flags & MATERIAL_TEXTURED) == 0u || m.textures.w == NO_TEXTURE {
         return n;
     }
     let uv = surface_uv(m, triangle, b);
-    var c = sample_texture(m.textures.w, uv.xy, footprint * uv.z).xyz * 2.0 - 1.0;
+    // The finest level: a mip averages normals, and a surface lit through their (flatter)
+    // mean is brighter than the mean of its texels' light.
+    var c = sample_texture(m.textures.w, uv.xy, 0.0).xyz * 2.0 - 1.0;
     if (m.flags & MATERIAL_FLIP_NORMAL_Y) != 0u {
         c.y = -c.y;
     }

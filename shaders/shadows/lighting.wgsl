@@ -235,10 +235,9 @@ fn emitter_sample(x: vec3<f32>, n: vec3<f32>, origin_triangle: u32, by_solid_ang
     var solid_angle = 0.0;
     if by_solid_angle {
         // Arvo's sampling loses precision on a thin or far triangle, where area does well.
-        let corners = array(part_barycentrics(e.part, vec2<f32>(0.0)), part_barycentrics(e.part, vec2<f32>(1.0, 0.0)), part_barycentrics(e.part, vec2<f32>(0.0, 1.0)));
-        let a = triangle_point(t, corners[0]);
-        let b = triangle_point(t, corners[1]);
-        let c = triangle_point(t, corners[2]);
+        let a = triangle_point(t, part_barycentrics(e.part, vec2<f32>(0.0)));
+        let b = triangle_point(t, part_barycentrics(e.part, vec2<f32>(1.0, 0.0)));
+        let c = triangle_point(t, part_barycentrics(e.part, vec2<f32>(0.0, 1.0)));
         // Warped toward x's cosine at the corners (pbrt-v4), as area sampling partly is.
         let cosines = max(abs(vec3<f32>(dot(n, normalize(a - x)), dot(n, normalize(b - x)), dot(n, normalize(c - x)))), vec3<f32>(0.01));
         let warp = vec4<f32>(cosines.y, cosines.y, cosines.x, cosines.z);

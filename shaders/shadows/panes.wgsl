@@ -44,7 +44,7 @@ fn through_panes(x: vec3<f32>, dir: vec3<f32>, distance: f32, origin_triangle: u
         if !through || front == in_pane || !is_pane(m) || k == 2u * MAX_PANES {
             break;
         }
-        let n = normal_at(hit.triangle, hit.uv, interpolated_normal(t, hit.uv), 0.0);
+        let n = normal_at(hit.triangle, hit.uv, interpolated_normal(t, hit.uv));
         if in_pane {
             if m.ior != entry.w || dot(-n, entry.xyz) < PANE_COS || dot(p - x, dir) >= distance {
                 break;

@@ -402,13 +402,7 @@ fn check_light(light: impl Bundle + Clone, radiance: impl Fn(f32, f32) -> f32, n
 /// (below): 0.026.
 #[test]
 fn a_room_under_a_sky_and_an_emissive_box_has_quiet_walls() {
-    let room = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/suite/random");
-    let image = render_gltf_64(room.join("r4_04.gltf"), 16);
-    let reference = read_exr(&room.join("r4_04.ref.exr")).unwrap();
-    let reference = downsample(&reference, reference.width / 64);
-    let error = bevy_rppm_cli::image_io::relmse(&image, &reference).unwrap();
-    let energy = bevy_rppm_cli::image_io::energy_ratio(&image, &reference).unwrap();
-    println!("random room r4_04: relMSE {error:.4}, energy {energy:.4} after 16 iterations");
+    let (error, energy) = random_room("r4_04");
     assert!(
         error < 0.044 && (0.97..=1.03).contains(&energy),
         "relMSE {error:.4}, energy {energy:.4}"
@@ -422,13 +416,7 @@ fn a_room_under_a_sky_and_an_emissive_box_has_quiet_walls() {
 /// 0.0061 by solid angle.
 #[test]
 fn the_floor_beside_a_glowing_box_has_no_speckle() {
-    let room = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/suite/random");
-    let image = render_gltf_64(room.join("r6_01.gltf"), 16);
-    let reference = read_exr(&room.join("r6_01.ref.exr")).unwrap();
-    let reference = downsample(&reference, reference.width / 64);
-    let error = bevy_rppm_cli::image_io::relmse(&image, &reference).unwrap();
-    let energy = bevy_rppm_cli::image_io::energy_ratio(&image, &reference).unwrap();
-    println!("random room r6_01: relMSE {error:.4}, energy {energy:.4} after 16 iterations");
+    let (error, energy) = random_room("r6_01");
     assert!(
         error < 0.0085 && (0.97..=1.03).contains(&energy),
         "relMSE {error:.4}, energy {energy:.4}"
@@ -443,15 +431,19 @@ fn the_floor_beside_a_glowing_box_has_no_speckle() {
 /// turned toward it. Now 1.007 and 0.0057 (here, 64² and 16 iterations: 0.9875).
 #[test]
 fn walls_of_small_bumps_are_not_brighter_than_their_texels() {
-    let room = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/suite/random");
-    let image = render_gltf_64(room.join("r8_03.gltf"), 16);
-    let reference = read_exr(&room.join("r8_03.ref.exr")).unwrap();
-    let reference = downsample(&reference, reference.width / 64);
-    let error = bevy_rppm_cli::image_io::relmse(&image, &reference).unwrap();
-    let energy = bevy_rppm_cli::image_io::energy_ratio(&image, &reference).unwrap();
-    println!("random room r8_03: relMSE {error:.4}, energy {energy:.4} after 16 iterations");
+    let (error, energy) = random_room("r8_03");
     assert!(
         error < 0.03 && (0.96..=1.025).contains(&energy),
         "relMSE {error:.4}, energy {energy:.4}"
     );
+}
+
+/// A room kept in `assets/suite/random/` against its reference (`against_reference_64`).
+fn random_room(name: &str) -> (f64, f64) {
+    let room = Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/suite/random");
+    against_reference_64(
+        &format!("random room {name}"),
+        room.join(format!("{name}.gltf")),
+        &room.join(format!("{name}.ref.exr")),
+    )
 }

@@ -154,12 +154,11 @@ fn textured_scenes_match_their_references() {
         "texture_samplers",
     ] {
         let suite = Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/suite");
-        let image = render_gltf_64(suite.join(format!("{scene}.gltf")), 16);
-        let reference = read_exr(&suite.join(format!("{scene}.ref.exr"))).unwrap();
-        let reference = downsample(&reference, reference.width / 64);
-        let energy = energy_ratio(&image, &reference).unwrap();
-        let error = relmse(&image, &reference).unwrap();
-        println!("{scene}: energy {energy:.4}, relMSE {error:.4} after 16 iterations at 64²");
+        let (error, energy) = against_reference_64(
+            scene,
+            suite.join(format!("{scene}.gltf")),
+            &suite.join(format!("{scene}.ref.exr")),
+        );
         if !(0.97..=1.03).contains(&energy) || error > 0.015 {
             failures.push(format!("{scene}: energy {energy:.4}, relMSE {error:.4}"));
         }

@@ -274,6 +274,18 @@ pub fn render_asset(
     render_gltf(&request, |_| {}).unwrap_or_else(|e| panic!("{e}"))
 }
 
+/// A glTF scene rendered at 64², 16 iterations (`render_gltf_64`), against its reference
+/// averaged down to 64²: (relMSE, energy ratio), printed under `name`.
+pub fn against_reference_64(name: &str, scene: PathBuf, reference: &Path) -> (f64, f64) {
+    let image = render_gltf_64(scene, 16);
+    let reference = read_exr(reference).unwrap();
+    let reference = downsample(&reference, reference.width / 64);
+    let error = bevy_rppm_cli::image_io::relmse(&image, &reference).unwrap();
+    let energy = bevy_rppm_cli::image_io::energy_ratio(&image, &reference).unwrap();
+    println!("{name}: relMSE {error:.4}, energy {energy:.4} after 16 iterations at 64²");
+    (error, energy)
+}
+
 /// A glTF scene rendered in-process at 64², `iterations` of 65 536 photons, every pixel finite.
 pub fn render_gltf_64(scene: PathBuf, iterations: u32) -> RgbImage {
     let image = render_fixed(&scene, 64, 64, iterations, 0);

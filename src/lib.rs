@@ -220,11 +220,13 @@ mod tests {
         };
         let lighting = read("shadows/lighting.wgsl");
         let paths = read("importons/eye_paths.wgsl");
+        let indirect = read("indirect_splat/indirect_splat.wgsl");
         for (text, f) in [
             (&lighting, "occluded"),
             (&lighting, "visibility"),
             (&paths, "surface_light"),
             (&paths, "trace_ray"),
+            (&indirect, "gathered"),
         ] {
             assert_eq!(calls(text, f), 1, "calls of {f}");
         }

@@ -17,7 +17,7 @@ macro_rules! wgsl {
 #[derive(Resource, Clone)]
 pub struct RppmShaders {
     /// Import-only libraries (`bevy_rppm::sampling`, `common`, `camera`, `scene`, `microfacet`, `bsdf`, `mis`, `panes`, `cubemap`, `pane_rays`, `lighting`,
-    /// `photon_map`),
+    /// `photon_map`, `eye_bounce`),
     /// held so they stay loaded.
     _libraries: Vec<Handle<Shader>>,
     pub place: Handle<Shader>,
@@ -57,6 +57,7 @@ impl RppmShaders {
                 wgsl!(shaders, "shadows/panes.wgsl"),
                 wgsl!(shaders, "shadows/lighting.wgsl"),
                 wgsl!(shaders, "photons/map.wgsl"),
+                wgsl!(shaders, "importons/bounce.wgsl"),
             ],
             place: wgsl!(shaders, "scene/place.wgsl"),
             shadow_map: wgsl!(shaders, "shadows/shadow_map.wgsl"),

@@ -392,13 +392,15 @@ struct Importon {
     // Triangle it lies on; NO_IMPORTON when the pixel has none this iteration.
     triangle: u32,
     normal: vec3<f32>,
-    pad_a: u32,
-    // Product of the specular bounces' weights from the camera.
+    // In a pixel's own slot: how many importons its other camera paths left past the
+    // image's slots (rough glass, eye_paths.wgsl), and (`first_extra`) the first's slot.
+    extras: u32,
+    // Product of the bounces' weights from the camera (over the pixel's importons).
     throughput: vec3<f32>,
     radius: f32,
     // Direction towards the previous path vertex.
     outgoing: vec3<f32>,
-    pad_b: u32,
+    first_extra: u32,
 }
 
 const NO_IMPORTON: u32 = 0xffffffffu;

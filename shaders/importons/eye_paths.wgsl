@@ -9,8 +9,9 @@
 #import bevy_rppm::scene::{triangle_at, gbuffer_material, resolve_surface, kernel_normal, material_at, as_seen_from, normal_at, interpolated_normal}
 #import bevy_rppm::lighting::{params, surface_light}
 #ifdef IMPORTONS
-#import bevy_rppm::bsdf::{glass_share, scatter_photon, stores_photons}
+#import bevy_rppm::bsdf::{glass_share, stores_photons}
 #import bevy_rppm::microfacet::fresnel_dielectric
+#import bevy_rppm::eye_bounce::{Bounce, delta_share, lobe_bounce, next_bounce}
 #ifdef CLEARCOAT
 #import bevy_rppm::bsdf::{coat_traced, scatter_coat}
 #endif
@@ -46,74 +47,23 @@
 #endif
 #ifdef IMPORTONS
 @group(2) @binding(4) var<storage, read_write> importons: array<Importon>;
-// [1]: importons made (read back as `ViewStats::importons`); [4..7] the indirect splat's
-// dispatch, its x set here once an importon exists.
+// [1]: importons made (read back as `ViewStats::importons`); [2] extra slots taken; [4..7]
+// the indirect splat's dispatch, its x set here once an importon exists.
 @group(2) @binding(5) var<storage, read_write> importon_stats: array<atomic<u32>, 8>;
 
 // Camera-path vertex from which Russian roulette may end a path.
 const EYE_ROULETTE_DEPTH: u32 = 3u;
 // Camera paths a pixel traces each iteration where it sees rough glass (frosted, storing no
 // photons): the light they bring varies the most of any pixel's, and a path costs less than
-// an iteration. The first leaves the importon; the others bring local light. 4 beat 1, 2 and
-// 8 at equal time on the frosted scenes (README); smooth glass and glossy metal lost by it.
+// an iteration. 4 beat 1, 2 and 8 at equal time on the frosted scenes (README); smooth glass
+// and glossy metal lost by it.
 const SPLIT_PATHS: u32 = 4u;
+// Of those paths, how many leave an importon: the second in a slot past the image's
+// (`EXTRA_IMPORTONS` in src/importons/mod.rs) where the buffer has room, else the first alone.
+// 2 beat 1 and 4 at equal time on `frosted_lantern` and `frosted_glass` (a gather costs more
+// than a path's local light).
+const SPLIT_IMPORTONS: u32 = 2u;
 
-struct Bounce {
-    direction: vec3<f32>,
-    weight: vec3<f32>,
-}
-
-// Samples the specular lobes: the mirror of metals, Fresnel-chosen reflection or refraction
-// of glass. `n` faces the incoming side; `front` tells which side of the surface that is.
-fn specular_bounce(m: Material, d: vec3<f32>, n: vec3<f32>, front: bool, rng: ptr<function, u32>) -> Bounce {
-    let mirror = luminance(m.base_color.rgb) * m.metallic;
-    let total = max(delta_share(m), 1e-6);
-#ifdef MIRRORS
-    if random(rng) * total < mirror {
-        return Bounce(reflect(d, n), m.base_color.rgb * (total / luminance(m.base_color.rgb)));
-    }
-#endif
-#ifdef REFRACTION
-    let eta = select(m.ior, 1.0 / m.ior, front);
-    let refracted = refract(d, n, eta);
-    if random(rng) < fresnel_dielectric(dot(-d, n), eta) || all(refracted == vec3<f32>(0.0)) {
-        return Bounce(reflect(d, n), vec3<f32>(total));
-    }
-    return Bounce(refracted, vec3<f32>(total));
-#else
-    return Bounce(d, vec3<f32>(0.0));
-#endif
-}
-
-// What a surface's delta lobes carry where it is smooth: the mirror of its metal part and
-// its glass (`GpuMaterial::delta_share` on the CPU).
-fn delta_share(m: Material) -> f32 {
-    return luminance(m.base_color.rgb) * m.metallic + glass_share(m);
-}
-
-// The camera path's next direction at a surface it goes on through: a delta lobe, or the
-// glossy lobes sampled as photons sample them (the BSDF is reciprocal but for refraction).
-fn next_bounce(m: Material, d: vec3<f32>, n: vec3<f32>, front: bool, rng: ptr<function, u32>) -> Bounce {
-    var bounce = lobe_bounce(m, d, n, front, rng);
-    if dot(bounce.direction, n) < 0.0 {
-        // Through glass, smooth or rough, radiance over n² is what crossing keeps: light
-        // leaving water for air is 1/1.33² as bright (photons carry flux and need no such
-        // factor). Cancels through closed glass.
-        let eta = select(m.ior, 1.0 / m.ior, front);
-        bounce.weight *= eta * eta;
-    }
-    return bounce;
-}
-
-fn lobe_bounce(m: Material, d: vec3<f32>, n: vec3<f32>, front: bool, rng: ptr<function, u32>) -> Bounce {
-#ifdef GLOSSY
-    if m.perceptual_roughness >= DELTA_ROUGHNESS {
-        let s = scatter_photon(m, n, n, -d, front, rng);
-        return Bounce(s.direction, s.weight);
-    }
-#endif
-    return specular_bounce(m, d, n, front, rng);
-}
 #endif
 
 #ifdef REFLECTED_EMISSION
@@ -144,9 +94,10 @@ struct Vertex {
 // The light the camera path from the G-buffer vertex `first` brings back: emission and direct
 // light at its end; with IMPORTONS a path that meets a surface storing no photons goes on
 // (emission and punctual lights at glossy vertices on the way) and leaves an importon at its
-// first vertex past the G-buffer that stores photons. One loop for every vertex, so that the
+// first vertex past the G-buffer that stores photons, in `slot` (none: NO_IMPORTON), weighed
+// by `share` of the pixel's importons. One loop for every vertex, so that the
 // lighting and the ray walk are compiled once.
-fn camera_path(pixel: u32, first: Vertex, leaves_importon: bool, rng: ptr<function, u32>) -> vec3<f32> {
+fn camera_path(first: Vertex, slot: u32, share: f32, rng: ptr<function, u32>) -> vec3<f32> {
     var v = first;
     var found = vec3<f32>(0.0);
     var throughput = vec3<f32>(1.0);
@@ -260,10 +211,10 @@ fn camera_path(pixel: u32, first: Vertex, leaves_importon: bool, rng: ptr<functi
             }
             drawn_density = 0.0;
 #endif
-            if stores_photons(v.m) && leaves_importon {
+            if stores_photons(v.m) && slot != NO_IMPORTON {
                 let footprint = params.pixel_spread * select(length, 1.0, params.orthographic != 0u);
                 let radius = gather_radius(params, params.splat_radius, footprint);
-                importons[pixel] = Importon(v.x, v.triangle, interpolated, 0u, throughput, radius, v.wo, 0u);
+                importons[slot] = Importon(v.x, v.triangle, interpolated, 0u, throughput * share, radius, v.wo, 0u);
                 atomicAdd(&importon_stats[1], 1u);
                 atomicMax(&importon_stats[4], (params.size.x * params.size.y + 63u) / 64u);
             }
@@ -450,8 +401,11 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>, @builtin(local_invocation_
     let gp = textureLoad(gbuffer_position, vec2<i32>(id.xy), 0);
     var sample = vec3<f32>(0.0);
     var rng = pcg_hash(pixel ^ pcg_hash(params.sequence * 0x85ebca6bu + 0x27d4eb2fu));
+    // Importons a rough-glass pixel leaves past its own slot, from `first_extra` on.
+    var extras = 0u;
 #ifdef IMPORTONS
     importons[pixel].triangle = NO_IMPORTON;
+    var first_extra = 0u;
 #endif
     if gp.w != 0.0 {
         let gn = textureLoad(gbuffer_normal, vec2<i32>(id.xy), 0);
@@ -465,11 +419,25 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>, @builtin(local_invocation_
 #ifdef IMPORTONS
         let rough_glass = glass_share(m) > 0.0 && m.perceptual_roughness >= DELTA_ROUGHNESS;
         paths = select(1u, SPLIT_PATHS, rough_glass && !stores_photons(m));
+        if paths > 1u {
+            let pixels = params.size.x * params.size.y;
+            let room = arrayLength(&importons) - pixels;
+            first_extra = atomicAdd(&importon_stats[2], SPLIT_IMPORTONS - 1u);
+            extras = select(0u, SPLIT_IMPORTONS - 1u, first_extra + SPLIT_IMPORTONS - 1u <= room);
+            first_extra += pixels;
+        }
 #endif
         for (var k = 0u; k < paths; k += 1u) {
             // Each path its own point of the pixel's sequence over iterations.
             stratified_draws(pixel, params.sequence * paths + k);
-            sample += camera_path(pixel, first, k == 0u, &rng);
+            var slot = select(NO_IMPORTON, pixel, k == 0u);
+#ifdef IMPORTONS
+            if k > 0u && k <= extras {
+                slot = first_extra + k - 1u;
+                importons[slot].triangle = NO_IMPORTON;
+            }
+#endif
+            sample += camera_path(first, slot, 1.0 / f32(1u + extras), &rng);
         }
         sample /= f32(paths);
     }
@@ -485,4 +453,8 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>, @builtin(local_invocation_
     }
 #endif
     samples[pixel] = vec4<f32>(sample, 1.0);
+#ifdef IMPORTONS
+    importons[pixel].extras = extras;
+    importons[pixel].first_extra = first_extra;
+#endif
 }

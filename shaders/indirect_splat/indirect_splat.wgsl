@@ -150,13 +150,9 @@ fn disc_of(imp: Importon) -> Disc {
     return disc;
 }
 
-@compute @workgroup_size(64, 1, 1)
-fn gather(@builtin(global_invocation_id) id: vec3<u32>) {
-    let pixel = id.x;
-    if pixel >= params.size.x * params.size.y || importons[pixel].triangle == NO_IMPORTON {
-        return;
-    }
-    let imp = importons[pixel];
+// The light importon `imp` (of `pixel`) brings: the photons in its disc, over the disc's
+// area on surface.
+fn gathered(imp: Importon, pixel: u32) -> vec3<f32> {
     let m = material_at(imp.triangle, barycentrics(triangle_at(imp.triangle), imp.position), 0.0);
     let out = bsdf_from(m, imp.normal, imp.outgoing);
     let disc = disc_of(imp);
@@ -171,5 +167,30 @@ fn gather(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     let r = imp.radius;
     let area = PI * r * r * disc.share;
-    importon_radiance[pixel] = vec4<f32>(imp.throughput * sum * (splat_weight(params) / area), 0.0);
+    return imp.throughput * sum * (splat_weight(params) / area);
+}
+
+// A pixel's importon and those its other camera paths left (`Importon::extras`).
+@compute @workgroup_size(64, 1, 1)
+fn gather(@builtin(global_invocation_id) id: vec3<u32>) {
+    let pixel = id.x;
+    if pixel >= params.size.x * params.size.y {
+        return;
+    }
+    let own = importons[pixel];
+    if own.triangle == NO_IMPORTON && own.extras == 0u {
+        return;
+    }
+    var sum = vec3<f32>(0.0);
+    // One call of the gather (its copies cost compile time on a CPU rasteriser).
+    for (var k = 0u; k <= own.extras; k += 1u) {
+        var imp = own;
+        if k > 0u {
+            imp = importons[own.first_extra + k - 1u];
+        }
+        if imp.triangle != NO_IMPORTON {
+            sum += gathered(imp, pixel);
+        }
+    }
+    importon_radiance[pixel] = vec4<f32>(sum, 0.0);
 }

@@ -12,11 +12,11 @@ use super::stages::{Pipelines, select_stages};
 use super::state::{ResourceKey, RppmViewState, ViewTimer, stages_ready};
 use crate::accumulate::{Changes, HistoryFlags, history_fits};
 use crate::cubemap::{self, BuildContext, CubemapConfig};
-use crate::importons::importons_fit;
+use crate::importons::{extra_importons, importons_fit};
 use crate::output::output_key;
 use crate::photons::{device_photon_count, store_capacity};
 use crate::ppm::{next_radius2, radius2_after};
-use crate::scene::{Lookups, SceneBuffers, SceneData};
+use crate::scene::{Lookups, ScatterPaths, SceneBuffers, SceneData};
 use crate::settings::{PhotonMapping, RppmDebugView, RppmMode};
 use crate::shadows::cube_views;
 use crate::stats::timing::StageTimer;
@@ -101,6 +101,7 @@ pub(crate) fn prepare_views(
             .unwrap_or_default();
         let photons =
             photon_count.count(device_photon_count(settings.photons_per_iteration, &device));
+        let importons = makes_importons(settings, &scene.data) && importons_fit(&device, size);
         let key = ResourceKey {
             size,
             slots: settings.iterations_per_frame.max(),
@@ -108,7 +109,12 @@ pub(crate) fn prepare_views(
             photon_capacity: store_capacity(
                 settings, photons, scene, &device, &store_fit, store_now,
             ),
-            importons: makes_importons(settings, &scene.data) && importons_fit(&device, size),
+            importons,
+            extra_importons: extra_importons(
+                &device,
+                size,
+                importons && scene.paths.contains(ScatterPaths::ROUGH_REFRACTION),
+            ),
             photon_tiles: cubemap::fitted(cubemap_config(settings), &device).tiles(),
             subsampling: settings.indirect_subsampling,
             history: settings.history.window().is_some() && history_fits(&device, size),

@@ -33,6 +33,8 @@ pub struct ResourceKey {
     pub photon_capacity: u32,
     /// Camera paths go past the G-buffer: importons are held.
     pub importons: bool,
+    /// Importon slots past the image's own, for rough glass's camera paths.
+    pub extra_importons: u32,
     /// Tiles of the photon map (the cubemap's).
     pub photon_tiles: u32,
     /// Photons splat on every n-th pixel (the splat target's size follows).
@@ -182,7 +184,13 @@ impl RppmViewState {
             usage: BufferUsages::UNIFORM | BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
-        let eye_paths = EyePaths::new(device, size, key.importons, key.textured);
+        let eye_paths = EyePaths::new(
+            device,
+            size,
+            key.importons,
+            key.extra_importons,
+            key.textured,
+        );
         let splats = SplatTarget::new(textures, device, size, key.subsampling);
         let estimate = Estimate::new(device, size, key.history, key.importons);
         let (store, indirect_group) = photon_store(key, device, cache, pipelines, &eye_paths);

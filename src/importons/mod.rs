@@ -2,7 +2,8 @@
 //! emission plus direct light with shadows, this iteration's sample before photons are added.
 //! With importons, a pixel that sees a mirror or clear glass follows its camera path through
 //! the deep cubemap to the first non-specular surface, lights it the same way and leaves an
-//! importon there (one per pixel) for indirect splatting (`shaders/importons/eye_paths.wgsl`).
+//! importon there (one per pixel, two where it sees rough glass) for indirect splatting
+//! (`shaders/importons/eye_paths.wgsl`).
 
 use bevy::prelude::*;
 use bevy::render::render_resource::binding_types::{
@@ -27,6 +28,25 @@ pub const GATHER_DISPATCH: u64 = 16;
 
 /// Bytes of one pixel's importon (`Importon` in `shaders/common/common.wgsl`).
 const IMPORTON_BYTES: u64 = 64;
+
+/// Importon slots past the image's own, per pixel, where the scene has rough glass: a
+/// rough-glass pixel's second importon (`SPLIT_IMPORTONS` in eye_paths.wgsl) goes there, room
+/// for a quarter of the image (16 bytes a pixel). Past it a pixel's first camera path alone
+/// leaves one, weighed as both: unbiased, as before the split.
+const EXTRA_IMPORTONS: f64 = 0.25;
+
+/// The extra importon slots (`EXTRA_IMPORTONS`) a target of `size` holds: none without rough
+/// glass, or where they would not fit in the importons' binding with the image's own.
+pub(crate) fn extra_importons(device: &RenderDevice, size: UVec2, rough_glass: bool) -> u32 {
+    let per_pixel = (IMPORTON_BYTES as f64 * (1.0 + EXTRA_IMPORTONS)).ceil() as u64;
+    let fits = per_pixel_binding_fits(device, size, per_pixel, "importons").is_ok();
+    let pixels = size.x as f64 * size.y as f64;
+    if rough_glass && fits {
+        (pixels * EXTRA_IMPORTONS) as u32
+    } else {
+        0
+    }
+}
 
 /// Whether a target of `size` can hold its importons in one binding on this device; one that
 /// cannot ends its camera paths at the first surface (with a warning) rather than fail.
@@ -188,10 +208,10 @@ fn init_eye_path_pipeline(
 pub struct EyePaths {
     /// This iteration's local sample per pixel.
     pub samples: Buffer,
-    /// One importon per pixel.
+    /// One importon per pixel, then the extra slots ([`extra_importons`]).
     pub importons: Buffer,
-    /// [-, importons made, -, -, gather x, y, z, -]: the stage sets the indirect splat's
-    /// workgroup count only when it makes an importon.
+    /// [-, importons made, extra slots taken, -, gather x, y, z, -]: the stage sets the
+    /// indirect splat's workgroup count only when it makes an importon.
     pub stats: Buffer,
     /// Per pixel, the photons the pixel's importon gathered (indirect splatting's output).
     pub radiance: Buffer,
@@ -214,16 +234,23 @@ pub fn storage(device: &RenderDevice, label: &'static str, size: u64) -> Buffer 
 }
 
 impl EyePaths {
-    /// Buffers for `size` pixels, with importons when `importons` and surfaces when
-    /// `textured`.
-    pub fn new(device: &RenderDevice, size: UVec2, importons: bool, textured: bool) -> Self {
+    /// Buffers for `size` pixels, with importons (and `extras` more slots) when `importons`
+    /// and surfaces when `textured`.
+    pub fn new(
+        device: &RenderDevice,
+        size: UVec2,
+        importons: bool,
+        extras: u32,
+        textured: bool,
+    ) -> Self {
         let pixels = size.x as u64 * size.y as u64;
         let per_pixel = |bytes: u64| {
             if importons { pixels * bytes } else { 0 }
         };
+        let slots = per_pixel(IMPORTON_BYTES) + importons as u64 * extras as u64 * IMPORTON_BYTES;
         Self {
             samples: pixel_buffer(device, size, "rppm_samples", 16, BufferUsages::empty()),
-            importons: storage(device, "rppm_importons", per_pixel(IMPORTON_BYTES)),
+            importons: storage(device, "rppm_importons", slots),
             stats: device.create_buffer_with_data(&BufferInitDescriptor {
                 label: Some("rppm_importon_stats"),
                 contents: bytemuck::cast_slice(&[0u32, 0, 0, 0, 0, 1, 1, 0]),

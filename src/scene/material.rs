@@ -227,7 +227,7 @@ impl GpuMaterial {
     }
 
     /// What its delta lobes carry where it is smooth: the mirror of its metal part and its
-    /// glass (`delta_share` in shaders/importons/eye_paths.wgsl).
+    /// glass (`delta_share` in shaders/importons/bounce.wgsl).
     pub(super) fn delta_share(&self) -> f32 {
         let base = [self.base_color[0], self.base_color[1], self.base_color[2]];
         luminance(base) * self.metallic + self.glass_share()

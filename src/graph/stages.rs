@@ -102,7 +102,9 @@ pub(super) fn select_stages(
                 spheres_seen: scene.data.has_sphere_lights(),
                 reflected_emission: state.importons
                     && scene.paths.contains(ScatterPaths::REFRACTION)
-                    && (!scene.data.emitters.is_empty() || scene.paths.contains(ScatterPaths::SKY)),
+                    && (!scene.data.emitters.is_empty()
+                        || scene.paths.contains(ScatterPaths::SKY)
+                        || scene.data.has_sphere_lights()),
             },
         ),
         trace: traced.then(|| {

@@ -115,7 +115,8 @@ pub struct EyePathKey {
     /// sphere lights (`SPHERE_LIGHTS_SEEN`): the scene has one.
     pub spheres_seen: bool,
     /// Camera paths at smooth glass look up the emission along its reflection besides going
-    /// on (`REFLECTED_EMISSION`): the scene has smooth glass and emitters or a sky.
+    /// on (`REFLECTED_EMISSION`): the scene has smooth glass and emitters, a sky or a sphere
+    /// light (a bulb's highlight on a glass ball).
     pub reflected_emission: bool,
 }
 

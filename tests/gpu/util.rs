@@ -274,15 +274,31 @@ pub fn render_asset(
     render_gltf(&request, |_| {}).unwrap_or_else(|e| panic!("{e}"))
 }
 
-/// A glTF scene rendered at 64², 16 iterations (`render_gltf_64`), against its reference
-/// averaged down to 64²: (relMSE, energy ratio), printed under `name`.
+/// A glTF scene rendered at 64², 16 iterations, against its reference averaged down to 64²
+/// (`against_reference`).
 pub fn against_reference_64(name: &str, scene: PathBuf, reference: &Path) -> (f64, f64) {
-    let image = render_gltf_64(scene, 16);
+    against_reference(name, scene, reference, 64, 16)
+}
+
+/// A glTF scene rendered in-process at `size`², `iterations` of 65 536 photons, every pixel
+/// finite, against its reference averaged down to that size: (relMSE, energy ratio), printed
+/// under `name`.
+pub fn against_reference(
+    name: &str,
+    scene: PathBuf,
+    reference: &Path,
+    size: u32,
+    iterations: u32,
+) -> (f64, f64) {
+    let image = render_fixed(&scene, size, size, iterations, 0);
+    assert_eq!(bad_pixels(&image), 0, "{}", scene.display());
     let reference = read_exr(reference).unwrap();
-    let reference = downsample(&reference, reference.width / 64);
+    let reference = downsample(&reference, reference.width / size as usize);
     let error = bevy_rppm_cli::image_io::relmse(&image, &reference).unwrap();
     let energy = bevy_rppm_cli::image_io::energy_ratio(&image, &reference).unwrap();
-    println!("{name}: relMSE {error:.4}, energy {energy:.4} after 16 iterations at 64²");
+    println!(
+        "{name}: relMSE {error:.4}, energy {energy:.4} after {iterations} iterations at {size}²"
+    );
     (error, energy)
 }
 

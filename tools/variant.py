@@ -16,6 +16,7 @@ meshes stored as triangle strips, a wide landscape around a small scene).
     python3 tools/variant.py half_metal SCENE.gltf OUT.gltf     # a new scene: its own reference
     python3 tools/variant.py camera SCENE.gltf OUT.gltf --at 0,-0.45,1.35 --look 0,-0.1,-0.8  # the same
     python3 tools/variant.py polish SCENE.gltf OUT.gltf --node floor --roughness 0.15  # the same
+    python3 tools/variant.py drop SCENE.gltf OUT.gltf --node 7  # a new scene: its own reference
 
 `transform` gives every base colour texture a KHR_texture_transform (offset 0.1, 0.3, rotation
 0.4 rad, scale 2.5, 1.5); `blend` makes every cut-out (alpha MASK) blended (BLEND) at half its
@@ -25,7 +26,8 @@ integers (as exporters do); `half_metal` makes every glass a smooth half-metal (
 colour 0.9, 0.7, 0.35); `camera` moves the camera to `--at`, looking at `--look` (water_pool's at
 0,-0.45,1.35 looking at 0,-0.1,-0.8 is under the water, seeing its surface from below); `polish`
 gives the node named `--node` its own copies of its materials at roughness `--roughness` (a
-polished floor: glossy plastic). `ground` adds a grey ground (albedo 0.3) 2·half wide, 5 cm under y = 0, around the scene.
+polished floor: glossy plastic); `drop` takes the root node named (or numbered) `--node` out
+of the scene and keeps only the data the rest uses, in one embedded buffer. `ground` adds a grey ground (albedo 0.3) 2·half wide, 5 cm under y = 0, around the scene.
 `strips` stores every indexed or plain triangle list as one TRIANGLE_STRIP (its triangles
 joined by degenerate ones). Otherwise the meshes go under one new root node (scaled by (-1, 1, 1) or s); lights and the camera stay
 at the root, moved to match. `mirror` needs a camera on x = 0 that turns about x only. External
@@ -265,6 +267,59 @@ def polish(scene, args):
             prim["material"] = len(scene["materials"]) - 1
 
 
+def drop(scene, args):
+    roots = scene["scenes"][scene.get("scene", 0)]["nodes"]
+    named = [i for i in roots if scene["nodes"][i].get("name") == args.node or str(i) == args.node]
+    if not named:
+        raise SystemExit(f"variant.py: no root node {args.node}")
+    if any("bufferView" in image for image in scene.get("images", [])):
+        raise SystemExit("variant.py: drop keeps images as files only")
+    if "animations" in scene or "skins" in scene:
+        raise SystemExit("variant.py: drop needs a scene without animations or skins")
+    roots.remove(named[0])
+    stack = [named[0]]
+    while stack:
+        node = scene["nodes"][stack.pop()]
+        stack += node.pop("children", [])
+        node.pop("mesh", None)
+    # The meshes nodes still hold, and the accessors they use, copied into a new buffer.
+    kept = sorted({n["mesh"] for n in scene["nodes"] if "mesh" in n})
+    for node in scene["nodes"]:
+        if "mesh" in node:
+            node["mesh"] = kept.index(node["mesh"])
+    scene["meshes"] = [scene["meshes"][m] for m in kept]
+    used = set()
+    for mesh in scene["meshes"]:
+        for primitive in mesh["primitives"]:
+            used |= set(primitive["attributes"].values()) | {primitive.get("indices")}
+            for target in primitive.get("targets", []):
+                used |= set(target.values())
+    folder = os.path.dirname(os.path.abspath(args.scene))
+    buffers = [uri_bytes(b["uri"], folder) for b in scene["buffers"]]
+    blob, views, moved = bytearray(), [], {}
+    for index in sorted(used - {None}):
+        accessor = scene["accessors"][index]
+        view = dict(scene["bufferViews"][accessor["bufferView"]])
+        start = view.get("byteOffset", 0)
+        data = buffers[view["buffer"]][start:start + view["byteLength"]]
+        blob += b"\0" * (-len(blob) % 4)
+        views.append(dict(view, buffer=0, byteOffset=len(blob)))
+        blob += data
+        moved[index] = len(moved)
+        accessor["bufferView"] = len(views) - 1
+    scene["accessors"] = [scene["accessors"][i] for i in sorted(moved)]
+    scene["bufferViews"] = views
+    for mesh in scene["meshes"]:
+        for primitive in mesh["primitives"]:
+            primitive["attributes"] = {k: moved[v] for k, v in primitive["attributes"].items()}
+            if "indices" in primitive:
+                primitive["indices"] = moved[primitive["indices"]]
+            for target in primitive.get("targets", []):
+                target.update({k: moved[v] for k, v in target.items()})
+    scene["buffers"] = [{"byteLength": len(blob), "uri": "data:application/octet-stream;base64,"
+                         + base64.b64encode(bytes(blob)).decode()}]
+
+
 def glb(scene, args):
     """Every buffer and image into one BIN chunk (4-byte aligned), written as OUT (GLB)."""
     folder = os.path.dirname(os.path.abspath(args.scene))
@@ -294,7 +349,7 @@ def glb(scene, args):
 
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("kind", choices=["mirror", "scale", "orthographic", "strips", "ground", "transform", "blend", "glb", "quantize", "half_metal", "camera", "polish"])
+    parser.add_argument("kind", choices=["mirror", "scale", "orthographic", "strips", "ground", "transform", "blend", "glb", "quantize", "half_metal", "camera", "polish", "drop"])
     parser.add_argument("scene")
     parser.add_argument("out")
     parser.add_argument("--by", type=float, default=100.0, help="scale: the factor")
@@ -303,7 +358,7 @@ def main():
     parser.add_argument("--half", type=float, default=500.0, help="ground: half its width, m")
     parser.add_argument("--at", default="0,-0.45,1.35", help="camera: where it stands, x,y,z in m")
     parser.add_argument("--look", default="0,-0.1,-0.8", help="camera: the point it looks at, x,y,z in m")
-    parser.add_argument("--node", default="floor", help="polish: the node whose materials it polishes")
+    parser.add_argument("--node", default="floor", help="polish: the node whose materials it polishes; drop: the node it takes out")
     parser.add_argument("--roughness", type=float, default=0.15, help="polish: the roughness they get")
     args = parser.parse_args()
     if not math.isfinite(args.by) or args.by <= 0:
@@ -311,7 +366,7 @@ def main():
     scene = load(args.scene)
     {"mirror": mirror, "scale": scale, "orthographic": orthographic, "strips": strips, "ground": ground,
      "transform": transform, "blend": blend, "glb": glb,
-     "quantize": quantize, "half_metal": half_metal, "camera": camera, "polish": polish}[args.kind](scene, args)
+     "quantize": quantize, "half_metal": half_metal, "camera": camera, "polish": polish, "drop": drop}[args.kind](scene, args)
     if args.kind != "glb":
         json.dump(scene, open(args.out, "w"))
     print(f"wrote {args.out}: {args.kind} of {args.scene}")

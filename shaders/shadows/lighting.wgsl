@@ -18,6 +18,11 @@
 #endif
 #ifdef IMPORTONS
 #import bevy_rppm::mis::{path_f, drawn_pdf, power_heuristic}
+#else ifdef EMITTER_RAYS
+#import bevy_rppm::mis::power_heuristic
+#endif
+#ifdef EMITTER_RAYS
+#import bevy_rppm::cubemap::{trace_ray, NO_HIT}
 #endif
 #endif
 
@@ -262,6 +267,28 @@ fn emitter_sample(x: vec3<f32>, n: vec3<f32>, origin_triangle: u32, by_solid_ang
     return LightSample(wi, sqrt(d2), radiance * weight, false, emitter_density(radiance, d2, cos_y));
 }
 
+#ifdef EMITTER_RAYS
+// The emitter met by a ray drawn by cosine around n (a sample of radiance × π, the BSDF and
+// the cosine's sign applied by the caller), or none. A large emitter close by (a glowing ball
+// on the floor) covers much of the hemisphere, but `emitter_sample` draws it a triangle at a
+// time by power: the near triangle, drawn rarely, weighed so much that it made fireflies.
+fn emitter_ray(x: vec3<f32>, n: vec3<f32>, origin_triangle: u32, rng: ptr<function, u32>) -> LightSample {
+    let wi = cosine_direction(n, vec2<f32>(random(rng), random(rng)));
+    let hit = trace_ray(x, wi, params.scene_sphere.w * 1e-6, 1.0e30, origin_triangle);
+    if hit.triangle == NO_HIT {
+        return no_light();
+    }
+    let t = triangle_at(hit.triangle);
+    let cos_y = -dot(normalize(cross(t.position_b - t.position_a, t.position_c - t.position_a)), wi);
+    let radiance = material_at(hit.triangle, hit.uv, 0.0).emissive.rgb;
+    if cos_y <= 0.0 || all(radiance <= vec3<f32>(0.0)) {
+        return no_light();
+    }
+    let d2 = hit.t * hit.t;
+    return LightSample(wi, hit.t, radiance * PI, true, emitter_density(radiance, d2, cos_y));
+}
+#endif
+
 // The density (solid angle) of drawing an emitter's point of radiance L at distance² d2 and
 // cosine cos_y, were every emitter drawn by its power: exact for untextured emitters, and the
 // same function for both strategies of MIS (what keeps their weights summing to 1).
@@ -287,7 +314,12 @@ fn surface_light(m: Material, x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, front: 
     // punctual lights (or MANY_LIGHTS of them drawn by power), then the sky, then an emitter.
     let many = params.light_count > MANY_LIGHTS;
     let punctual = select(params.light_count, MANY_LIGHTS, many);
-    let samples = punctual + select(0u, 2u, emitters || mis);
+    var samples = punctual + select(0u, 2u, emitters || mis);
+#ifdef EMITTER_RAYS
+    // Where no camera path goes on, a ray drawn by cosine finds the emitters too (MIS).
+    let rays = emitters && !mis;
+    samples += u32(rays);
+#endif
 #ifdef NORMAL_MAP
     // An opaque surface takes no light from behind its own triangle, whatever its bent
     // normal says: the shadow ray leaves that triangle, so it would not see the wall it is on
@@ -333,8 +365,12 @@ fn surface_light(m: Material, x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, front: 
             }
             s = LightSample(wi, 1.0e30, li, true, 0.0);
 #endif
-        } else {
+        } else if k == punctual + 1u {
             s = emitter_sample(x, n, origin_triangle, !mis, rng);
+        } else {
+#ifdef EMITTER_RAYS
+            s = emitter_ray(x, n, origin_triangle, rng);
+#endif
         }
         if all(s.li <= vec3<f32>(0.0)) {
             continue;
@@ -361,6 +397,13 @@ fn surface_light(m: Material, x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, front: 
             }
         }
 #endif
+#ifdef EMITTER_RAYS
+        if rays && k > punctual {
+            // The emitter sample against the cosine ray, each weighed by the other's density.
+            let by_cosine = max(dot(n, s.wi), 0.0) / PI;
+            f *= select(power_heuristic(s.density, by_cosine), power_heuristic(by_cosine, s.density), k > punctual + 1u);
+        }
+#endif
         let lit = f * s.li * select(c, sign(c), s.cosine_drawn);
         // No shadow ray where nothing would arrive (behind an opaque surface, outside a
         // cone, a delta lobe).
@@ -371,7 +414,11 @@ fn surface_light(m: Material, x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, front: 
 #ifdef PANES
             through = through && panes_on(params);
 #endif
-            let seen = visibility(x, s.wi, s.distance, origin_triangle, through);
+            var seen = vec3<f32>(1.0);
+            // The cosine ray's emitter is its nearest hit: nothing lies between.
+            if k <= punctual + 1u {
+                seen = visibility(x, s.wi, s.distance, origin_triangle, through);
+            }
             if all(seen == vec3<f32>(0.0)) && k < punctual && light < 32u {
                 *blocked |= 1u << light;
             }

@@ -118,6 +118,10 @@ pub struct EyePathKey {
     /// on (`REFLECTED_EMISSION`): the scene has smooth glass and emitters, a sky or a sphere
     /// light (a bulb's highlight on a glass ball).
     pub reflected_emission: bool,
+    /// Where no camera path goes on, a ray drawn by cosine also finds the emitters, weighed
+    /// by MIS against the emitter sample (`EMITTER_RAYS`): a large emitter close by is drawn
+    /// well. The scene has emitters and no panes, and shadows are traced.
+    pub emitter_rays: bool,
 }
 
 impl SpecializedComputePipeline for EyePathPipeline {
@@ -157,6 +161,9 @@ impl SpecializedComputePipeline for EyePathPipeline {
         }
         if key.reflected_emission {
             shader_defs.push("REFLECTED_EMISSION".into());
+        }
+        if key.emitter_rays {
+            shader_defs.push("EMITTER_RAYS".into());
         }
         if key.bvh {
             shader_defs.push("BVH".into());

@@ -1,4 +1,5 @@
 use super::util::*;
+use std::ops::RangeInclusive;
 
 #[test]
 fn direct_light_on_a_plane_matches_the_analytic_radiance() {
@@ -402,25 +403,17 @@ fn check_light(light: impl Bundle + Clone, radiance: impl Fn(f32, f32) -> f32, n
 /// (below): 0.026.
 #[test]
 fn a_room_under_a_sky_and_an_emissive_box_has_quiet_walls() {
-    let (error, energy) = random_room("r4_04");
-    assert!(
-        error < 0.044 && (0.97..=1.03).contains(&energy),
-        "relMSE {error:.4}, energy {energy:.4}"
-    );
+    room_within("r4_04", 64, 16, 0.044, 0.97..=1.03);
 }
 
 /// A glowing box 5 mm over the floor (room 1 of `random_scenes.py --seed 6 --wide`, with a
 /// window, the sun and the sky): the floor beside it sees its faces up close, where a point
 /// drawn by area weighs 1/d² and a few such samples speckle the floor's contact. Drawn by the
 /// solid angle it subtends (`spherical_triangle`), the weight stays bounded: 0.0108 by area,
-/// 0.0061 by solid angle.
+/// 0.0061 by solid angle, 0.0054 with the cosine ray (`EMITTER_RAYS`) besides.
 #[test]
 fn the_floor_beside_a_glowing_box_has_no_speckle() {
-    let (error, energy) = random_room("r6_01");
-    assert!(
-        error < 0.0085 && (0.97..=1.03).contains(&energy),
-        "relMSE {error:.4}, energy {energy:.4}"
-    );
+    room_within("r6_01", 64, 16, 0.0085, 0.97..=1.03);
 }
 
 /// A glowing ball of 2 300 triangles resting on a checkered plastic floor (room 5 of
@@ -432,11 +425,7 @@ fn the_floor_beside_a_glowing_box_has_no_speckle() {
 /// well (`EMITTER_RAYS`, MIS): 0.021 by every seed; 0.018 here.
 #[test]
 fn the_floor_beside_a_glowing_ball_has_no_fireflies() {
-    let (error, energy) = random_room("glowing_ball");
-    assert!(
-        error < 0.028 && (0.97..=1.03).contains(&energy),
-        "relMSE {error:.4}, energy {energy:.4}"
-    );
+    room_within("glowing_ball", 64, 16, 0.028, 0.97..=1.03);
 }
 
 /// Walls of small repeated bumps (normal maps) in an open room under a sky, the sun, a
@@ -447,11 +436,7 @@ fn the_floor_beside_a_glowing_ball_has_no_fireflies() {
 /// turned toward it. Now 1.007 and 0.0057 (here, 64² and 16 iterations: 0.9875).
 #[test]
 fn walls_of_small_bumps_are_not_brighter_than_their_texels() {
-    let (error, energy) = random_room("r8_03");
-    assert!(
-        error < 0.03 && (0.96..=1.025).contains(&energy),
-        "relMSE {error:.4}, energy {energy:.4}"
-    );
+    room_within("r8_03", 64, 16, 0.03, 0.96..=1.025);
 }
 
 /// A glass ball (tinted, smooth) under two sphere lights (room 8 of `random_scenes.py --seed
@@ -462,16 +447,23 @@ fn walls_of_small_bumps_are_not_brighter_than_their_texels() {
 /// highlights are 2 pixels wide), 24 iterations: 0.0170 before, 0.0055 now.
 #[test]
 fn a_bulbs_highlight_on_a_glass_ball_stays_sharp() {
-    let (error, energy) = random_room_at("r10_08", 128, 24);
-    assert!(
-        error < 0.011 && (0.97..=1.03).contains(&energy),
-        "relMSE {error:.4}, energy {energy:.4}"
-    );
+    room_within("r10_08", 128, 24, 0.011, 0.97..=1.03);
 }
 
 /// A room kept in `assets/suite/random/` against its reference, at 64² and 16 iterations.
-fn random_room(name: &str) -> (f64, f64) {
-    random_room_at(name, 64, 16)
+/// `random_room_at`'s relMSE under `max_error` and its energy ratio within `energy`.
+fn room_within(
+    name: &str,
+    size: u32,
+    iterations: u32,
+    max_error: f64,
+    energy: RangeInclusive<f64>,
+) {
+    let (error, ratio) = random_room_at(name, size, iterations);
+    assert!(
+        error < max_error && energy.contains(&ratio),
+        "{name}: relMSE {error:.4}, energy {ratio:.4}"
+    );
 }
 
 /// A room kept in `assets/suite/random/` against its reference (`against_reference`).

@@ -55,7 +55,7 @@ def window_wall(x, h, d, draw):
     y0, y1 = draw.uniform(0.6, 1.0), h - draw.uniform(0.3, 0.6)
     z0, z1 = -d / 2 + draw.uniform(0.3, d / 3), d / 2 - draw.uniform(0.3, d / 3)
     def quad(za, zb, ya, yb):
-        return [[x, ya, za], [x, ya, zb], [x, yb, zb], [x, yb, za]]
+        return [[x, ya, za], [x, yb, za], [x, yb, zb], [x, ya, zb]]
     return [quad(-d / 2, z0, 0, h), quad(z1, d / 2, 0, h), quad(z0, z1, 0, y0), quad(z0, z1, y1, h)]
 
 

@@ -43,7 +43,13 @@ of failure:
   more than a vertex samples (8, drawn by power), with a gold block at roughness 0.3 (the
   rough end of issue 11's glossy metals) reflecting the lit ceiling, and a matte block.
 
+With `--tests`, it writes instead the scenes only tests use (kept in `assets/suite/random/`):
+
+- `lamp_by_pane`: a glowing ball on the floor of an open box, a clear pane standing beside
+  it: the floor sees the ball up close, directly and through the pane.
+
     python3 tools/suite_scenes.py assets/suite
+    python3 tools/suite_scenes.py assets/suite/random --tests
     python3 tools/reference.py assets/suite/sun_room.gltf --out assets/suite/sun_room.ref.exr \
         --width 128 --height 128 --spp 2048 --variant scalar_rgb
 """
@@ -406,13 +412,25 @@ def many_lights(path):
     g.write(path, "bevy_rppm tools/suite_scenes.py many_lights")
 
 
+def lamp_by_pane(path):
+    g, _, faces = open_box()
+    coloured_walls(g, faces, [0.6, 0.6, 0.58], [0.6, 0.25, 0.15], [0.2, 0.35, 0.6])
+    g.mesh(*sphere([-0.1, 0.255, -0.3], 0.25), g.emitter([1.0, 0.8, 0.55], 6.0))
+    g.quads(box([0.2, 0.005, -0.7], [0.22, 0.6, 0.1], inward=False), g.glass(1.5))
+    g.light({"type": "point", "color": [1.0, 0.95, 0.9], "intensity": 2.0}, translation=[0.5, 2.0, 0.5])
+    g.camera([0.9, 0.9, 1.3], [0.0, 0.1, -0.3], yfov=0.8)
+    g.write(path, "bevy_rppm tools/suite_scenes.py lamp_by_pane")
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("out", help="folder for the .gltf files")
+    parser.add_argument("--tests", action="store_true", help="the scenes only tests use instead")
     args = parser.parse_args()
     os.makedirs(args.out, exist_ok=True)
-    for make in (sun_room, glazed_room, glass_slab, tinted_glass, frosted_glass, frosted_lamp, frosted_lantern, water_pool, sky_court, lens_caustic, clearcoat, translucent,
-                 mirror_caustic, sun_spot_caustics, lamp_globe, studio, many_lights):
+    suite = (sun_room, glazed_room, glass_slab, tinted_glass, frosted_glass, frosted_lamp, frosted_lantern, water_pool, sky_court, lens_caustic, clearcoat, translucent,
+             mirror_caustic, sun_spot_caustics, lamp_globe, studio, many_lights)
+    for make in (lamp_by_pane,) if args.tests else suite:
         path = os.path.join(args.out, f"{make.__name__}.gltf")
         make(path)
         print(f"wrote {path}")

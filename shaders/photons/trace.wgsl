@@ -327,7 +327,7 @@ fn trace(@builtin(global_invocation_id) id: vec3<u32>, @builtin(local_invocation
                 indirect = false;
                 if !far {
                     let to = ray.source.xyz - x;
-                    let lit = through_panes(x, normalize(to), length(to), hit.triangle, t_min, true);
+                    let lit = through_panes(x, normalize(to), length(to), hit.triangle, t_min, true).rgb;
                     indirect = all(lit <= vec3<f32>(0.0));
                 }
             }

@@ -71,15 +71,15 @@ fn cube_visibility(view_base: u32, layer: u32, eye: vec3<f32>, x: vec3<f32>, n: 
 #ifdef TRACED_SHADOWS
 // What reaches x (on triangle `origin_triangle`) from the light `distance` along `dir` (1e30:
 // a direction): 1 where nothing lies between, 0 otherwise; with PANES, light through panes
-// too where `through` (`through_panes`).
-fn visibility(x: vec3<f32>, dir: vec3<f32>, distance: f32, origin_triangle: u32, through: bool) -> vec3<f32> {
+// too where `through` (`through_panes`; w: 1 where it came through one).
+fn visibility(x: vec3<f32>, dir: vec3<f32>, distance: f32, origin_triangle: u32, through: bool) -> vec4<f32> {
     let t_min = params.scene_sphere.w * 1e-6;
 #ifdef PANES
     // One ray walk for both: a scene with panes finds the nearest hit of every shadow ray.
     return through_panes(x, dir, distance, origin_triangle, t_min, through);
 #else
     let t_max = select(distance * (1.0 - 1e-4), 1.0e30, distance >= 1.0e30);
-    return vec3<f32>(select(1.0, 0.0, occluded(x, dir, t_min, t_max, origin_triangle)));
+    return vec4<f32>(vec3<f32>(select(1.0, 0.0, occluded(x, dir, t_min, t_max, origin_triangle))), 0.0);
 #endif
 }
 #endif
@@ -398,10 +398,10 @@ fn surface_light(m: Material, x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, front: 
         }
 #endif
 #ifdef EMITTER_RAYS
-        if rays && k > punctual {
-            // The emitter sample against the cosine ray, each weighed by the other's density.
-            let by_cosine = max(dot(n, s.wi), 0.0) / PI;
-            f *= select(power_heuristic(s.density, by_cosine), power_heuristic(by_cosine, s.density), k > punctual + 1u);
+        // The emitter sample against the cosine ray, each weighed by the other's density.
+        let by_cosine = max(dot(n, s.wi), 0.0) / PI;
+        if rays && k > punctual + 1u {
+            f *= power_heuristic(by_cosine, s.density);
         }
 #endif
         let lit = f * s.li * select(c, sign(c), s.cosine_drawn);
@@ -417,7 +417,14 @@ fn surface_light(m: Material, x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, front: 
             var seen = vec3<f32>(1.0);
             // The cosine ray's emitter is its nearest hit: nothing lies between.
             if k <= punctual + 1u {
-                seen = visibility(x, s.wi, s.distance, origin_triangle, through);
+                let walk = visibility(x, s.wi, s.distance, origin_triangle, through);
+                seen = walk.rgb;
+#ifdef EMITTER_RAYS
+                // The ray stops at a pane: light through one is the emitter sample's alone.
+                if rays && k == punctual + 1u && walk.w == 0.0 {
+                    seen *= power_heuristic(s.density, by_cosine);
+                }
+#endif
             }
             if all(seen == vec3<f32>(0.0)) && k < punctual && light < 32u {
                 *blocked |= 1u << light;

@@ -15,8 +15,8 @@
 // in the way, or anything at all unless `through`. From a light at a finite distance, the glass
 // crossed may be no more than PANE_SHARE of the light's distance beyond it, and the light must
 // not lie inside a pane. One ray walk in the code for every segment, in a pane or between
-// panes.
-fn through_panes(x: vec3<f32>, dir: vec3<f32>, distance: f32, origin_triangle: u32, t_min: f32, through: bool) -> vec3<f32> {
+// panes. w: 1 where the light came through a pane.
+fn through_panes(x: vec3<f32>, dir: vec3<f32>, distance: f32, origin_triangle: u32, t_min: f32, through: bool) -> vec4<f32> {
     let finite = distance < 1.0e30;
     var o = x;
     var d = dir;
@@ -34,7 +34,7 @@ fn through_panes(x: vec3<f32>, dir: vec3<f32>, distance: f32, origin_triangle: u
             if in_pane {
                 break;
             }
-            return kept;
+            return vec4<f32>(kept, f32(inside > 0.0));
         }
         // Between panes, in at a pane's front face; in one, out at its parallel face.
         let p = o + d * hit.t;
@@ -72,5 +72,5 @@ fn through_panes(x: vec3<f32>, dir: vec3<f32>, distance: f32, origin_triangle: u
         o = p;
         ignore = hit.triangle;
     }
-    return vec3<f32>(0.0);
+    return vec4<f32>(0.0);
 }

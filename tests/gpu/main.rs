@@ -22,6 +22,7 @@ mod modes;
 mod motion;
 mod ppm;
 mod robustness;
+mod rooms;
 mod sky;
 mod suite;
 mod textures;

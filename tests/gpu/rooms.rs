@@ -1,0 +1,102 @@
+//! Rooms kept in `assets/suite/random/` with their references, each the scene where a fault
+//! was found (`tools/random_scenes.py`, `tools/suite_scenes.py --tests`).
+
+use std::ops::RangeInclusive;
+use std::path::Path;
+
+use super::util::*;
+
+/// A room of `tools/random_scenes.py --wide` (seed 4, room 4: an open room under a sky, an
+/// emissive box of 1 m, two panels, a sphere light, a glossy floor) against its reference,
+/// 64², 16 iterations. A pixel's first draws came from Roberts' R₈, whose consecutive draws
+/// move nearly in step over the first iterations: the emitter's point, drawn after the sky's
+/// direction, fell on such a pair, and the walls were covered in noise (relMSE 0.049). In
+/// Owen-scrambled Sobol pairs (`sequence_draw`): 0.032; with the emitter drawn by solid angle
+/// (below): 0.026; with the cosine ray (`EMITTER_RAYS`) besides: 0.025.
+#[test]
+fn a_room_under_a_sky_and_an_emissive_box_has_quiet_walls() {
+    room_within("r4_04", 64, 16, 0.044, 0.97..=1.03);
+}
+
+/// A glowing box 5 mm over the floor (room 1 of `random_scenes.py --seed 6 --wide`, with a
+/// window, the sun and the sky): the floor beside it sees its faces up close, where a point
+/// drawn by area weighs 1/d² and a few such samples speckle the floor's contact. Drawn by the
+/// solid angle it subtends (`spherical_triangle`), the weight stays bounded: 0.0108 by area,
+/// 0.0061 by solid angle, 0.0054 with the cosine ray (`EMITTER_RAYS`) besides.
+#[test]
+fn the_floor_beside_a_glowing_box_has_no_speckle() {
+    room_within("r6_01", 64, 16, 0.0085, 0.97..=1.03);
+}
+
+/// A glowing ball of 2 300 triangles resting on a checkered plastic floor (room 5 of
+/// `random_scenes.py --count 6 --seed 11 --wide --textured`, its dense metal sphere taken out
+/// by `variant.py drop`). From the floor beside it the ball fills half the sky, but the
+/// emitter sample draws it a triangle at a time by power: the nearest triangles, drawn once in
+/// thousands of tries, were worth thousands of times their light, fireflies (`rppm render` at
+/// 64², 16 iterations: relMSE 0.037–0.066 by seed). A ray drawn by cosine finds the ball as
+/// well (`EMITTER_RAYS`, MIS): 0.021 by every seed; 0.018 here.
+#[test]
+fn the_floor_beside_a_glowing_ball_has_no_fireflies() {
+    room_within("glowing_ball", 64, 16, 0.028, 0.97..=1.03);
+}
+
+/// Walls of small repeated bumps (normal maps) in an open room under a sky, the sun, a
+/// sphere light and a panel (room 3 of `random_scenes.py --seed 8 --textured`). Two ways they
+/// came out bright (128², 64 iterations: energy 1.041, relMSE 0.0092): the G-buffer read the
+/// normal map's mip at the pixel's footprint, whose averaged normals are flatter than the
+/// texels they average; and light from behind a wall's own triangle (the sun) lit the bumps
+/// turned toward it. Now 1.007 and 0.0057 (here, 64² and 16 iterations: 0.9875).
+#[test]
+fn walls_of_small_bumps_are_not_brighter_than_their_texels() {
+    room_within("r8_03", 64, 16, 0.03, 0.96..=1.025);
+}
+
+/// A glass ball (tinted, smooth) under two sphere lights (room 8 of `random_scenes.py --seed
+/// 10 --textured`): the bulbs' highlights on the ball are their Fresnel reflections, which a
+/// camera path took in one try of 25, each worth 25 times the highlight, and the outlier
+/// spread smeared them into blobs (128², 64 iterations: relMSE 0.040). The peek along smooth
+/// glass's reflection (`REFLECTED_EMISSION`) now sees the sphere lights too. At 128² (the
+/// highlights are 2 pixels wide), 24 iterations: 0.0170 before, 0.0055 now.
+#[test]
+fn a_bulbs_highlight_on_a_glass_ball_stays_sharp() {
+    room_within("r10_08", 128, 24, 0.011, 0.97..=1.03);
+}
+
+/// A room kept in `assets/suite/random/` against its reference, at 64² and 16 iterations.
+/// A glowing ball on the floor with a clear pane standing beside it (`tools/suite_scenes.py
+/// --tests`): the floor sees the ball up close, directly and through the pane. The cosine ray
+/// stops at the pane, so light through one is the emitter sample's alone (`through_panes`
+/// says where it came through one). Without the ray here (`rppm render` at 64², 16
+/// iterations): relMSE 0.104 and 0.063, energy 1.040 and 1.017 by seed; with it 0.022 and
+/// 0.023, 1.007 and 1.006.
+#[test]
+fn a_glowing_ball_beside_a_pane_has_no_fireflies() {
+    room_within("lamp_by_pane", 64, 16, 0.04, 0.97..=1.03);
+}
+
+/// `random_room_at`'s relMSE under `max_error` and its energy ratio within `energy`.
+fn room_within(
+    name: &str,
+    size: u32,
+    iterations: u32,
+    max_error: f64,
+    energy: RangeInclusive<f64>,
+) {
+    let (error, ratio) = random_room_at(name, size, iterations);
+    assert!(
+        error < max_error && energy.contains(&ratio),
+        "{name}: relMSE {error:.4}, energy {ratio:.4}"
+    );
+}
+
+/// A room kept in `assets/suite/random/` against its reference (`against_reference`).
+fn random_room_at(name: &str, size: u32, iterations: u32) -> (f64, f64) {
+    let room = Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/suite/random");
+    against_reference(
+        &format!("random room {name}"),
+        room.join(format!("{name}.gltf")),
+        &room.join(format!("{name}.ref.exr")),
+        size,
+        iterations,
+    )
+}

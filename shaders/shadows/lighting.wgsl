@@ -23,6 +23,7 @@
 #endif
 #ifdef EMITTER_RAYS
 #import bevy_rppm::cubemap::{trace_ray, NO_HIT}
+#import bevy_rppm::common::MATERIAL_UNLIT
 #endif
 #endif
 
@@ -280,10 +281,12 @@ fn emitter_ray(x: vec3<f32>, n: vec3<f32>, origin_triangle: u32, rng: ptr<functi
     }
     let t = triangle_at(hit.triangle);
     let cos_y = -dot(normalize(cross(t.position_b - t.position_a, t.position_c - t.position_a)), wi);
-    let radiance = material_at(hit.triangle, hit.uv, 0.0).emissive.rgb;
-    if cos_y <= 0.0 || all(radiance <= vec3<f32>(0.0)) {
+    let m = material_at(hit.triangle, hit.uv, 0.0);
+    // An unlit surface shows its colour as emission but lights nothing (no emitter).
+    if cos_y <= 0.0 || all(m.emissive.rgb <= vec3<f32>(0.0)) || (m.flags & MATERIAL_UNLIT) != 0u {
         return no_light();
     }
+    let radiance = m.emissive.rgb;
     let d2 = hit.t * hit.t;
     return LightSample(wi, hit.t, radiance * PI, true, emitter_density(radiance, d2, cos_y));
 }

@@ -105,7 +105,7 @@ pub(super) fn select_stages(
                     && (!scene.data.emitters.is_empty()
                         || scene.paths.contains(ScatterPaths::SKY)
                         || scene.data.has_sphere_lights()),
-                emitter_rays: state.traced_shadows && !scene.data.emitters.is_empty(),
+                emitter_rays: state.traced_shadows && scene.many_faced_emitters,
             },
         ),
         trace: traced.then(|| {

@@ -120,7 +120,8 @@ pub struct EyePathKey {
     pub reflected_emission: bool,
     /// Where no camera path goes on, a ray drawn by cosine also finds the emitters, weighed
     /// by MIS against the emitter sample (`EMITTER_RAYS`): a large emitter close by is drawn
-    /// well. The scene has emitters, and shadows are traced.
+    /// well. The scene has an emitter of more than a quad (`has_many_faced_emitters`), and
+    /// shadows are traced.
     pub emitter_rays: bool,
 }
 

@@ -105,6 +105,18 @@ pub(super) fn collect_emitters(
     }
 }
 
+impl SceneData {
+    /// Whether an emissive instance is more than a quad (a ball, a box, a disc). Drawn a
+    /// triangle at a time by power, its nearest triangles come too rarely for a surface close
+    /// by; a ray drawn by cosine finds them (`EMITTER_RAYS`). A quad's two triangles need none.
+    pub fn has_many_faced_emitters(&self) -> bool {
+        self.instances.iter().any(|i| {
+            luminance_of(&self.materials[i.material as usize]) > 0.0
+                && self.meshes[i.mesh as usize].triangles.len() > 2
+        })
+    }
+}
+
 /// An emitter of `radiance` (luminance) over `area` of a triangle's part, if it emits, its
 /// photons leaving `toward` a sphere (radius 0: over the hemisphere).
 fn push_emitter(
@@ -161,5 +173,31 @@ mod tests {
         assert_eq!(c[3], 1.0);
         assert_eq!(cdf([0.0, 0.0].into_iter()), vec![0.5, 1.0]);
         assert!(cdf(std::iter::empty()).is_empty());
+    }
+
+    /// A quad's two triangles are drawn well by power; more faces need the cosine ray.
+    #[test]
+    fn emitters_of_more_than_a_quad_are_many_faced() {
+        let mesh = |n| {
+            Arc::new(super::super::SceneMesh {
+                triangles: vec![GpuTriangle::default(); n],
+                ..default()
+            })
+        };
+        let glowing = super::super::GpuMaterial {
+            emissive: [1.0, 1.0, 1.0, 0.0],
+            ..default()
+        };
+        let instance =
+            |m| super::super::GpuInstance::new(bevy::math::Affine3A::IDENTITY, 0, m).unwrap();
+        let scene = |triangles, material: u32| SceneData {
+            meshes: vec![mesh(triangles)],
+            instances: vec![instance(material)],
+            materials: vec![glowing, super::super::GpuMaterial::default()],
+            ..default()
+        };
+        assert!(!scene(2, 0).has_many_faced_emitters());
+        assert!(scene(3, 0).has_many_faced_emitters());
+        assert!(!scene(300, 1).has_many_faced_emitters());
     }
 }

@@ -58,6 +58,9 @@ pub struct SceneBuffers {
     /// Whether camera paths can meet a sphere light (a point or spot light's radius) from a
     /// rough lobe they go on from (`GLOSSY`, rough glass included); once per scene change.
     pub sphere_lights: bool,
+    /// Whether an emitter is more than a quad (`SceneData::has_many_faced_emitters`); once
+    /// per scene change.
+    pub many_faced_emitters: bool,
     /// The largest probability a photon goes on after a hit (sizes the photon store).
     pub max_scatter: f32,
     /// Bytes written to the GPU by the latest scene change: what changed, not the scene.
@@ -327,6 +330,7 @@ pub(crate) fn prepare_scene(
         paths,
         lookups: data.lookups(),
         sphere_lights: paths.contains(ScatterPaths::GLOSSY) && data.has_sphere_lights(),
+        many_faced_emitters: data.has_many_faced_emitters(),
         max_scatter: data.max_scatter_probability(),
         triangles,
         moved_marks: count > 0 && moves,

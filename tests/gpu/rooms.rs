@@ -74,7 +74,8 @@ fn a_glowing_ball_beside_a_pane_has_no_fireflies() {
     room_within("lamp_by_pane", 64, 16, 0.04, 0.97..=1.03);
 }
 
-/// `random_room_at`'s relMSE under `max_error` and its energy ratio within `energy`.
+/// The room `name` kept in `assets/suite/random/` against its reference
+/// (`against_reference`): relMSE under `max_error`, energy ratio within `energy`.
 fn room_within(
     name: &str,
     size: u32,
@@ -82,21 +83,16 @@ fn room_within(
     max_error: f64,
     energy: RangeInclusive<f64>,
 ) {
-    let (error, ratio) = random_room_at(name, size, iterations);
-    assert!(
-        error < max_error && energy.contains(&ratio),
-        "{name}: relMSE {error:.4}, energy {ratio:.4}"
-    );
-}
-
-/// A room kept in `assets/suite/random/` against its reference (`against_reference`).
-fn random_room_at(name: &str, size: u32, iterations: u32) -> (f64, f64) {
     let room = Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/suite/random");
-    against_reference(
+    let (error, ratio) = against_reference(
         &format!("random room {name}"),
         room.join(format!("{name}.gltf")),
         &room.join(format!("{name}.ref.exr")),
         size,
         iterations,
-    )
+    );
+    assert!(
+        error < max_error && energy.contains(&ratio),
+        "{name}: relMSE {error:.4}, energy {ratio:.4}"
+    );
 }

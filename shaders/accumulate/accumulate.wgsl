@@ -2,7 +2,7 @@
 // (directly on the G-buffer, and through importons), averaged into the radiance of all
 // iterations since the last reset (w: the pixel's count), or with HISTORY of the pixel's
 // history kept through motion.
-#import bevy_rppm::common::{IterationParams, MOVED_TRIANGLE, DELTA_ROUGHNESS, subsample_representative}
+#import bevy_rppm::common::{IterationParams, MOVED_TRIANGLE, MATERIAL_INDEX, DELTA_ROUGHNESS, subsample_representative}
 #import bevy_rppm::camera::{camera_ray, toward_eye}
 #ifdef SUBSAMPLED
 #import bevy_rppm::bsdf::{bsdf_from, bsdf_gathered}
@@ -44,6 +44,10 @@ const KEPT: u32 = 0x80u;
 const KEPT_MOVING: u32 = 1u;
 const KEPT_EMITTING: u32 = 2u;
 const KEPT_MIXED: u32 = 4u;
+// Bits 3–6: a tag of its material, so that surfaces a footprint apart are told apart too (a
+// thin black square on a white floor).
+const TAG_SHIFT: u32 = 3u;
+const TAG_BITS: u32 = 0x78u;
 
 // The marker byte of the surface at a G-buffer texel, from one read of its triangle.
 fn surface_marks(position: vec4<f32>) -> u32 {
@@ -52,7 +56,9 @@ fn surface_marks(position: vec4<f32>) -> u32 {
     }
     let material = triangles[u32(abs(position.w)) - 1u].material;
     let emitting = position.w > 0.0 && any(scene_material(material).emissive.rgb > vec3<f32>(0.0));
-    return KEPT | select(0u, KEPT_MOVING, (material & MOVED_TRIANGLE) != 0u) | select(0u, KEPT_EMITTING, emitting);
+    // The index's low bits, mixed so that neighbouring indices differ in several.
+    let tag = (((material & MATERIAL_INDEX) * 0x9E3779B1u) >> 28u) << TAG_SHIFT;
+    return KEPT | tag | select(0u, KEPT_MOVING, (material & MOVED_TRIANGLE) != 0u) | select(0u, KEPT_EMITTING, emitting);
 }
 
 // Whether the surface at a G-buffer texel emits.
@@ -83,9 +89,9 @@ fn moved_surface(kept: vec4<f32>) -> bool {
 
 // Whether a kept surface is the one this pixel sees now: both empty, or a point on the same
 // plane, within three footprints across the view (the jitter moves it by up to one and a
-// half; more along a surface seen at a grazing angle), with a normal within ~25°, emitting
-// if and only if it does (an emitter's rim on its wall is no history of the wall): a moving
-// object's pixels start again.
+// half; more along a surface seen at a grazing angle), with a normal within ~25°, of the
+// same material tag, emitting if and only if it does (an emitter's rim on its wall is no
+// history of the wall): a moving object's pixels start again.
 fn same_surface(kept: vec4<f32>, position: vec4<f32>, normal: vec4<f32>, marks: u32) -> bool {
     let packed = bitcast<u32>(kept.w);
     let had = ((packed >> 24u) & KEPT) != 0u;
@@ -98,7 +104,8 @@ fn same_surface(kept: vec4<f32>, position: vec4<f32>, normal: vec4<f32>, marks: 
     let facing = abs(dot(normal.xyz, toward_eye(params, position.xyz)));
     let across = 3.0 * normal.w / max(facing, 0.2);
     let near = length(d) <= across + slack && abs(dot(d, normal.xyz)) <= normal.w + slack;
-    return near && dot(kept_normal, normal.xyz) > 0.9 && emitting(packed >> 24u) == emitting(marks);
+    let tagged = ((packed >> 24u) & TAG_BITS) == (marks & TAG_BITS);
+    return near && tagged && dot(kept_normal, normal.xyz) > 0.9 && emitting(packed >> 24u) == emitting(marks);
 }
 
 // Perceptual roughness under which a metal's or glass's direct light is what it shows of the
@@ -167,6 +174,9 @@ var<workgroup> tile: array<array<vec3<f32>, 3>, TILE * TILE>;
 // samples (variance clipping, Salvi 2016): light that left or came is clamped to this
 // iteration's, while noise, which spreads the neighbourhood as much, passes.
 const GAMMA: f32 = 1.0;
+
+// Direct samples a still silhouette's pixel keeps while the light changes (`relit_edge`).
+const EDGE_SAMPLES: f32 = 3.0;
 
 // Fills the tile around workgroup `group` with direct and indirect samples (pixels outside
 // the image repeat its edge).
@@ -406,8 +416,16 @@ fn main(
     let moving = (marks & KEPT_MOVING) != 0u;
     let still = settling && (params.history_flags & (NEW_DIRECT | RELIT)) == NEW_DIRECT
         && !moving && !moved_surface(kept_surface);
+    // When the light changed, a still silhouette's pixels (their history saw more than one
+    // surface: the jitter crosses it) would show one jittered sample a frame of it.
+    let relit_edge = settling && (params.history_flags & RELIT) != 0u && !moving
+        && !moved_surface(kept_surface) && mixed_surface(kept_surface);
     if bright_edges || still {
         direct = clamped(direct, local.xy, 0u);
+    } else if relit_edge {
+        // A few samples, clamped: the shadow moving over it lags as little.
+        direct = clamped(direct, local.xy, 0u);
+        kept_direct.w = min(kept_direct.w, EDGE_SAMPLES);
     } else if (params.history_flags & NEW_DIRECT) != 0u {
         kept_direct.w = 0.0;
         direct = vec3<f32>(0.0);

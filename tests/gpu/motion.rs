@@ -27,13 +27,7 @@ fn shadow_scene(history: RppmHistory, x: f32, camera_x: f32) -> (App, Entity, En
         .unwrap()
         .translation
         .x = camera_x;
-    let black = StandardMaterial {
-        base_color: Color::BLACK,
-        reflectance: 0.0,
-        perceptual_roughness: 1.0,
-        ..default()
-    };
-    let occluder = spawn_occluder(&mut app, 0.5, 1.0, black);
+    let occluder = spawn_occluder(&mut app, 0.5, 1.0, black());
     let world = app.world_mut();
     world.get_mut::<Transform>(occluder).unwrap().translation.x = x;
     (app, camera, occluder)
@@ -172,6 +166,16 @@ fn a_moved_object_leaves_no_ghost() {
     assert!(new.abs() < 0.05, "the new shadow lags: {new}");
 }
 
+/// A black square's material: its edges on the lit plane are all the light it changes.
+fn black() -> StandardMaterial {
+    StandardMaterial {
+        base_color: Color::BLACK,
+        reflectance: 0.0,
+        perceptual_roughness: 1.0,
+        ..default()
+    }
+}
+
 /// What moves, 2 cm a frame along x, round the still square of `still_square_under_motion`.
 #[derive(Clone, Copy)]
 enum Mover {
@@ -263,15 +267,7 @@ fn an_emitters_rim_stays_smooth_while_the_scene_moves() {
 /// sample, and the edges flickered between the plane and the square (0.118).
 #[test]
 fn a_still_objects_edges_stay_smooth_while_another_moves() {
-    let (still, moving) = still_square_under_motion(
-        StandardMaterial {
-            base_color: Color::BLACK,
-            reflectance: 0.0,
-            perceptual_roughness: 1.0,
-            ..default()
-        },
-        Mover::Occluder,
-    );
+    let (still, moving) = still_square_under_motion(black(), Mover::Occluder);
     println!("relMSE over the still square: still 16 iterations {still:.5}, moving {moving:.5}");
     assert!(
         moving <= 3.0 * still,
@@ -288,15 +284,7 @@ fn a_still_objects_edges_stay_smooth_while_another_moves() {
 /// the short history alone).
 #[test]
 fn a_still_objects_edges_stay_smooth_while_the_light_moves() {
-    let (still, moving) = still_square_under_motion(
-        StandardMaterial {
-            base_color: Color::BLACK,
-            reflectance: 0.0,
-            perceptual_roughness: 1.0,
-            ..default()
-        },
-        Mover::Light,
-    );
+    let (still, moving) = still_square_under_motion(black(), Mover::Light);
     println!(
         "relMSE over the still square: still 16 iterations {still:.5}, light moving {moving:.5}"
     );

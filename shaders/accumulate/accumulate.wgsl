@@ -174,6 +174,8 @@ var<workgroup> tile: array<array<vec3<f32>, 3>, TILE * TILE>;
 // samples (variance clipping, Salvi 2016): light that left or came is clamped to this
 // iteration's, while noise, which spreads the neighbourhood as much, passes.
 const GAMMA: f32 = 1.0;
+// Its width for indirect light when the light changed.
+const RELIT_GAMMA: f32 = 2.0;
 
 // Direct samples a still silhouette's pixel keeps while the light changes (`relit_edge`).
 const EDGE_SAMPLES: f32 = 3.0;
@@ -206,11 +208,11 @@ fn tile_index(local: vec2<u32>) -> u32 {
     return (local.y + RADIUS) * TILE + local.x + RADIUS;
 }
 
-// Direct (part 0) history clamped to mean ± GAMMA σ of the neighbourhood's samples of it, per
-// channel, or indirect history (2) to that of the neighbourhood's means since the last change:
-// one iteration's photon noise comes in blotches wider than the neighbourhood, which the
-// means lose as they converge, so a change's ghost is cut closer every iteration.
-fn clamped(history: vec3<f32>, local: vec2<u32>, part: u32) -> vec3<f32> {
+// Direct (part 0) history clamped to mean ± `gamma` σ of the neighbourhood's samples of it,
+// per channel, or indirect history (2) to that of the neighbourhood's means since the last
+// change: one iteration's photon noise comes in blotches wider than the neighbourhood, which
+// the means lose as they converge, so a change's ghost is cut closer every iteration.
+fn clamped(history: vec3<f32>, local: vec2<u32>, part: u32, gamma: f32) -> vec3<f32> {
     var sum = vec3<f32>(0.0);
     var squares = vec3<f32>(0.0);
     for (var y = 0u; y <= 2u * RADIUS; y += 1u) {
@@ -222,7 +224,7 @@ fn clamped(history: vec3<f32>, local: vec2<u32>, part: u32) -> vec3<f32> {
     }
     let n = f32((2u * RADIUS + 1u) * (2u * RADIUS + 1u));
     let mean = sum / n;
-    let spread = GAMMA * sqrt(max(squares / n - mean * mean, vec3<f32>(0.0)));
+    let spread = gamma * sqrt(max(squares / n - mean * mean, vec3<f32>(0.0)));
     var lo = mean - spread;
     var hi = mean + spread;
     if part == 0u {
@@ -407,7 +409,11 @@ fn main(
     let view_dependent = (shown & SHOWS_VIEW) != 0u;
     let bright_edges = near_emitter || view_dependent;
     if settling || view_dependent {
-        indirect = clamped(indirect, local.xy, 2u);
+        // A light that moved changes indirect light everywhere and smoothly, which its
+        // history follows within the window; a wider box lets more of it through. Not on
+        // glass and mirrors, whose light moves with it sharply.
+        let relit = (params.history_flags & RELIT) != 0u && !view_dependent;
+        indirect = clamped(indirect, local.xy, 2u, select(GAMMA, RELIT_GAMMA, relit));
     }
     // When only objects moved (no light, emitter or material changed), a still surface's
     // direct light changes only where their shadows move: it keeps its history within what
@@ -421,10 +427,10 @@ fn main(
     let relit_edge = settling && (params.history_flags & RELIT) != 0u && !moving
         && !moved_surface(kept_surface) && mixed_surface(kept_surface);
     if bright_edges || still {
-        direct = clamped(direct, local.xy, 0u);
+        direct = clamped(direct, local.xy, 0u, GAMMA);
     } else if relit_edge {
         // A few samples, clamped: the shadow moving over it lags as little.
-        direct = clamped(direct, local.xy, 0u);
+        direct = clamped(direct, local.xy, 0u, GAMMA);
         kept_direct.w = min(kept_direct.w, EDGE_SAMPLES);
     } else if (params.history_flags & NEW_DIRECT) != 0u {
         kept_direct.w = 0.0;

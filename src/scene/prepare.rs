@@ -292,6 +292,12 @@ pub(crate) fn prepare_scene(
         let max_groups = device.limits().max_compute_workgroups_per_dimension;
         let buffers = [&meshes, &instances, &triangles];
         place.place(&device, &queue, &cache, buffers, count as u32, max_groups);
+        // A new buffer held no triangles, so that placement marked every one moved; placing
+        // again clears the marks, or a still scene's history would read every surface as
+        // moving until its first change (which then dropped its silhouettes' samples).
+        if !placed {
+            place.place(&device, &queue, &cache, buffers, count as u32, max_groups);
+        }
     }
     let attributes = upload.attributes(last, data);
     let materials = upload.materials(last, data);
@@ -333,7 +339,7 @@ pub(crate) fn prepare_scene(
         many_faced_emitters: data.has_many_faced_emitters(),
         max_scatter: data.max_scatter_probability(),
         triangles,
-        moved_marks: count > 0 && moves,
+        moved_marks: count > 0 && moves && placed,
         // A moved emissive object moves its light too.
         relit: last.is_none_or(|l| !l.data.same_light(data))
             || (moves && !data.emitters.is_empty()),

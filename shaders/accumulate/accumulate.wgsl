@@ -56,7 +56,7 @@ fn surface_marks(position: vec4<f32>) -> u32 {
     }
     let material = triangles[u32(abs(position.w)) - 1u].material;
     let emitting = position.w > 0.0 && any(scene_material(material).emissive.rgb > vec3<f32>(0.0));
-    // The index's low bits, mixed so that neighbouring indices differ in several.
+    // The top four bits of the index's Fibonacci hash: neighbouring indices differ there.
     let tag = (((material & MATERIAL_INDEX) * 0x9E3779B1u) >> 28u) << TAG_SHIFT;
     return KEPT | tag | select(0u, KEPT_MOVING, (material & MOVED_TRIANGLE) != 0u) | select(0u, KEPT_EMITTING, emitting);
 }
@@ -429,7 +429,7 @@ fn main(
     if bright_edges || still {
         direct = clamped(direct, local.xy, 0u, GAMMA);
     } else if relit_edge {
-        // A few samples, clamped: the shadow moving over it lags as little.
+        // A few samples, clamped to its neighbourhood: a shadow moving over it lags little.
         direct = clamped(direct, local.xy, 0u, GAMMA);
         kept_direct.w = min(kept_direct.w, EDGE_SAMPLES);
     } else if (params.history_flags & NEW_DIRECT) != 0u {

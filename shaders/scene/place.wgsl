@@ -71,7 +71,7 @@ fn place(@builtin(workgroup_id) group: vec3<u32>, @builtin(num_workgroups) group
         nc = n;
     }
     // Whether this placement moved the triangle from where the last one put it (a triangle
-    // new to the buffer reads as moved: the estimate starts again then anyway).
+    // new to the buffer reads as moved: src/scene/prepare.rs places a new buffer twice).
     let old = triangles[index];
     let moved = any(vec3<f32>(old.ax, old.ay, old.az) != a) || any(vec3<f32>(old.bx, old.by, old.bz) != b)
         || any(vec3<f32>(old.cx, old.cy, old.cz) != c);

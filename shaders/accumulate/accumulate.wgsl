@@ -2,7 +2,7 @@
 // (directly on the G-buffer, and through importons), averaged into the radiance of all
 // iterations since the last reset (w: the pixel's count), or with HISTORY of the pixel's
 // history kept through motion.
-#import bevy_rppm::common::{IterationParams, MOVED_TRIANGLE, MATERIAL_INDEX, DELTA_ROUGHNESS, subsample_representative}
+#import bevy_rppm::common::{IterationParams, MOVED_TRIANGLE, DELTA_ROUGHNESS, subsample_representative}
 #import bevy_rppm::camera::{camera_ray, toward_eye}
 #ifdef SUBSAMPLED
 #import bevy_rppm::bsdf::{bsdf_from, bsdf_gathered}
@@ -56,8 +56,8 @@ fn surface_marks(position: vec4<f32>) -> u32 {
     }
     let material = triangles[u32(abs(position.w)) - 1u].material;
     let emitting = position.w > 0.0 && any(scene_material(material).emissive.rgb > vec3<f32>(0.0));
-    // The top four bits of the index's Fibonacci hash: neighbouring indices differ there.
-    let tag = (((material & MATERIAL_INDEX) * 0x9E3779B1u) >> 28u) << TAG_SHIFT;
+    // The index's low four bits: materials fewer than 16 apart differ.
+    let tag = (material & (TAG_BITS >> TAG_SHIFT)) << TAG_SHIFT;
     return KEPT | tag | select(0u, KEPT_MOVING, (material & MOVED_TRIANGLE) != 0u) | select(0u, KEPT_EMITTING, emitting);
 }
 
@@ -408,33 +408,31 @@ fn main(
     // reprojects there is clamped, both parts (one sample of them is too noisy to start from).
     let view_dependent = (shown & SHOWS_VIEW) != 0u;
     let bright_edges = near_emitter || view_dependent;
+    let relit = (params.history_flags & RELIT) != 0u;
     if settling || view_dependent {
         // A light that moved changes indirect light everywhere and smoothly, which its
         // history follows within the window; a wider box lets more of it through. Not on
         // glass and mirrors, whose light moves with it sharply.
-        let relit = (params.history_flags & RELIT) != 0u && !view_dependent;
-        indirect = clamped(indirect, local.xy, 2u, select(GAMMA, RELIT_GAMMA, relit));
+        indirect = clamped(indirect, local.xy, 2u, select(GAMMA, RELIT_GAMMA, relit && !view_dependent));
     }
     // When only objects moved (no light, emitter or material changed), a still surface's
     // direct light changes only where their shadows move: it keeps its history within what
     // its neighbourhood sees now, so its edges and textures keep averaging what their jitter
     // sees. A moving object's pixels, and those it left, start again.
-    let moving = (marks & KEPT_MOVING) != 0u;
-    let still = settling && (params.history_flags & (NEW_DIRECT | RELIT)) == NEW_DIRECT
-        && !moving && !moved_surface(kept_surface);
-    // When the light changed, a still silhouette's pixels (their history saw more than one
-    // surface: the jitter crosses it) would show one jittered sample a frame of it.
-    let relit_edge = settling && (params.history_flags & RELIT) != 0u && !moving
-        && !moved_surface(kept_surface) && mixed_surface(kept_surface);
-    if bright_edges || still {
+    let still_surface = (marks & KEPT_MOVING) == 0u && !moved_surface(kept_surface);
+    let still = settling && (params.history_flags & NEW_DIRECT) != 0u && !relit && still_surface;
+    // When the light changed, a still silhouette's pixel (its history saw more than one
+    // surface: the jitter crosses it) keeps a few samples, clamped: one a frame would show it
+    // all lit or all dark, and a shadow moving over it lags little.
+    let relit_edge = settling && relit && still_surface && mixed_surface(kept_surface) && !bright_edges;
+    if bright_edges || still || relit_edge {
         direct = clamped(direct, local.xy, 0u, GAMMA);
-    } else if relit_edge {
-        // A few samples, clamped to its neighbourhood: a shadow moving over it lags little.
-        direct = clamped(direct, local.xy, 0u, GAMMA);
-        kept_direct.w = min(kept_direct.w, EDGE_SAMPLES);
     } else if (params.history_flags & NEW_DIRECT) != 0u {
         kept_direct.w = 0.0;
         direct = vec3<f32>(0.0);
+    }
+    if relit_edge {
+        kept_direct.w = min(kept_direct.w, EDGE_SAMPLES);
     }
     kept.w = min(kept.w, f32(params.history_cap));
     // An emitter's rim keeps all its samples: a window of them would leave the rim's

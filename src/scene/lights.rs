@@ -172,6 +172,9 @@ pub(crate) fn collect_lights(q: &LightQueries, data: &mut SceneData) {
         light.radiance[3] = power;
         // Zero or non-finite lights emit nothing; leave them out of the table entirely.
         if power.is_nan() || power <= 0.0 || !finite(&light) {
+            if power != 0.0 || !finite(&light) {
+                warn_once!("bevy_rppm: a light of negative or non-finite power is left out");
+            }
             return;
         }
         light.shadow_layer = layer;

@@ -5,6 +5,10 @@ use bevy::prelude::*;
 use super::{GpuMaterial, GpuTexture, MaterialFlags, NO_TEXTURE, ScatterPaths, luminance};
 use crate::bsdf::{DELTA_ROUGHNESS, GLOSSY_STORE_ROUGHNESS, specular_energy_average};
 
+/// Brightest emission kept (cd/m², ten times the sun's disc): the sums of a few such
+/// emitters' photons and samples stay within f32, where 3·10³⁸ overflowed to infinity.
+const MAX_EMISSIVE: f32 = 1e10;
+
 bitflags::bitflags! {
     /// What the scene's materials look up per surface point (material_at, normal_at,
     /// opaque_at in shaders/scene/scene.wgsl). Every stage that reads materials compiles only
@@ -161,10 +165,16 @@ pub(super) fn material_to_gpu(m: &StandardMaterial, textures: [u32; 4]) -> GpuMa
     if base_color.iter().any(|c| !(0.0..=1.0).contains(c)) {
         warn_once!("bevy_rppm: a base colour {base_color:?} outside 0..=1 is clamped");
     }
+    let emissive = [m.emissive.red, m.emissive.green, m.emissive.blue];
+    if emissive.iter().any(|c| !(0.0..=MAX_EMISSIVE).contains(c)) {
+        warn_once!(
+            "bevy_rppm: an emissive colour {emissive:?} outside 0..={MAX_EMISSIVE:e} is clamped"
+        );
+    }
     GpuMaterial {
         base_color: base_color.map(|c| finite(c, 0.0).clamp(0.0, 1.0)),
-        emissive: [m.emissive.red, m.emissive.green, m.emissive.blue, 0.0]
-            .map(|c| finite(c, 0.0).max(0.0)),
+        emissive: [emissive[0], emissive[1], emissive[2], 0.0]
+            .map(|c| finite(c, 0.0).clamp(0.0, MAX_EMISSIVE)),
         metallic: finite(m.metallic, 0.0).clamp(0.0, 1.0),
         perceptual_roughness: finite(m.perceptual_roughness, 0.5).clamp(0.0, 1.0),
         reflectance: finite(m.reflectance, 0.5).clamp(0.0, 1.0),
@@ -359,6 +369,26 @@ mod tests {
         assert_eq!(
             Lookups::of(&[glassy], &[]),
             Lookups::TEXTURED | Lookups::ALPHA_TEST
+        );
+    }
+
+    #[test]
+    fn emission_stays_within_what_f32_sums_hold() {
+        let gpu = |c: LinearRgba| {
+            let m = StandardMaterial {
+                emissive: c,
+                ..default()
+            };
+            material_to_gpu(&m, [NO_TEXTURE; 4]).emissive
+        };
+        assert_eq!(
+            gpu(LinearRgba::rgb(3.4e38, 2.0, 0.0)),
+            [MAX_EMISSIVE, 2.0, 0.0, 0.0]
+        );
+        // Not a number, infinite or negative: nothing.
+        assert_eq!(
+            gpu(LinearRgba::rgb(f32::NAN, f32::INFINITY, -1.0)),
+            [0.0; 4]
         );
     }
 

@@ -183,9 +183,9 @@ pub fn numbers() -> Vec<Case> {
             json!({"KHR_materials_transmission": {"transmissionFactor": 5.0}}),
         ),
         (
-            "an emissive strength of 1e30",
-            "/materials/0/extensions",
-            json!({"KHR_materials_emissive_strength": {"emissiveStrength": 1e30}}),
+            "a light intensity of 3e38",
+            "/extensions/KHR_lights_punctual/lights/0/intensity",
+            json!(3e38),
         ),
         ("no lights and nothing emissive", "/nodes/1", json!({})),
         (
@@ -210,6 +210,24 @@ pub fn numbers() -> Vec<Case> {
     cases.extend(clamped.into_iter().map(|(name, pointer, value)| {
         edited(name, g, Expect::Image, move |s| set(s, pointer, value))
     }));
+    // Emission of 1e30, and near f32's largest on a surface the box lights back (their sums
+    // overflowed to infinite pixels before emission was clamped). Bevy's loader reads the
+    // strength only where the extension is declared.
+    for strength in [1e30, 3.4e38] {
+        cases.push(edited(
+            &format!("an emission of {strength:e}"),
+            g,
+            Expect::Image,
+            |s| {
+                let used = json!(["KHR_lights_punctual", "KHR_materials_emissive_strength"]);
+                set(s, "/extensionsUsed", used);
+                let extension =
+                    json!({"KHR_materials_emissive_strength": {"emissiveStrength": strength}});
+                set(s, "/materials/0/emissiveFactor", json!([1.0, 1.0, 1.0]));
+                set(s, "/materials/0/extensions", extension);
+            },
+        ));
+    }
     // Bevy's loader turns fans down (wgpu draws none).
     cases.push(edited(
         "a triangle fan",

@@ -165,7 +165,7 @@ pub(super) fn material_to_gpu(m: &StandardMaterial, textures: [u32; 4]) -> GpuMa
     if base_color.iter().any(|c| !(0.0..=1.0).contains(c)) {
         warn_once!("bevy_rppm: a base colour {base_color:?} outside 0..=1 is clamped");
     }
-    let emissive = [m.emissive.red, m.emissive.green, m.emissive.blue];
+    let emissive = [m.emissive.red, m.emissive.green, m.emissive.blue, 0.0];
     if emissive.iter().any(|c| !(0.0..=MAX_EMISSIVE).contains(c)) {
         warn_once!(
             "bevy_rppm: an emissive colour {emissive:?} outside 0..={MAX_EMISSIVE:e} is clamped"
@@ -173,8 +173,7 @@ pub(super) fn material_to_gpu(m: &StandardMaterial, textures: [u32; 4]) -> GpuMa
     }
     GpuMaterial {
         base_color: base_color.map(|c| finite(c, 0.0).clamp(0.0, 1.0)),
-        emissive: [emissive[0], emissive[1], emissive[2], 0.0]
-            .map(|c| finite(c, 0.0).clamp(0.0, MAX_EMISSIVE)),
+        emissive: emissive.map(|c| finite(c, 0.0).clamp(0.0, MAX_EMISSIVE)),
         metallic: finite(m.metallic, 0.0).clamp(0.0, 1.0),
         perceptual_roughness: finite(m.perceptual_roughness, 0.5).clamp(0.0, 1.0),
         reflectance: finite(m.reflectance, 0.5).clamp(0.0, 1.0),

@@ -1,6 +1,7 @@
 // The scene's world-space triangles: each instance's mesh through its transform
 // (src/scene/place.rs). Runs when an instance or a mesh changed, not every iteration, and
-// marks the triangles it moved.
+// marks the triangles it moved: `place` against where the buffer had them, `place_new` into a
+// new buffer, whose triangles none moved (a still scene's history reads them as still).
 
 #import bevy_rppm::common::{MOVED_TRIANGLE, PackedTriangle, pack_normal, unpack_normal}
 
@@ -36,7 +37,16 @@ fn normal(i: Instance, packed: u32) -> u32 {
 
 @compute @workgroup_size(64)
 fn place(@builtin(workgroup_id) group: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>, @builtin(local_invocation_index) lane: u32) {
-    let index = (group.y * groups.x + group.x) * 64u + lane;
+    place_triangle((group.y * groups.x + group.x) * 64u + lane, true);
+}
+
+@compute @workgroup_size(64)
+fn place_new(@builtin(workgroup_id) group: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>, @builtin(local_invocation_index) lane: u32) {
+    place_triangle((group.y * groups.x + group.x) * 64u + lane, false);
+}
+
+// Places triangle `index`, marked if `marks` and it moved from where the buffer held it.
+fn place_triangle(index: u32, marks: bool) {
     let count = arrayLength(&instances);
     let last = instances[count - 1u];
     if index >= last.first_world + last.triangle_count {
@@ -70,11 +80,13 @@ fn place(@builtin(workgroup_id) group: vec3<u32>, @builtin(num_workgroups) group
         nb = nc;
         nc = n;
     }
-    // Whether this placement moved the triangle from where the last one put it (a triangle
-    // new to the buffer reads as moved: src/scene/prepare.rs places a new buffer twice).
-    let old = triangles[index];
-    let moved = any(vec3<f32>(old.ax, old.ay, old.az) != a) || any(vec3<f32>(old.bx, old.by, old.bz) != b)
-        || any(vec3<f32>(old.cx, old.cy, old.cz) != c);
+    // Whether this placement moved the triangle from where the last one put it.
+    var moved = false;
+    if marks {
+        let old = triangles[index];
+        moved = any(vec3<f32>(old.ax, old.ay, old.az) != a) || any(vec3<f32>(old.bx, old.by, old.bz) != b)
+            || any(vec3<f32>(old.cx, old.cy, old.cz) != c);
+    }
     let material = inst.material | select(0u, MOVED_TRIANGLE, moved);
     triangles[index] = PackedTriangle(a.x, a.y, a.z, b.x, b.y, b.z, c.x, c.y, c.z, material, na, nb, nc);
 }

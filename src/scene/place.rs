@@ -13,11 +13,14 @@ use crate::shaders::RppmShaders;
 /// Threads per workgroup of `place`.
 const WORKGROUP: u32 = 64;
 
-/// The placement pipeline: 0 the meshes' triangles, 1 the instances, 2 the world triangles.
+/// The placement pipelines: 0 the meshes' triangles, 1 the instances, 2 the world triangles.
+/// `marking` marks the triangles that moved from where the buffer held them; `new` fills a
+/// new buffer, whose triangles none moved.
 #[derive(Resource)]
 pub struct PlacePipeline {
     layout: BindGroupLayoutDescriptor,
-    pipeline: CachedComputePipelineId,
+    marking: CachedComputePipelineId,
+    new: CachedComputePipelineId,
 }
 
 pub(crate) fn init_place_pipeline(
@@ -36,24 +39,34 @@ pub(crate) fn init_place_pipeline(
             ),
         ),
     );
-    let pipeline = cache.queue_compute_pipeline(ComputePipelineDescriptor {
-        label: Some("rppm_place".into()),
-        layout: vec![layout.clone()],
-        shader: shaders.place.clone(),
-        entry_point: Some("place".into()),
-        ..default()
+    let queue = |entry_point: &str| {
+        cache.queue_compute_pipeline(ComputePipelineDescriptor {
+            label: Some(format!("rppm_{entry_point}").into()),
+            layout: vec![layout.clone()],
+            shader: shaders.place.clone(),
+            entry_point: Some(entry_point.to_owned().into()),
+            ..default()
+        })
+    };
+    let (marking, new) = (queue("place"), queue("place_new"));
+    commands.insert_resource(PlacePipeline {
+        layout,
+        marking,
+        new,
     });
-    commands.insert_resource(PlacePipeline { layout, pipeline });
 }
 
 impl PlacePipeline {
-    /// Whether the pipeline has compiled (the scene waits for it).
+    /// Whether the pipelines have compiled (the scene waits for them).
     pub fn ready(&self, cache: &PipelineCache) -> bool {
-        cache.get_compute_pipeline(self.pipeline).is_some()
+        [self.marking, self.new]
+            .iter()
+            .all(|&id| cache.get_compute_pipeline(id).is_some())
     }
 
-    /// Places `count` triangles into `world` and submits at once, so that every later
-    /// submission (this frame's views) sees them.
+    /// Places `count` triangles into `world` (`new`: a buffer just made, whose triangles are
+    /// not marked moved) and submits at once, so that every later submission (this frame's
+    /// views) sees them.
     pub fn place(
         &self,
         device: &RenderDevice,
@@ -61,9 +74,10 @@ impl PlacePipeline {
         cache: &PipelineCache,
         [local, instances, world]: [&Buffer; 3],
         count: u32,
-        max_groups: u32,
+        new: bool,
     ) {
-        let Some(pipeline) = cache.get_compute_pipeline(self.pipeline) else {
+        let id = if new { self.new } else { self.marking };
+        let Some(pipeline) = cache.get_compute_pipeline(id) else {
             return;
         };
         let group = device.create_bind_group(
@@ -75,6 +89,7 @@ impl PlacePipeline {
                 world.as_entire_binding(),
             )),
         );
+        let max_groups = device.limits().max_compute_workgroups_per_dimension;
         let [x, y] = dispatch_size(count, max_groups);
         let mut encoder = device.create_command_encoder(&CommandEncoderDescriptor {
             label: Some("rppm_place"),

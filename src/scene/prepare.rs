@@ -289,15 +289,12 @@ pub(crate) fn prepare_scene(
     let moves = meshes_changed || instances_changed || !placed;
     let clears = placed && last.is_some_and(|l| l.moved_marks);
     if count > 0 && (moves || clears) {
-        let max_groups = device.limits().max_compute_workgroups_per_dimension;
         let buffers = [&meshes, &instances, &triangles];
-        place.place(&device, &queue, &cache, buffers, count as u32, max_groups);
-        // A new buffer held no triangles, so that placement marked every one moved; placing
-        // again clears the marks, or a still scene's history would read every surface as
-        // moving until its first change (which then dropped its silhouettes' samples).
-        if !placed {
-            place.place(&device, &queue, &cache, buffers, count as u32, max_groups);
-        }
+        // A new buffer's triangles are not marked moved, or a still scene's history would
+        // read every surface as moving until its first change (which then dropped its
+        // silhouettes' samples).
+        let new = !placed;
+        place.place(&device, &queue, &cache, buffers, count as u32, new);
     }
     let attributes = upload.attributes(last, data);
     let materials = upload.materials(last, data);

@@ -89,9 +89,8 @@ fn visibility(x: vec3<f32>, dir: vec3<f32>, distance: f32, origin_triangle: u32,
 // and iteration instead of tracing a ray to each: the cost stays that of a few lights, the
 // average over iterations the same.
 const MANY_LIGHTS: u32 = 8u;
-// Points drawn on the emitters per pixel and iteration where no camera path goes on: a shadow
-// ray is cheap beside an iteration's photons, and one point a pixel left emitter-lit rooms
-// speckled after 20 iterations.
+// Points drawn on the emitters per pixel and iteration where no camera path goes on: one a
+// pixel left emitter-lit rooms speckled after 20 iterations (README).
 const EMITTER_DRAWS: u32 = 4u;
 
 // Light arriving at x from one sample of a light: from direction `wi`, `distance` away (1e30:
@@ -321,8 +320,7 @@ fn surface_light(m: Material, x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, front: 
     // punctual lights (or MANY_LIGHTS of them drawn by power), then the sky, then an emitter.
     let many = params.light_count > MANY_LIGHTS;
     let punctual = select(params.light_count, MANY_LIGHTS, many);
-    // Where no camera path goes on (whose MIS weighs one draw), EMITTER_DRAWS of them; none
-    // where the scene has no emitter (sources past the lights, the sky aside).
+    // EMITTER_DRAWS where no camera path (whose MIS weighs one) goes on; none without emitters.
     let has_emitters = params.source_count - u32(params.sky.w > 0.5) > params.light_count;
     let draws = select(0u, select(1u, EMITTER_DRAWS, emitters && !mis), has_emitters);
     var samples = punctual + select(0u, 1u + draws, emitters || mis);

@@ -16,7 +16,7 @@ macro_rules! wgsl {
 /// Handles of every stage's shader.
 #[derive(Resource, Clone)]
 pub struct RppmShaders {
-    /// Import-only libraries (`bevy_rppm::sampling`, `common`, `camera`, `scene`, `microfacet`, `bsdf`, `mis`, `panes`, `cubemap`, `pane_rays`, `lighting`,
+    /// Import-only libraries (`bevy_rppm::sampling`, `common`, `camera`, `scene`, `microfacet`, `bsdf`, `mis`, `panes`, `cubemap`, `pane_rays`, `light_samples`, `lighting`,
     /// `photon_map`, `eye_bounce`),
     /// held so they stay loaded.
     _libraries: Vec<Handle<Shader>>,
@@ -55,6 +55,7 @@ impl RppmShaders {
                 wgsl!(shaders, "scene/scene.wgsl"),
                 wgsl!(shaders, "cubemap/trace.wgsl"),
                 wgsl!(shaders, "shadows/panes.wgsl"),
+                wgsl!(shaders, "shadows/light_samples.wgsl"),
                 wgsl!(shaders, "shadows/lighting.wgsl"),
                 wgsl!(shaders, "photons/map.wgsl"),
                 wgsl!(shaders, "importons/bounce.wgsl"),

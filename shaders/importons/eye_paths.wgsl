@@ -7,7 +7,7 @@
 #import bevy_rppm::camera::{camera_ray, toward_eye}
 #import bevy_rppm::sampling::{random, pcg_hash, stratified_draws}
 #import bevy_rppm::scene::{triangle_at, gbuffer_material, resolve_surface, kernel_normal, material_at, as_seen_from, normal_at, interpolated_normal}
-#import bevy_rppm::lighting::{params, surface_light}
+#import bevy_rppm::lighting::{params, surface_light, emitter_draws, EMITTER_DRAWS}
 #ifdef IMPORTONS
 #import bevy_rppm::bsdf::{glass_share, stores_photons}
 #import bevy_rppm::microfacet::fresnel_dielectric
@@ -427,6 +427,7 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>, @builtin(local_invocation_
             first_extra += pixels;
         }
 #endif
+        emitter_draws = max(EMITTER_DRAWS / paths, 1u);
         for (var k = 0u; k < paths; k += 1u) {
             // Each path its own point of the pixel's sequence over iterations.
             stratified_draws(pixel, params.sequence * paths + k);

@@ -1,6 +1,6 @@
 // Light arriving at a surface point straight from the lights: emission, punctual lights and
 // the emissive surfaces, shadowed. With TRACED_SHADOWS (whenever the view has a deep cubemap)
-// shadows are rays traced through it, toward a point on the emitters drawn per pixel and
+// shadows are rays traced through it, toward points on the emitters drawn per pixel and
 // iteration, so direct light converges to the exact answer; else shadow maps (and one
 // area-light sample per iteration). Shared by the camera's G-buffer points and the importons
 // reached through specular surfaces.
@@ -9,6 +9,10 @@
 #import bevy_rppm::common::{Material, Light, IterationParams, PI, LIGHT_SPOT, LIGHT_DIRECTIONAL, face_of, basis_around, cosine_direction, luminance}
 #import bevy_rppm::sampling::{random, sphere_cap, cone_local, spherical_triangle, bilinear_sample, bilinear_density}
 #import bevy_rppm::bsdf::{bsdf_eval, translucency, layered}
+#import bevy_rppm::light_samples::{LightSample, no_light, punctual_sample, spot_falloff, resampled_weight}
+#ifdef SPHERE_LIGHTS_SEEN
+#import bevy_rppm::light_samples::sphere_met
+#endif
 #import bevy_rppm::scene::{shadow_views, lights, triangles, triangle_at, material_at, emitters, light_cdf, find_source, triangle_point, uniform_barycentrics, part_barycentrics}
 #ifdef TRACED_SHADOWS
 #import bevy_rppm::cubemap::occluded
@@ -90,66 +94,14 @@ fn visibility(x: vec3<f32>, dir: vec3<f32>, distance: f32, origin_triangle: u32,
 // average over iterations the same.
 const MANY_LIGHTS: u32 = 8u;
 // Points drawn on the emitters per pixel and iteration where no camera path goes on: one a
-// pixel left emitter-lit rooms speckled after 20 iterations (README).
+// pixel left emitter-lit rooms speckled after 20 iterations (README). A pixel that splits
+// its camera path shares them among its paths (`emitter_draws`, set by eye_paths.wgsl).
 const EMITTER_DRAWS: u32 = 4u;
+var<private> emitter_draws: u32 = EMITTER_DRAWS;
+// Of how many points on the emitters each draw is chosen (resampling, in `surface_light`).
+const CANDIDATES: u32 = 4u;
 
-// Light arriving at x from one sample of a light: from direction `wi`, `distance` away (1e30:
-// a direction), `li` the radiance times the sample's weight. The BSDF and the cosine are
-// applied by the caller, or only the cosine's sign where the sample was drawn by cosine.
-struct LightSample {
-    wi: vec3<f32>,
-    distance: f32,
-    li: vec3<f32>,
-    cosine_drawn: bool,
-    // An emitter's density as `emitter_density` gives it, for MIS (0: not an emitter).
-    density: f32,
-}
 
-fn no_light() -> LightSample {
-    return LightSample(vec3<f32>(0.0, 0.0, 1.0), 1.0e30, vec3<f32>(0.0), false, 0.0);
-}
-
-// Punctual light `l` seen from x; `rng` draws a point on the sphere of a light with a radius
-// (traced shadows only: shadow maps see its centre).
-fn punctual_sample(l: Light, x: vec3<f32>, rng: ptr<function, u32>) -> LightSample {
-    if l.kind == LIGHT_DIRECTIONAL {
-        return LightSample(-l.direction.xyz, 1.0e30, l.radiance.rgb, false, 0.0);
-    }
-    let to_light = l.position.xyz - x;
-    let d2 = max(dot(to_light, to_light), 1e-12);
-    var s = LightSample(to_light / sqrt(d2), sqrt(d2), l.radiance.rgb / d2, false, 0.0);
-    s.li *= spot_falloff(l, -s.wi);
-#ifdef TRACED_SHADOWS
-    let radius = l.position.w;
-    let one_minus = sphere_cap(radius, d2);
-    if one_minus > 0.0 {
-        // A direction in the cone the sphere subtends, uniform in solid angle Ω: the sphere's
-        // radiance I/(πR²) times Ω averages to I/d² (and the spot's falloff stays that of
-        // the centre).
-        let sin2 = radius * radius / d2;
-        let dir = basis_around(s.wi) * cone_local(one_minus, vec2<f32>(random(rng), random(rng)));
-        s.li *= 2.0 * one_minus / sin2;
-        let b = dot(dir, to_light);
-        s.distance = b - sqrt(max(b * b - (d2 - radius * radius), 0.0));
-        s.wi = dir;
-#ifdef SPHERE_LIGHTS
-        // For MIS where camera paths also meet the sphere (`sphere_lights_met`).
-        s.density = 1.0 / (2.0 * PI * one_minus);
-#endif
-    }
-#endif
-    return s;
-}
-
-// A spot light's falloff toward `dir` (from the light; 1 for other lights).
-fn spot_falloff(l: Light, dir: vec3<f32>) -> f32 {
-    if l.kind != LIGHT_SPOT {
-        return 1.0;
-    }
-    let c = dot(dir, l.direction.xyz);
-    let a = clamp((c - l.cos_outer) / max(l.cos_inner - l.cos_outer, 1e-6), 0.0, 1.0);
-    return select(a * a, select(0.0, 1.0, c >= l.cos_outer), l.cos_inner <= l.cos_outer);
-}
 
 #ifdef TRACED_SHADOWS
 // How many of a point's traced-shadow samples draw light i, on average: 1, or past
@@ -165,26 +117,6 @@ fn light_samples(i: u32) -> f32 {
 #endif
 
 #ifdef SPHERE_LIGHTS_SEEN
-// The sphere light `l` (a punctual light's radius) as a ray from x along d meets it before
-// t_max: its radiance I/(πR²), a spot's falloff that of its centre, as its shadow rays see
-// it, and (w) the cap 1 − cos θ it subtends from x; 0 where the ray misses it. The sphere
-// blocks nothing, as Bevy's lights do not.
-fn sphere_met(l: Light, x: vec3<f32>, d: vec3<f32>, t_max: f32) -> vec4<f32> {
-    let r = l.position.w;
-    if l.kind == LIGHT_DIRECTIONAL || r <= 0.0 {
-        return vec4<f32>(0.0);
-    }
-    let to_light = l.position.xyz - x;
-    let d2 = dot(to_light, to_light);
-    let b = dot(d, to_light);
-    let disc = b * b - (d2 - r * r);
-    let cap = sphere_cap(r, d2);
-    if cap <= 0.0 || b <= 0.0 || disc <= 0.0 || b - sqrt(disc) >= t_max {
-        return vec4<f32>(0.0);
-    }
-    return vec4<f32>(l.radiance.rgb / (PI * r * r) * spot_falloff(l, -to_light * inverseSqrt(d2)), cap);
-}
-
 // The sphere lights a ray from x along d sees before t_max, where no shadow ray could have
 // drawn them (the camera's own rays, and rays a smooth surface reflects or refracts).
 fn sphere_lights_seen(x: vec3<f32>, d: vec3<f32>, t_max: f32) -> vec3<f32> {
@@ -322,7 +254,7 @@ fn surface_light(m: Material, x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, front: 
     let punctual = select(params.light_count, MANY_LIGHTS, many);
     // EMITTER_DRAWS where no camera path (whose MIS weighs one) goes on; none without emitters.
     let has_emitters = params.source_count - u32(params.sky.w > 0.5) > params.light_count;
-    let draws = select(0u, select(1u, EMITTER_DRAWS, emitters && !mis), has_emitters);
+    let draws = select(0u, select(1u, emitter_draws, emitters && !mis), has_emitters);
     var samples = punctual + select(0u, 1u + draws, emitters || mis);
 #ifdef EMITTER_RAYS
     // Where no camera path goes on, a ray drawn by cosine finds the emitters too (MIS).
@@ -376,6 +308,24 @@ fn surface_light(m: Material, x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, front: 
 #endif
         } else if k <= punctual + draws {
             s = emitter_sample(x, n, origin_triangle, !mis, rng);
+            if !mis {
+                // Resampled importance sampling (Talbot et al. 2005): of CANDIDATES points,
+                // one chosen by the light it brings unshadowed, weighed by their mean weight
+                // over its own. The cosine ray's MIS keeps the draw's density: its weights
+                // still sum to 1.
+                var total = resampled_weight(s, m, x, n, wo);
+                var chosen = total;
+                for (var c = 1u; c < CANDIDATES; c += 1u) {
+                    let t = emitter_sample(x, n, origin_triangle, true, rng);
+                    let w = resampled_weight(t, m, x, n, wo);
+                    total += w;
+                    if w > 0.0 && random(rng) * total < w {
+                        s = t;
+                        chosen = w;
+                    }
+                }
+                s.li *= select(0.0, total / (f32(CANDIDATES) * chosen), chosen > 0.0);
+            }
             s.li /= f32(draws);
             s.density *= f32(draws);
         } else {

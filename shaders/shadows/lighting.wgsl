@@ -6,10 +6,10 @@
 // reached through specular surfaces.
 #define_import_path bevy_rppm::lighting
 
-#import bevy_rppm::common::{Material, Light, IterationParams, PI, LIGHT_SPOT, LIGHT_DIRECTIONAL, face_of, basis_around, cosine_direction, luminance}
-#import bevy_rppm::sampling::{random, sphere_cap, cone_local, spherical_triangle, bilinear_sample, bilinear_density}
+#import bevy_rppm::common::{Material, Light, IterationParams, PI, LIGHT_DIRECTIONAL, face_of, cosine_direction, luminance}
+#import bevy_rppm::sampling::{random, spherical_triangle, bilinear_sample, bilinear_density}
 #import bevy_rppm::bsdf::{bsdf_eval, translucency, layered}
-#import bevy_rppm::light_samples::{LightSample, no_light, punctual_sample, spot_falloff, resampled_weight}
+#import bevy_rppm::light_samples::{LightSample, no_light, punctual_sample, resampled_weight}
 #ifdef SPHERE_LIGHTS_SEEN
 #import bevy_rppm::light_samples::sphere_met
 #endif
@@ -249,7 +249,7 @@ fn surface_light(m: Material, x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, front: 
 #ifdef TRACED_SHADOWS
     // One loop, one shadow ray and one BSDF in the code for every kind of light: each copy
     // of a ray walk costs seconds of shader compilation on a CPU rasteriser. Its samples: the
-    // punctual lights (or MANY_LIGHTS of them drawn by power), then the sky, then an emitter.
+    // punctual lights (or MANY_LIGHTS of them drawn by power), then the sky, then the emitters.
     let many = params.light_count > MANY_LIGHTS;
     let punctual = select(params.light_count, MANY_LIGHTS, many);
     // EMITTER_DRAWS where no camera path (whose MIS weighs one) goes on; none without emitters.

@@ -136,17 +136,16 @@ fn neighbour(pixel: vec2<u32>, k: i32) -> vec2<i32> {
     return clamp(at, vec2<i32>(0), vec2<i32>(params.size) - 1);
 }
 
-// Whether this pixel or one of its eight neighbours sees an emissive surface: light whose
-// direct part is mostly its emission, which a change elsewhere in the scene leaves alone.
+// Whether this pixel or one of its eight neighbours sees an emissive surface (EMITTERS: the
+// scene has one): light whose direct part is mostly its emission, which a change elsewhere
+// in the scene leaves alone.
 fn emitter_nearby(pixel: vec2<u32>) -> bool {
-    // Sources past the lights, the sky aside, are emitters.
-    if params.source_count - u32(params.sky.w > 0.5) <= params.light_count {
-        return false;
-    }
     var found = false;
+#ifdef EMITTERS
     for (var k = 0; k < 9; k += 1) {
         found = found || emits(textureLoad(gbuffer_position, neighbour(pixel, k), 0));
     }
+#endif
     return found;
 }
 

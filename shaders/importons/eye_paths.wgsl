@@ -7,7 +7,10 @@
 #import bevy_rppm::camera::{camera_ray, toward_eye}
 #import bevy_rppm::sampling::{random, pcg_hash, stratified_draws}
 #import bevy_rppm::scene::{triangle_at, gbuffer_material, resolve_surface, kernel_normal, material_at, as_seen_from, normal_at, interpolated_normal}
-#import bevy_rppm::lighting::{params, surface_light, emitter_draws, EMITTER_DRAWS}
+#import bevy_rppm::lighting::{params, surface_light}
+#ifdef EMITTERS
+#import bevy_rppm::lighting::{emitter_draws, EMITTER_DRAWS}
+#endif
 #ifdef IMPORTONS
 #import bevy_rppm::bsdf::{glass_share, stores_photons}
 #import bevy_rppm::microfacet::fresnel_dielectric
@@ -25,7 +28,10 @@
 #endif
 #ifdef TRACED_SHADOWS
 #import bevy_rppm::mis::{mis_vertex, path_pdf, power_heuristic}
+#endif
+#ifdef EMITTERS
 #import bevy_rppm::lighting::emitter_density
+#import bevy_rppm::common::MATERIAL_UNLIT
 #endif
 #ifdef LIGHT_GUIDE
 #import bevy_rppm::mis::{guide_share, guided_bounce}
@@ -203,12 +209,15 @@ fn camera_path(first: Vertex, slot: u32, share: f32, rng: ptr<function, u32>) ->
                 v.m.emissive = vec4<f32>(0.0);
                 sampled = false;
             }
-#ifdef TRACED_SHADOWS
-            if drawn_density > 0.0 && front {
+#ifdef EMITTERS
+            // An emitter the shadow rays drew too; not an unlit surface, which they never draw.
+            if drawn_density > 0.0 && front && (v.m.flags & MATERIAL_UNLIT) == 0u {
                 let cos_y = abs(dot(normalize(geometric), d));
                 let density = emitter_density(v.m.emissive.rgb, hit.t * hit.t, cos_y);
                 v.m.emissive = vec4<f32>(v.m.emissive.rgb * power_heuristic(drawn_density, density), v.m.emissive.w);
             }
+#endif
+#ifdef TRACED_SHADOWS
             drawn_density = 0.0;
 #endif
             if stores_photons(v.m) && slot != NO_IMPORTON {
@@ -427,7 +436,9 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>, @builtin(local_invocation_
             first_extra += pixels;
         }
 #endif
+#ifdef EMITTERS
         emitter_draws = max(EMITTER_DRAWS / paths, 1u);
+#endif
         for (var k = 0u; k < paths; k += 1u) {
             // Each path its own point of the pixel's sequence over iterations.
             stratified_draws(pixel, params.sequence * paths + k);

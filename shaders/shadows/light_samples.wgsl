@@ -1,10 +1,8 @@
-// One sample of a light as a shading point sees it: punctual lights, a lamp's sphere, and
-// the weight by which resampling chooses among points drawn on the emitters.
+// One sample of a light as a shading point sees it: punctual lights and a lamp's sphere.
 #define_import_path bevy_rppm::light_samples
 
-#import bevy_rppm::common::{Material, Light, PI, LIGHT_SPOT, LIGHT_DIRECTIONAL, basis_around, luminance}
+#import bevy_rppm::common::{Light, PI, LIGHT_SPOT, LIGHT_DIRECTIONAL, basis_around}
 #import bevy_rppm::sampling::{random, sphere_cap, cone_local}
-#import bevy_rppm::bsdf::bsdf_eval
 
 // Light arriving at x from one sample of a light: from direction `wi`, `distance` away (1e30:
 // a direction), `li` the radiance times the sample's weight. The BSDF and the cosine are
@@ -62,16 +60,6 @@ fn spot_falloff(l: Light, dir: vec3<f32>) -> f32 {
     let c = dot(dir, l.direction.xyz);
     let a = clamp((c - l.cos_outer) / max(l.cos_inner - l.cos_outer, 1e-6), 0.0, 1.0);
     return select(a * a, select(0.0, 1.0, c >= l.cos_outer), l.cos_inner <= l.cos_outer);
-}
-
-// The light sample `s` brings to x before its shadow ray (luminance): resampled importance
-// sampling's target, which draws none of an emitter's faces turned away, nor light the BSDF
-// turns away.
-fn resampled_weight(s: LightSample, m: Material, x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>) -> f32 {
-    if all(s.li <= vec3<f32>(0.0)) {
-        return 0.0;
-    }
-    return luminance(bsdf_eval(m, n, wo, s.wi) * s.li) * abs(dot(n, s.wi));
 }
 
 #ifdef SPHERE_LIGHTS_SEEN

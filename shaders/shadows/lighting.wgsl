@@ -9,7 +9,7 @@
 #import bevy_rppm::common::{Material, Light, IterationParams, PI, LIGHT_DIRECTIONAL, face_of, cosine_direction, luminance}
 #import bevy_rppm::sampling::{random, spherical_triangle, bilinear_sample, bilinear_density}
 #import bevy_rppm::bsdf::{bsdf_eval, translucency, layered}
-#import bevy_rppm::light_samples::{LightSample, no_light, punctual_sample, resampled_weight}
+#import bevy_rppm::light_samples::{LightSample, no_light, punctual_sample}
 #ifdef SPHERE_LIGHTS_SEEN
 #import bevy_rppm::light_samples::sphere_met
 #endif
@@ -93,15 +93,15 @@ fn visibility(x: vec3<f32>, dir: vec3<f32>, distance: f32, origin_triangle: u32,
 // and iteration instead of tracing a ray to each: the cost stays that of a few lights, the
 // average over iterations the same.
 const MANY_LIGHTS: u32 = 8u;
+#ifdef EMITTERS
 // Points drawn on the emitters per pixel and iteration where no camera path goes on: one a
 // pixel left emitter-lit rooms speckled after 20 iterations (README). A pixel that splits
 // its camera path shares them among its paths (`emitter_draws`, set by eye_paths.wgsl).
 const EMITTER_DRAWS: u32 = 4u;
 var<private> emitter_draws: u32 = EMITTER_DRAWS;
-// Of how many points on the emitters each draw is chosen (resampling, in `surface_light`).
+// Of how many points on the emitters each draw is chosen (`resampled_emitter`).
 const CANDIDATES: u32 = 4u;
-
-
+#endif
 
 #ifdef TRACED_SHADOWS
 // How many of a point's traced-shadow samples draw light i, on average: 1, or past
@@ -147,6 +147,7 @@ fn sphere_lights_met(x: vec3<f32>, d: vec3<f32>, t_max: f32, drawn_density: f32)
 #endif
 
 #ifdef TRACED_SHADOWS
+#ifdef EMITTERS
 // The emissive triangles seen from x (normal n): one triangle drawn by power, one point on it
 // by area, or where `by_solid_angle` by the solid angle it subtends, whose weight stays bounded
 // however near x is (a floor beside a glowing box); MIS keeps the area's density, which its
@@ -233,6 +234,35 @@ fn emitter_ray(x: vec3<f32>, n: vec3<f32>, origin_triangle: u32, rng: ptr<functi
 fn emitter_density(radiance: vec3<f32>, d2: f32, cos_y: f32) -> f32 {
     return PI * luminance(radiance) * d2 / max(params.emitter_power * cos_y, 1e-30);
 }
+
+// Resampled importance sampling (Talbot et al. 2005): of CANDIDATES points drawn on the
+// emitters, one chosen by the light it brings x unshadowed (BSDF and cosine included: faces
+// turned away are never chosen), weighed by their mean weight over its own; with its BSDF
+// (`f`), evaluated already. MIS against the cosine ray keeps the draw's density: its weights
+// still sum to 1.
+struct Resampled {
+    sample: LightSample,
+    f: vec3<f32>,
+}
+
+fn resampled_emitter(m: Material, x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, origin_triangle: u32, rng: ptr<function, u32>) -> Resampled {
+    var chosen = Resampled(no_light(), vec3<f32>(0.0));
+    var chosen_weight = 0.0;
+    var total = 0.0;
+    for (var c = 0u; c < CANDIDATES; c += 1u) {
+        let s = emitter_sample(x, n, origin_triangle, true, rng);
+        let f = bsdf_eval(m, n, wo, s.wi);
+        let w = luminance(f * s.li) * abs(dot(n, s.wi));
+        total += w;
+        if w > 0.0 && (c == 0u || random(rng) * total < w) {
+            chosen = Resampled(s, f);
+            chosen_weight = w;
+        }
+    }
+    chosen.sample.li *= select(0.0, total / (f32(CANDIDATES) * chosen_weight), chosen_weight > 0.0);
+    return chosen;
+}
+#endif
 #endif
 
 // Radiance leaving x (on triangle `origin_triangle`) towards wo by emission (front faces only)
@@ -253,8 +283,11 @@ fn surface_light(m: Material, x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, front: 
     let many = params.light_count > MANY_LIGHTS;
     let punctual = select(params.light_count, MANY_LIGHTS, many);
     // EMITTER_DRAWS where no camera path (whose MIS weighs one) goes on; none without emitters.
-    let has_emitters = params.source_count - u32(params.sky.w > 0.5) > params.light_count;
-    let draws = select(0u, select(1u, emitter_draws, emitters && !mis), has_emitters);
+#ifdef EMITTERS
+    let draws = select(1u, emitter_draws, emitters && !mis);
+#else
+    let draws = 0u;
+#endif
     var samples = punctual + select(0u, 1u + draws, emitters || mis);
 #ifdef EMITTER_RAYS
     // Where no camera path goes on, a ray drawn by cosine finds the emitters too (MIS).
@@ -278,6 +311,9 @@ fn surface_light(m: Material, x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, front: 
     for (var k = 0u; k < samples; k += 1u) {
         var s = no_light();
         var light = 32u;
+        // The sample's BSDF, where its draw evaluated it already (resampling).
+        var f = vec3<f32>(0.0);
+        var evaluated_f = false;
         if k < punctual {
             var i = k;
             if many {
@@ -306,28 +342,19 @@ fn surface_light(m: Material, x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, front: 
             }
             s = LightSample(wi, 1.0e30, li, true, 0.0);
 #endif
+#ifdef EMITTERS
         } else if k <= punctual + draws {
-            s = emitter_sample(x, n, origin_triangle, !mis, rng);
-            if !mis {
-                // Resampled importance sampling (Talbot et al. 2005): of CANDIDATES points,
-                // one chosen by the light it brings unshadowed, weighed by their mean weight
-                // over its own. The cosine ray's MIS keeps the draw's density: its weights
-                // still sum to 1.
-                var total = resampled_weight(s, m, x, n, wo);
-                var chosen = total;
-                for (var c = 1u; c < CANDIDATES; c += 1u) {
-                    let t = emitter_sample(x, n, origin_triangle, true, rng);
-                    let w = resampled_weight(t, m, x, n, wo);
-                    total += w;
-                    if w > 0.0 && random(rng) * total < w {
-                        s = t;
-                        chosen = w;
-                    }
-                }
-                s.li *= select(0.0, total / (f32(CANDIDATES) * chosen), chosen > 0.0);
+            if mis {
+                s = emitter_sample(x, n, origin_triangle, false, rng);
+            } else {
+                let r = resampled_emitter(m, x, n, wo, origin_triangle, rng);
+                s = r.sample;
+                f = r.f;
+                evaluated_f = true;
             }
             s.li /= f32(draws);
             s.density *= f32(draws);
+#endif
         } else {
 #ifdef EMITTER_RAYS
             s = emitter_ray(x, n, origin_triangle, rng);
@@ -343,13 +370,15 @@ fn surface_light(m: Material, x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, front: 
 #endif
         // |cos|: light from behind reaches only what lets diffuse light through (bsdf_eval).
         let c = abs(dot(n, s.wi));
-        var evaluated = m;
+        if !evaluated_f {
+            var evaluated = m;
 #ifdef IMPORTONS
-        if mis {
-            evaluated = layered(m);
-        }
+            if mis {
+                evaluated = layered(m);
+            }
 #endif
-        var f = bsdf_eval(evaluated, n, wo, s.wi);
+            f = bsdf_eval(evaluated, n, wo, s.wi);
+        }
 #ifdef IMPORTONS
         if mis {
             f = path_f(f, m, n, wo, s.wi, front);

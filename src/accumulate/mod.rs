@@ -72,6 +72,9 @@ pub struct AccumulateKey {
     pub layers: ScatterPaths,
     /// History kept through motion (`HISTORY`): `RppmHistory::Reuse`.
     pub history: bool,
+    /// The scene has emissive surfaces (`EMITTERS`), whose rims a change elsewhere leaves
+    /// alone (`HISTORY`).
+    pub emitters: bool,
 }
 
 impl SpecializedComputePipeline for AccumulatePipeline {
@@ -87,6 +90,9 @@ impl SpecializedComputePipeline for AccumulatePipeline {
         }
         let layout = if key.history {
             shader_defs.push("HISTORY".into());
+            if key.emitters {
+                shader_defs.push("EMITTERS".into());
+            }
             &self.history_layout
         } else {
             &self.layout

@@ -79,6 +79,7 @@ pub(super) fn select_stages(
         ScatterPaths::GLOSSY_TRACED,
         layers.contains(ScatterPaths::GLOSSY_TRACED) && state.importons,
     );
+    let emitters = !scene.data.emitters.is_empty();
     // Camera paths go on past the G-buffer and trace their shadow rays.
     let paths_lit = state.importons && state.traced_shadows;
     StageIds {
@@ -102,10 +103,11 @@ pub(super) fn select_stages(
                 spheres_seen: scene.data.has_sphere_lights(),
                 reflected_emission: state.importons
                     && scene.paths.contains(ScatterPaths::REFRACTION)
-                    && (!scene.data.emitters.is_empty()
+                    && (emitters
                         || scene.paths.contains(ScatterPaths::SKY)
                         || scene.data.has_sphere_lights()),
-                emitter_rays: state.traced_shadows && scene.many_faced_emitters,
+                emitters: emitters && state.traced_shadows,
+                emitter_rays: emitters && state.traced_shadows && scene.many_faced_emitters,
             },
         ),
         trace: traced.then(|| {
@@ -153,6 +155,7 @@ pub(super) fn select_stages(
                 lookups,
                 layers,
                 history: state.key.history,
+                emitters: emitters && state.key.history,
             },
         ),
         outliers: state

@@ -118,10 +118,13 @@ pub struct EyePathKey {
     /// on (`REFLECTED_EMISSION`): the scene has smooth glass and emitters, a sky or a sphere
     /// light (a bulb's highlight on a glass ball).
     pub reflected_emission: bool,
+    /// Traced shadows draw points on the emissive surfaces (`EMITTERS`): the scene has
+    /// emitters, and shadows are traced.
+    pub emitters: bool,
     /// Where no camera path goes on, a ray drawn by cosine also finds the emitters, weighed
     /// by MIS against the emitter sample (`EMITTER_RAYS`): a large emitter close by is drawn
     /// well. The scene has an emitter of more than a quad (`has_many_faced_emitters`), and
-    /// shadows are traced.
+    /// `emitters`.
     pub emitter_rays: bool,
 }
 
@@ -162,6 +165,9 @@ impl SpecializedComputePipeline for EyePathPipeline {
         }
         if key.reflected_emission {
             shader_defs.push("REFLECTED_EMISSION".into());
+        }
+        if key.emitters {
+            shader_defs.push("EMITTERS".into());
         }
         if key.emitter_rays {
             shader_defs.push("EMITTER_RAYS".into());

@@ -392,3 +392,74 @@ fn check_light(light: impl Bundle + Clone, radiance: impl Fn(f32, f32) -> f32, n
         "{name}: photon energy ratio {energy}"
     );
 }
+
+/// The floor's mean radiance (the image's lower half) under a panel of `panel` standing
+/// behind it, reflected by the floor's rough metal, after 16 iterations at 64².
+fn panel_in_rough_metal(panel: StandardMaterial) -> f64 {
+    let mut app = gpu_app();
+    let world = app.world_mut();
+    let mut materials = world.resource_mut::<Assets<StandardMaterial>>();
+    let metal = materials.add(StandardMaterial {
+        base_color: Color::WHITE,
+        metallic: 1.0,
+        perceptual_roughness: 0.3,
+        ..default()
+    });
+    let panel = materials.add(panel);
+    let indices = || Some(Indices::U32(vec![0, 1, 2, 0, 2, 3]));
+    spawn_mesh(
+        world,
+        quad(5.0, indices(), true),
+        metal,
+        Transform::default(),
+    );
+    // Turned to face the camera (+Z), its lower edge on the floor.
+    let upright = Transform::from_xyz(0.0, 0.8, -1.5)
+        .with_rotation(Quat::from_rotation_x(std::f32::consts::FRAC_PI_2));
+    spawn_mesh(world, quad(0.8, indices(), true), panel, upright);
+    world.spawn(point_light_above(200.0, 4.0));
+    let target = offscreen_target(&mut world.resource_mut::<Assets<Image>>(), 64, 64);
+    let camera = world
+        .spawn((
+            Camera3d::default(),
+            Transform::from_xyz(0.0, 0.6, 2.5).looking_at(Vec3::new(0.0, 0.2, -1.5), Vec3::Y),
+            target,
+            Msaa::Off,
+            bevy::core_pipeline::tonemapping::Tonemapping::None,
+            PhotonMapping {
+                history: bevy_rppm::RppmHistory::Reset,
+                ..default()
+            },
+            RppmReadback,
+        ))
+        .id();
+    let image = estimate_after(&mut app, camera, 16, "panel in rough metal");
+    region_mean(&image, 32..64, 0..64)
+}
+
+/// An unlit surface (`StandardMaterial::unlit`: seen in its base colour, lighting nothing)
+/// shows in a rough metal floor as an emitter of that radiance does. Camera paths from a
+/// rough vertex weigh the emission they meet by MIS against the shadow rays' draws on the
+/// emitters, which never draw an unlit surface: it was weighed as an emitter, to nothing in
+/// a scene without emitters (the floor 0.063 against the emitter's 0.258; 0.258 now).
+#[test]
+fn an_unlit_surface_shows_in_rough_metal_as_an_emitter_does() {
+    let colour = LinearRgba::rgb(0.9, 0.6, 0.3);
+    let unlit = panel_in_rough_metal(StandardMaterial {
+        base_color: colour.into(),
+        unlit: true,
+        ..default()
+    });
+    let emitter = panel_in_rough_metal(StandardMaterial {
+        base_color: Color::BLACK,
+        emissive: colour,
+        reflectance: 0.0,
+        perceptual_roughness: 1.0,
+        ..default()
+    });
+    println!("floor under the panel: unlit {unlit:.5}, emitter {emitter:.5}");
+    assert!(
+        (unlit / emitter - 1.0).abs() < 0.1,
+        "unlit {unlit} against emitter {emitter}"
+    );
+}

@@ -230,8 +230,9 @@ mod tests {
         ] {
             assert_eq!(calls(text, f), 1, "calls of {f}");
         }
-        // One with traced shadows, two with shadow maps (the punctual lights, the area light).
-        assert_eq!(calls(&lighting, "bsdf_eval"), 3);
+        // One with traced shadows and one for the emitter candidates (`resampled_emitter`, in
+        // a loop), two with shadow maps (the punctual lights, the area light).
+        assert_eq!(calls(&lighting, "bsdf_eval"), 4);
     }
 
     /// Layouts the shaders and the CPU share: each WGSL constant equals its Rust twin.

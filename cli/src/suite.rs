@@ -21,7 +21,27 @@ pub struct SuiteScene {
     pub name: String,
     pub scene: PathBuf,
     pub reference: PathBuf,
+    /// The reference's samples per pixel, from the `NAME.ref.json` beside it
+    /// (`tools/reference.py --json`), where there is one.
+    pub reference_spp: Option<u32>,
 }
+
+#[derive(Deserialize)]
+struct ReferenceRun {
+    spp: u32,
+}
+
+/// The spp a reference's JSON gives, if it is there and says.
+fn reference_spp(json: &Path) -> Option<u32> {
+    let text = std::fs::read_to_string(json).ok()?;
+    serde_json::from_str::<ReferenceRun>(&text)
+        .ok()
+        .map(|r| r.spp)
+}
+
+/// A path tracer's score against a reference of fewer than this many times its samples is
+/// mostly the reference's own noise.
+const REFERENCE_MARGIN: u32 = 4;
 
 /// Every `NAME.gltf` in `dirs` with a `NAME.ref.exr` beside it, by name.
 pub fn find_scenes(dirs: &[PathBuf]) -> Result<Vec<SuiteScene>> {
@@ -39,10 +59,12 @@ pub fn find_scenes(dirs: &[PathBuf]) -> Result<Vec<SuiteScene>> {
             };
             let reference = dir.join(format!("{name}.ref.exr"));
             if reference.exists() {
+                let reference_spp = reference_spp(&dir.join(format!("{name}.ref.json")));
                 scenes.push(SuiteScene {
                     name: name.to_string(),
                     scene,
                     reference,
+                    reference_spp,
                 });
             }
         }
@@ -136,6 +158,8 @@ pub struct SuiteRow {
     pub photons: u32,
     /// Mitsuba's path tracer at the same wall time: spp, seconds and score.
     pub path: Option<(u32, f64, Score)>,
+    /// The reference's spp, where known.
+    pub reference_spp: Option<u32>,
 }
 
 /// Renders `scene` for `seconds` with `settings` at its reference's size, and with Mitsuba's
@@ -170,6 +194,7 @@ pub fn run_scene(
         iterations: ours.iterations,
         photons: ours.stats.photons_per_iteration,
         path,
+        reference_spp: scene.reference_spp,
     })
 }
 
@@ -260,24 +285,41 @@ pub fn three_digits(x: f64) -> String {
     format!("{x:.decimals$}")
 }
 
-/// The table, in Markdown.
+/// The table, in Markdown. A path tracer's score against a reference of fewer than
+/// `REFERENCE_MARGIN` times its spp is marked †, and one against a reference of unknown spp ?:
+/// the reference's own noise may be most of it.
 pub fn table(rows: &[SuiteRow], seconds: f64) -> String {
     let mut out = format!(
-        "| scene | size | iterations | photons / it. | relMSE | energy | bad px | path spp ({seconds} s) | path s | path relMSE | path / ours |\n\
-         |---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n"
+        "| scene | size | iterations | photons / it. | relMSE | energy | bad px | ref. spp | path spp ({seconds} s) | path s | path relMSE | path / ours |\n\
+         |---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n"
     );
+    let mut marks = (false, false);
     for r in rows {
         let (spp, took, path, ratio) = match r.path {
-            Some((spp, took, s)) => (
-                spp.to_string(),
-                format!("{took:.1}"),
-                three_digits(s.relmse),
-                format!("{:.2}", s.relmse / r.ours.relmse.max(1e-12)),
-            ),
+            Some((spp, took, s)) => {
+                let mark = match r.reference_spp {
+                    Some(reference) if reference < REFERENCE_MARGIN.saturating_mul(spp) => {
+                        marks.0 = true;
+                        " †"
+                    }
+                    Some(_) => "",
+                    None => {
+                        marks.1 = true;
+                        " ?"
+                    }
+                };
+                (
+                    spp.to_string(),
+                    format!("{took:.1}"),
+                    format!("{}{mark}", three_digits(s.relmse)),
+                    format!("{:.2}", s.relmse / r.ours.relmse.max(1e-12)),
+                )
+            }
             None => ("–".into(), "–".into(), "–".into(), "–".into()),
         };
+        let reference = r.reference_spp.map_or("–".into(), |s| s.to_string());
         out += &format!(
-            "| {} | {}×{} | {} | {} | {} | {:.3} | {} | {spp} | {took} | {path} | {ratio} |\n",
+            "| {} | {}×{} | {} | {} | {} | {:.3} | {} | {reference} | {spp} | {took} | {path} | {ratio} |\n",
             r.name,
             r.width,
             r.height,
@@ -287,6 +329,14 @@ pub fn table(rows: &[SuiteRow], seconds: f64) -> String {
             r.ours.energy_ratio,
             r.ours.bad_pixels
         );
+    }
+    if marks.0 {
+        out += &format!(
+            "\n† The reference holds fewer than {REFERENCE_MARGIN}× the path tracer's spp: its own noise is much of that score.\n"
+        );
+    }
+    if marks.1 {
+        out += "\n? The reference's spp is unknown (no `NAME.ref.json` beside it): its own noise may be much of that score.\n";
     }
     out
 }
@@ -310,6 +360,36 @@ mod tests {
         assert_eq!(blocks.energy[0][1], 1.5);
         assert_eq!(blocks.energy[1][1], 1.0);
         assert!(Blocks::of(&image, &reference, 5).is_err());
+    }
+
+    #[test]
+    fn a_path_tracer_scored_against_a_noisier_reference_is_marked() {
+        let score = Score {
+            relmse: 0.001,
+            energy_ratio: 1.0,
+            bad_pixels: 0,
+        };
+        let row = |name: &str, reference_spp| SuiteRow {
+            name: name.into(),
+            width: 128,
+            height: 128,
+            ours: score,
+            iterations: 60,
+            photons: 1 << 18,
+            path: Some((4000, 60.0, score)),
+            reference_spp,
+        };
+        let rows = [row("deep", Some(32768)), row("shallow", Some(2048))];
+        let text = table(&rows, 60.0);
+        let line = |name: &str| {
+            text.lines()
+                .find(|l| l.starts_with(&format!("| {name} ")))
+                .unwrap()
+        };
+        assert!(!line("deep").contains('†') && line("deep").contains("| 32768 |"));
+        assert!(line("shallow").contains("0.00100 †"));
+        assert!(text.contains("† The reference holds fewer") && !text.contains("? The"));
+        assert!(table(&[row("unknown", None)], 60.0).contains("0.00100 ?"));
     }
 
     #[test]

@@ -12,7 +12,7 @@
 #import bevy_rppm::lighting::{emitter_draws, EMITTER_DRAWS}
 #endif
 #ifdef IMPORTONS
-#import bevy_rppm::bsdf::{glass_share, stores_photons, translucency}
+#import bevy_rppm::bsdf::{glass_share, stores_photons}
 #import bevy_rppm::microfacet::fresnel_dielectric
 #import bevy_rppm::eye_bounce::{Bounce, delta_share, lobe_bounce, next_bounce}
 #ifdef CLEARCOAT
@@ -244,16 +244,7 @@ fn camera_path(first: Vertex, slot: u32, share: f32, rng: ptr<function, u32>) ->
 #endif
         // The punctual lights a shadow ray found blocked here (LIGHT_GUIDE draws toward them).
         var blocked = 0u;
-        // A smooth glass or mirror vertex the path goes on from reflects no light sample (a
-        // delta lobe meets none): it draws none, and the stratified draws of the pixel's
-        // sequence go to its next bounces' Fresnel choices instead (sparkles in a glass ball).
-        var delta_vertex = false;
-#ifdef IMPORTONS
-        delta_vertex = !ends && !mis && v.m.perceptual_roughness < DELTA_ROUGHNESS && v.m.clearcoat.x <= 0.0 && translucency(v.m) <= 0.0;
-#endif
-        if lit && delta_vertex {
-            found += throughput * select(vec3<f32>(0.0), v.m.emissive.rgb, v.front);
-        } else if lit {
+        if lit {
             found += throughput * surface_light(v.m, v.x, v.n, v.wo, v.front, v.triangle, ends, mis, rng, &blocked);
         }
         if ends {

@@ -6,7 +6,7 @@
 // reached through specular surfaces.
 #define_import_path bevy_rppm::lighting
 
-#import bevy_rppm::common::{Material, Light, IterationParams, PI, LIGHT_DIRECTIONAL, face_of, cosine_direction, luminance}
+#import bevy_rppm::common::{Material, Light, IterationParams, PI, LIGHT_DIRECTIONAL, DELTA_ROUGHNESS, face_of, cosine_direction, luminance}
 #import bevy_rppm::sampling::{random, spherical_triangle, bilinear_sample, bilinear_density}
 #import bevy_rppm::bsdf::{bsdf_eval, translucency, layered}
 #import bevy_rppm::light_samples::{LightSample, no_light, punctual_sample}
@@ -272,7 +272,11 @@ fn resampled_emitter(m: Material, x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, ori
 // against the path's own chance of finding them. `rng` draws the samples.
 fn surface_light(m: Material, x: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, front: bool, origin_triangle: u32, emitters: bool, mis: bool, rng: ptr<function, u32>, blocked: ptr<function, u32>) -> vec3<f32> {
     let emitted = select(vec3<f32>(0.0), m.emissive.rgb, front);
-    if params.direct_photons != 0u {
+    // A smooth glass or mirror vertex a path goes on from (mis implies a rough one) reflects
+    // no light sample: it draws none, so the pixel's stratified draws go to the path's Fresnel
+    // choices instead (sparkles in a glass ball lit by sphere lights).
+    let delta = !emitters && m.perceptual_roughness < DELTA_ROUGHNESS && m.clearcoat.x <= 0.0 && translucency(m) <= 0.0;
+    if params.direct_photons != 0u || delta {
         return emitted;
     }
     var sum = emitted;

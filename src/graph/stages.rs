@@ -80,6 +80,8 @@ pub(super) fn select_stages(
         layers.contains(ScatterPaths::GLOSSY_TRACED) && state.importons,
     );
     let emitters = !scene.data.emitters.is_empty();
+    // Shadow rays drawn toward them.
+    let traced_emitters = emitters && state.traced_shadows;
     // Camera paths go on past the G-buffer and trace their shadow rays.
     let paths_lit = state.importons && state.traced_shadows;
     StageIds {
@@ -106,8 +108,8 @@ pub(super) fn select_stages(
                     && (emitters
                         || scene.paths.contains(ScatterPaths::SKY)
                         || scene.data.has_sphere_lights()),
-                emitters: emitters && state.traced_shadows,
-                emitter_rays: emitters && state.traced_shadows && scene.many_faced_emitters,
+                emitters: traced_emitters,
+                emitter_rays: traced_emitters && scene.many_faced_emitters,
             },
         ),
         trace: traced.then(|| {

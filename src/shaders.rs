@@ -59,6 +59,7 @@ impl RppmShaders {
                 wgsl!(shaders, "shadows/lighting.wgsl"),
                 wgsl!(shaders, "photons/map.wgsl"),
                 wgsl!(shaders, "importons/bounce.wgsl"),
+                wgsl!(shaders, "accumulate/reproject.wgsl"),
             ],
             place: wgsl!(shaders, "scene/place.wgsl"),
             shadow_map: wgsl!(shaders, "shadows/shadow_map.wgsl"),

@@ -2,13 +2,14 @@
 // (directly on the G-buffer, and through importons), averaged into the radiance of all
 // iterations since the last reset (w: the pixel's count), or with HISTORY of the pixel's
 // history kept through motion.
-#import bevy_rppm::common::{IterationParams, MOVED_TRIANGLE, DELTA_ROUGHNESS, subsample_representative}
+#import bevy_rppm::common::{IterationParams, subsample_representative}
 #import bevy_rppm::camera::{camera_ray, toward_eye}
 #ifdef SUBSAMPLED
 #import bevy_rppm::bsdf::{bsdf_from, bsdf_gathered}
-#import bevy_rppm::scene::{gbuffer_material, scene_material, triangles}
-#else ifdef HISTORY
-#import bevy_rppm::scene::{gbuffer_material, scene_material, triangles}
+#import bevy_rppm::scene::gbuffer_material
+#endif
+#ifdef HISTORY
+#import bevy_rppm::reproject::{previous_history, surface_marks, emitting, packed_surface, mixed_surface, moved_surface, same_surface, view_shown, shown_point, reproject, KEPT, KEPT_EMITTING, KEPT_MOVING, KEPT_MIXED, SHOWS_VIEW, SHOWS_BLURRED}
 #endif
 
 @group(1) @binding(0) var<uniform> params: IterationParams;
@@ -20,14 +21,12 @@
 @group(1) @binding(5) var gbuffer_position: texture_2d<f32>;
 @group(1) @binding(6) var gbuffer_normal: texture_2d<f32>;
 #ifdef HISTORY
-// Per pixel, in three blocks of one vec4 a pixel: the surface it saw, the running mean of its
-// direct light (local illumination; w its count), and the mean of its indirect samples since
-// the last change (w their count). `radiance` holds the total: direct plus indirect (w the
-// indirect count).
+// Per pixel, in four blocks of one vec4 a pixel: the surface it saw, the running mean of its
+// direct light (local illumination; w its count), the mean of its indirect samples since the
+// last change (w their count), and the point its glass or mirror showed (`shown_point`).
+// `radiance` holds the total: direct plus indirect (w the indirect count). Last frame's copies
+// are bound in reproject.wgsl.
 @group(1) @binding(7) var<storage, read_write> history: array<vec4<f32>>;
-// Last frame's estimate and history, for reprojection.
-@group(1) @binding(8) var<storage, read> previous_radiance: array<vec4<f32>>;
-@group(1) @binding(9) var<storage, read> previous_history: array<vec4<f32>>;
 
 // HistoryFlags (src/view/params.rs).
 const REPROJECT: u32 = 1u;
@@ -36,98 +35,17 @@ const CHECK_LIGHT: u32 = 4u;
 const NEW_DIRECT: u32 = 8u;
 const RELIT: u32 = 16u;
 
-// Bits of a surface's marker byte (0: no surface): a surface, on a triangle that moved in
-// this frame's placement, emitting (its emissive factor, a texture only scales it, seen from
-// the front); and, of a kept one, that the pixel's history holds samples of another surface
-// too (an edge its jitter crossed: empty pixels keep this bit alone).
-const KEPT: u32 = 0x80u;
-const KEPT_MOVING: u32 = 1u;
-const KEPT_EMITTING: u32 = 2u;
-const KEPT_MIXED: u32 = 4u;
-// Bits 3–6: a tag of its material, so that surfaces a footprint apart are told apart too (a
-// thin black square on a white floor).
-const TAG_SHIFT: u32 = 3u;
-const TAG_BITS: u32 = 0x78u;
-
-// The marker byte of the surface at a G-buffer texel, from one read of its triangle.
-fn surface_marks(position: vec4<f32>) -> u32 {
-    if position.w == 0.0 {
-        return 0u;
-    }
-    let material = triangles[u32(abs(position.w)) - 1u].material;
-    let emitting = position.w > 0.0 && any(scene_material(material).emissive.rgb > vec3<f32>(0.0));
-    // The index's low four bits: materials fewer than 16 apart differ.
-    let tag = (material & (TAG_BITS >> TAG_SHIFT)) << TAG_SHIFT;
-    return KEPT | tag | select(0u, KEPT_MOVING, (material & MOVED_TRIANGLE) != 0u) | select(0u, KEPT_EMITTING, emitting);
+// The marker byte of what a pixel sees: its surface's, emitting where a sphere light hides
+// it (`samples`' w below 0: eye_paths.wgsl), as its history is the light's, not the surface's.
+fn pixel_marks(pixel: vec2<i32>) -> u32 {
+    let marks = surface_marks(textureLoad(gbuffer_position, pixel, 0));
+    let sphere = samples[u32(pixel.y) * params.size.x + u32(pixel.x)].w < 0.0;
+    return marks | select(0u, KEPT | KEPT_EMITTING, sphere);
 }
 
-// Whether the surface at a G-buffer texel emits.
-fn emits(position: vec4<f32>) -> bool {
-    return emitting(surface_marks(position));
-}
-
-// Whether a marker byte is an emitting surface's.
-fn emitting(marks: u32) -> bool {
-    return (marks & KEPT_EMITTING) != 0u;
-}
-
-// A G-buffer texel as kept in `surface`: position, and the normal packed with its marker byte.
-fn packed_surface(position: vec4<f32>, normal: vec3<f32>, marks: u32) -> vec4<f32> {
-    let packed = (pack4x8snorm(vec4<f32>(normal, 0.0)) & 0x00ffffffu) | (marks << 24u);
-    return vec4<f32>(position.xyz, bitcast<f32>(select(marks << 24u, packed, position.w != 0.0)));
-}
-
-// Whether a kept history holds samples of more than one surface.
-fn mixed_surface(kept: vec4<f32>) -> bool {
-    return ((bitcast<u32>(kept.w) >> 24u) & KEPT_MIXED) != 0u;
-}
-
-// Whether a kept surface was on a moving object.
-fn moved_surface(kept: vec4<f32>) -> bool {
-    return ((bitcast<u32>(kept.w) >> 24u) & KEPT_MOVING) != 0u;
-}
-
-// Whether a kept surface is the one this pixel sees now: both empty, or a point on the same
-// plane, within three footprints across the view (the jitter moves it by up to one and a
-// half; more along a surface seen at a grazing angle), with a normal within ~25°, of the
-// same material tag, emitting if and only if it does (an emitter's rim on its wall is no
-// history of the wall): a moving object's pixels start again.
-fn same_surface(kept: vec4<f32>, position: vec4<f32>, normal: vec4<f32>, marks: u32) -> bool {
-    let packed = bitcast<u32>(kept.w);
-    let had = ((packed >> 24u) & KEPT) != 0u;
-    if !had || position.w == 0.0 {
-        return had == (position.w != 0.0);
-    }
-    let kept_normal = unpack4x8snorm(packed).xyz;
-    let d = position.xyz - kept.xyz;
-    let slack = 1e-4 * length(position.xyz);
-    let facing = abs(dot(normal.xyz, toward_eye(params, position.xyz)));
-    let across = 3.0 * normal.w / max(facing, 0.2);
-    let near = length(d) <= across + slack && abs(dot(d, normal.xyz)) <= normal.w + slack;
-    let tagged = ((packed >> 24u) & TAG_BITS) == (marks & TAG_BITS);
-    return near && tagged && dot(kept_normal, normal.xyz) > 0.9 && emitting(packed >> 24u) == emitting(marks);
-}
-
-// Perceptual roughness under which a metal's or glass's direct light is what it shows of the
-// lights and emitters: their small, bright images, which one jittered sample hits or misses.
-const SPECULAR_ROUGHNESS: f32 = 0.5;
-
-// What the surface at a G-buffer texel shows of the view (`view_shown`): the lights and the
-// scene as the camera sees them (glass and glossy metal under SPECULAR_ROUGHNESS), and blurred
-// (a rough metal, not a mirror: one sample of it is little noisier than its history).
-const SHOWS_VIEW: u32 = 1u;
-const SHOWS_BLURRED: u32 = 2u;
-
-fn view_shown(position: vec4<f32>, footprint: f32) -> u32 {
-    if position.w == 0.0 {
-        return 0u;
-    }
-    let m = gbuffer_material(position, footprint);
-    let metal = m.metallic >= 0.5;
-    if !(metal || m.specular_transmission > 0.0) || m.perceptual_roughness >= SPECULAR_ROUGHNESS {
-        return 0u;
-    }
-    return SHOWS_VIEW | select(0u, SHOWS_BLURRED, metal && m.perceptual_roughness >= DELTA_ROUGHNESS);
+// How far past its surface a pixel's glass or mirror shows (`samples`' w).
+fn shown_beyond(w: f32) -> f32 {
+    return select(w, -1.0 - w, w < 0.0);
 }
 
 // Neighbour k (0..9, the pixel itself at 4) of `pixel` in its 3×3 block, inside the image.
@@ -143,7 +61,7 @@ fn emitter_nearby(pixel: vec2<u32>) -> bool {
     var found = false;
 #ifdef EMITTERS
     for (var k = 0; k < 9; k += 1) {
-        found = found || emits(textureLoad(gbuffer_position, neighbour(pixel, k), 0));
+        found = found || emitting(pixel_marks(neighbour(pixel, k)));
     }
 #endif
     return found;
@@ -156,7 +74,7 @@ fn surface_nearby(kept: vec4<f32>, pixel: vec2<u32>) -> bool {
         let p = neighbour(pixel, k);
         let position = textureLoad(gbuffer_position, p, 0);
         let normal = textureLoad(gbuffer_normal, p, 0);
-        found = found || same_surface(kept, position, normal, surface_marks(position));
+        found = found || same_surface(params, kept, position, normal, pixel_marks(p));
     }
     return found;
 }
@@ -236,24 +154,6 @@ fn clamped(history: vec3<f32>, local: vec2<u32>, part: u32, gamma: f32) -> vec3<
     return clamp(history, lo, hi);
 }
 
-// Where this pixel's surface was in last frame's image, or -1 outside it. A pixel that sees
-// nothing follows its direction (a point at infinity), so a silhouette's coverage moves too.
-fn reprojected(position: vec4<f32>, pixel: vec2<u32>) -> i32 {
-    var point = vec4<f32>(position.xyz, 1.0);
-    if position.w == 0.0 {
-        point = vec4<f32>(camera_ray(params, pixel).direction, 0.0);
-    }
-    let clip = params.previous_clip_from_world * point;
-    if clip.w <= 0.0 {
-        return -1;
-    }
-    let uv = vec2<f32>(0.5, -0.5) * clip.xy / clip.w + 0.5;
-    let source = vec2<i32>(floor(uv * vec2<f32>(params.size)));
-    if any(source < vec2<i32>(0)) || any(source >= vec2<i32>(params.size)) {
-        return -1;
-    }
-    return source.y * i32(params.size.x) + source.x;
-}
 #endif
 
 #ifdef SUBSAMPLED
@@ -357,22 +257,25 @@ fn main(
     var kept_direct = select(history[pixels + index], vec4<f32>(0.0), params.iteration == 0u);
     // The surface this pixel's last sample saw (where it was, under a camera move).
     var kept_surface = history[index];
-    let marks = surface_marks(position);
+    let marks = pixel_marks(vec2<i32>(id.xy));
     var shown = 0u;
     if clamping {
         shown = view_shown(position, normal.w);
     }
     let checking = (params.history_flags & CHECK_SURFACE) != 0u && params.iteration != 0u;
+    let beyond = shown_beyond(samples[index].w);
+    let shown_here = shown_point(params, position, normal, index, beyond);
+    // Whether this pixel sees the surface its history saw last (or what it showed).
+    var same: bool;
     if checking && reprojecting {
-        let reprojection = reprojected(position, id.xy);
-        let source = u32(max(reprojection, 0));
-        let found = reprojection >= 0;
-        kept = select(vec4<f32>(0.0), previous_radiance[source], found);
-        kept_surface = select(vec4<f32>(0.0), previous_history[source], found);
-        kept_direct = select(vec4<f32>(0.0), previous_history[pixels + source], found);
+        let r = reproject(params, position, normal, marks, shown, shown_here, beyond, id.xy);
+        kept = r.radiance;
+        kept_direct = r.direct;
+        kept_surface = r.surface;
+        same = r.found;
+    } else {
+        same = same_surface(params, kept_surface, position, normal, marks);
     }
-    // Whether this pixel sees the surface its history saw last.
-    let same = same_surface(kept_surface, position, normal, marks);
     if checking {
         // A still camera's jitter moves a pixel's samples across an edge, where a neighbour
         // that sees the kept surface keeps the pixel's history (its coverage). Under a
@@ -382,7 +285,7 @@ fn main(
         // Glossy metal's history (a highlight where it was) is no history of this view.
         var kept_here: bool;
         if reprojecting {
-            kept_here = same && !mixed_surface(kept_surface) && (shown & SHOWS_BLURRED) == 0u;
+            kept_here = same && (shown & SHOWS_BLURRED) == 0u;
         } else {
             kept_here = surface_nearby(kept_surface, id.xy);
         }
@@ -445,6 +348,7 @@ fn main(
     history[index] = packed_surface(position, normal.xyz, marks | select(0u, KEPT_MIXED, mixed));
     history[pixels + index] = vec4<f32>(direct, kept_direct.w + 1.0);
     history[2u * pixels + index] = fresh_after(history[2u * pixels + index], indirect_sample);
+    history[3u * pixels + index] = shown_here;
     radiance[index] = vec4<f32>(direct + indirect, kept.w + 1.0);
 #else
     let previous = select(kept.rgb, vec3<f32>(0.0), params.iteration == 0u);

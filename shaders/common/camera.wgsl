@@ -27,3 +27,15 @@ fn toward_eye(params: IterationParams, p: vec3<f32>) -> vec3<f32> {
     }
     return normalize(params.camera_position.xyz - p);
 }
+
+// Where `point` (w 0: a direction) lay in last frame's image (`previous_clip_from_world`), in
+// pixels; z: 1 inside it.
+fn previous_pixel(params: IterationParams, point: vec4<f32>) -> vec3<f32> {
+    let clip = params.previous_clip_from_world * point;
+    if clip.w <= 0.0 {
+        return vec3<f32>(0.0);
+    }
+    let at = (vec2<f32>(0.5, -0.5) * clip.xy / clip.w + 0.5) * vec2<f32>(params.size);
+    let inside = all(at >= vec2<f32>(0.0)) && all(at < vec2<f32>(params.size));
+    return vec3<f32>(at, select(0.0, 1.0, inside));
+}

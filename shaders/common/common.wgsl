@@ -227,6 +227,10 @@ struct IterationParams {
     // 1 when photons leave a sun or the sky: local illumination counts how far the camera
     // sees (`seen`), which their emission follows.
     seen_region: u32,
+    // This iteration's sub-pixel jitter (pixels, x right and y down): its samples lie this far
+    // before the pixels' centres in the unjittered image.
+    jitter: vec2<f32>,
+    pad: vec2<f32>,
 }
 
 // What f(wo, ·) needs of a material and wo alone (bsdf.wgsl's `bsdf_from`), found once for

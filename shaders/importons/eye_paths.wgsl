@@ -70,6 +70,10 @@ const SPLIT_PATHS: u32 = 4u;
 // than a path's local light).
 const SPLIT_IMPORTONS: u32 = 2u;
 
+// How far past the G-buffer point a path that went on met the first surface storing photons
+// (0: none): what glass or a mirror shows lies that far beyond along the camera ray, where a
+// camera move's reprojection looks for it (accumulate.wgsl).
+var<private> shown_beyond: f32;
 #endif
 
 #ifdef REFLECTED_EMISSION
@@ -220,6 +224,9 @@ fn camera_path(first: Vertex, slot: u32, share: f32, rng: ptr<function, u32>) ->
 #ifdef TRACED_SHADOWS
             drawn_density = 0.0;
 #endif
+            if stores_photons(v.m) && shown_beyond == 0.0 {
+                shown_beyond = length - distance(params.camera_position.xyz, first.x);
+            }
             if stores_photons(v.m) && slot != NO_IMPORTON {
                 let footprint = params.pixel_spread * select(length, 1.0, params.orthographic != 0u);
                 let radius = gather_radius(params, params.splat_radius, footprint);
@@ -415,6 +422,7 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>, @builtin(local_invocation_
 #ifdef IMPORTONS
     importons[pixel].triangle = NO_IMPORTON;
     var first_extra = 0u;
+    shown_beyond = 0.0;
 #endif
     if gp.w != 0.0 {
         let gn = textureLoad(gbuffer_normal, vec2<i32>(id.xy), 0);
@@ -459,12 +467,20 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>, @builtin(local_invocation_
         sample = params.sky.rgb;
     }
 #endif
+    // w: how far past its surface the pixel's glass or mirror shows (`shown_beyond`), as
+    // -1 - that where a sphere light hides the surface (accumulate.wgsl tells them apart).
+    var beyond = 0.0;
+#ifdef IMPORTONS
+    beyond = shown_beyond;
+#endif
 #ifdef SPHERE_LIGHTS_SEEN
     if params.indirect_only == 0u {
-        sample += spheres_in_pixel(id.xy, gp);
+        let sphere = spheres_in_pixel(id.xy, gp);
+        sample += sphere;
+        beyond = select(beyond, -1.0 - beyond, any(sphere > vec3<f32>(0.0)));
     }
 #endif
-    samples[pixel] = vec4<f32>(sample, 1.0);
+    samples[pixel] = vec4<f32>(sample, beyond);
 #ifdef IMPORTONS
     importons[pixel].extras = extras;
     importons[pixel].first_extra = first_extra;

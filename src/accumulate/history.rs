@@ -9,9 +9,9 @@ use bevy::render::renderer::RenderDevice;
 use crate::view::{per_pixel_binding_fits, pixel_buffer};
 
 pub struct History {
-    /// Three blocks of one vec4 a pixel: surface (position, packed normal), direct light
-    /// (mean, count) and indirect light since the last change (mean, count)
-    /// (`shaders/accumulate/`).
+    /// Four blocks of one vec4 a pixel: surface (position, packed normal), direct light
+    /// (mean, count), indirect light since the last change (mean, count) and the point its
+    /// glass or mirror showed (`shaders/accumulate/`).
     pub history: Buffer,
     /// Last frame's estimate and history, which a camera move reprojects from and a settling
     /// change clamps with: made at the view's first change (`make_previous`), as a still
@@ -22,8 +22,8 @@ pub struct History {
     size: UVec2,
 }
 
-/// Bytes a pixel of the largest history buffer (three vec4 blocks, bound whole).
-const HISTORY_BYTES: u64 = 48;
+/// Bytes a pixel of the largest history buffer (four vec4 blocks, bound whole).
+const HISTORY_BYTES: u64 = 64;
 
 /// Whether the view's history fits this device's bindings; a target too large for them runs
 /// `Reuse` as `Reset` (with a warning) rather than fail.
@@ -95,7 +95,7 @@ impl History {
         let Some([_, previous_history]) = &self.previous else {
             return;
         };
-        let block = self.history.size() / 3;
+        let block = self.history.size() / 4;
         encoder.copy_buffer_to_buffer(&self.history, 2 * block, previous_history, 2 * block, block);
     }
 

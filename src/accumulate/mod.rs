@@ -51,7 +51,7 @@ pub struct AccumulatePipeline {
     /// pixel's iteration count), 4 importon radiance, 5 G-buffer position, 6 G-buffer normal.
     pub layout: BindGroupLayoutDescriptor,
     /// `layout` and the history (`HISTORY`): 7 the pixels' history, 8 and 9 last frame's
-    /// estimate and history.
+    /// estimate and history, 10 the importons.
     pub history_layout: BindGroupLayoutDescriptor,
     scene: BindGroupLayoutDescriptor,
     shader: Handle<Shader>,
@@ -132,6 +132,7 @@ fn init_accumulate_pipeline(
             (7, storage_buffer_sized(false, None)),
             (8, storage_buffer_read_only_sized(false, None)),
             (9, storage_buffer_read_only_sized(false, None)),
+            (10, storage_buffer_read_only_sized(false, None)),
         ),
     );
     let with_history: Vec<_> = entries.iter().chain(history.iter()).cloned().collect();
@@ -217,6 +218,7 @@ impl Estimate {
                     (7, h.history.as_entire_binding()),
                     (8, previous_radiance.as_entire_binding()),
                     (9, previous_history.as_entire_binding()),
+                    (10, inputs.eye_paths.importons.as_entire_binding()),
                 ));
                 let all: Vec<_> = entries.iter().chain(history.iter()).cloned().collect();
                 device.create_bind_group(

@@ -20,7 +20,7 @@ use crate::scene::{Lookups, ScatterPaths, SceneBuffers, SceneData};
 use crate::settings::{PhotonMapping, RppmDebugView, RppmMode};
 use crate::shadows::cube_views;
 use crate::stats::timing::StageTimer;
-use crate::view::params::{camera_params, unjittered_clip_from_world};
+use crate::view::params::{camera_params, halton_jitter, unjittered_clip_from_world};
 use crate::view::{ExtractedRppm, PARAMS_STRIDE};
 
 /// Whether camera paths go past the G-buffer (importons).
@@ -314,7 +314,7 @@ fn prepare_view(
         // averages positions across it (its edges anti-aliased), as a still estimate's
         // iterations do. A frame whose camera moved starts the sequence again, as `Reset`
         // does: history reprojected from where an edge was cannot tell its coverage.
-        let jitter = if state.reprojects { slot } else { iteration };
+        let jitter = halton_jitter(if state.reprojects { slot } else { iteration });
         let mut params = camera_params(
             frame.view,
             frame.camera,

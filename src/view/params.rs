@@ -63,6 +63,10 @@ pub struct IterationParams {
     /// 1 when photons leave a sun or the sky: local illumination counts how far the camera
     /// sees, which their emission follows (photons/trace.wgsl).
     pub seen_region: u32,
+    /// This iteration's sub-pixel jitter (pixels, x right and y down): its samples lie this
+    /// far before the pixels' centres in the unjittered image.
+    pub jitter: [f32; 2],
+    pub pad: [f32; 2],
 }
 
 /// Bytes of how far the camera sees (`seen` in importons/eye_paths.wgsl): visible pixels
@@ -105,8 +109,13 @@ pub fn area_sample(data: &SceneData, sequence: u32) -> Option<(Vec3, Vec3, Vec3)
     Some((point, normal, weight))
 }
 
-/// The camera part of an iteration's constants: the view with the Halton jitter of
-/// `jitter_index`, the area-light sample of the iteration's random numbers (`seed`) and the
+/// The sub-pixel offset of Halton jitter `index` (pixels, each axis in -0.5..0.5).
+pub fn halton_jitter(index: u32) -> Vec2 {
+    Vec2::new(halton(index + 1, 2), halton(index + 1, 3)) - 0.5
+}
+
+/// The camera part of an iteration's constants: the view with the sub-pixel `jitter`
+/// (pixels), the area-light sample of the iteration's random numbers (`seed`) and the
 /// scene's bounds. The stages' fields (photons, shadow views,
 /// settings) are the caller's to fill.
 pub fn camera_params(
@@ -116,11 +125,10 @@ pub fn camera_params(
     data: &SceneData,
     iteration: u32,
     seed: u32,
-    jitter_index: u32,
+    jitter: Vec2,
 ) -> IterationParams {
     // Seed 0 draws the numbers an iteration always drew.
     let sequence = iteration.wrapping_add(seed.wrapping_mul(0x9e37_79b9));
-    let jitter = Vec2::new(halton(jitter_index + 1, 2), halton(jitter_index + 1, 3)) - 0.5;
     let offset = Vec3::new(
         2.0 * jitter.x / size.x as f32,
         -2.0 * jitter.y / size.y as f32,
@@ -163,6 +171,7 @@ pub fn camera_params(
         kernel_flattening: 0.1,
         indirect_subsampling: 1,
         history_cap: u32::MAX,
+        jitter: jitter.into(),
         sky: {
             let [r, g, b, power] = data.sky;
             [r, g, b, if power > 0.0 { 1.0 } else { 0.0 }]

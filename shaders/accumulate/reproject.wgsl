@@ -1,0 +1,305 @@
+// A pixel's history under a camera move (accumulate.wgsl with HISTORY): what the pixel saw
+// (its marker byte, as kept), what its glass or mirror shows, and where last frame's image
+// held them.
+#define_import_path bevy_rppm::reproject
+
+#import bevy_rppm::common::{IterationParams, MOVED_TRIANGLE, DELTA_ROUGHNESS}
+#import bevy_rppm::camera::{camera_ray, toward_eye, previous_pixel}
+#import bevy_rppm::scene::{gbuffer_material, scene_material, triangles}
+#ifdef IMPORTONS
+#import bevy_rppm::common::{Importon, NO_IMPORTON}
+#endif
+
+// Last frame's estimate and history, for reprojection.
+@group(1) @binding(8) var<storage, read> previous_radiance: array<vec4<f32>>;
+@group(1) @binding(9) var<storage, read> previous_history: array<vec4<f32>>;
+#ifdef IMPORTONS
+// This iteration's importons: where a pixel's camera path went on to.
+@group(1) @binding(10) var<storage, read> importons: array<Importon>;
+#endif
+
+
+// Bits of a surface's marker byte (0: no surface): a surface, on a triangle that moved in
+// this frame's placement, emitting (its emissive factor, a texture only scales it, seen from
+// the front); and, of a kept one, that the pixel's history holds samples of another surface
+// too (an edge its jitter crossed: empty pixels keep this bit alone).
+const KEPT: u32 = 0x80u;
+const KEPT_MOVING: u32 = 1u;
+const KEPT_EMITTING: u32 = 2u;
+const KEPT_MIXED: u32 = 4u;
+// Bits 3–6: a tag of its material, so that surfaces a footprint apart are told apart too (a
+// thin black square on a white floor).
+const TAG_SHIFT: u32 = 3u;
+const TAG_BITS: u32 = 0x78u;
+
+// The marker byte of the surface at a G-buffer texel, from one read of its triangle.
+fn surface_marks(position: vec4<f32>) -> u32 {
+    if position.w == 0.0 {
+        return 0u;
+    }
+    let material = triangles[u32(abs(position.w)) - 1u].material;
+    let emitting = position.w > 0.0 && any(scene_material(material).emissive.rgb > vec3<f32>(0.0));
+    // The index's low four bits: materials fewer than 16 apart differ.
+    let tag = (material & (TAG_BITS >> TAG_SHIFT)) << TAG_SHIFT;
+    return KEPT | tag | select(0u, KEPT_MOVING, (material & MOVED_TRIANGLE) != 0u) | select(0u, KEPT_EMITTING, emitting);
+}
+
+// Whether a marker byte is an emitting surface's.
+fn emitting(marks: u32) -> bool {
+    return (marks & KEPT_EMITTING) != 0u;
+}
+
+// A G-buffer texel as kept in `surface`: position, and the normal packed with its marker byte.
+fn packed_surface(position: vec4<f32>, normal: vec3<f32>, marks: u32) -> vec4<f32> {
+    let packed = (pack4x8snorm(vec4<f32>(normal, 0.0)) & 0x00ffffffu) | (marks << 24u);
+    return vec4<f32>(position.xyz, bitcast<f32>(select(marks << 24u, packed, position.w != 0.0)));
+}
+
+// Whether a kept history holds samples of more than one surface.
+fn mixed_surface(kept: vec4<f32>) -> bool {
+    return ((bitcast<u32>(kept.w) >> 24u) & KEPT_MIXED) != 0u;
+}
+
+// Whether a kept surface was on a moving object.
+fn moved_surface(kept: vec4<f32>) -> bool {
+    return ((bitcast<u32>(kept.w) >> 24u) & KEPT_MOVING) != 0u;
+}
+
+// Whether a kept surface is the one this pixel sees now: both empty, or a point on the same
+// plane, within three footprints across the view (the jitter moves it by up to one and a
+// half; more along a surface seen at a grazing angle), with a normal within ~25°, of the
+// same material tag, emitting if and only if it does (an emitter's rim on its wall is no
+// history of the wall): a moving object's pixels start again.
+fn same_surface(params: IterationParams, kept: vec4<f32>, position: vec4<f32>, normal: vec4<f32>, marks: u32) -> bool {
+    let packed = bitcast<u32>(kept.w);
+    let had = ((packed >> 24u) & KEPT) != 0u;
+    if !had || position.w == 0.0 {
+        return had == (position.w != 0.0);
+    }
+    let kept_normal = unpack4x8snorm(packed).xyz;
+    let d = position.xyz - kept.xyz;
+    let slack = 1e-4 * length(position.xyz);
+    let facing = abs(dot(normal.xyz, toward_eye(params, position.xyz)));
+    let across = 3.0 * normal.w / max(facing, 0.2);
+    let near = length(d) <= across + slack && abs(dot(d, normal.xyz)) <= normal.w + slack;
+    let tagged = ((packed >> 24u) & TAG_BITS) == (marks & TAG_BITS);
+    return near && tagged && dot(kept_normal, normal.xyz) > 0.9 && emitting(packed >> 24u) == emitting(marks);
+}
+
+// Perceptual roughness under which a metal's or glass's direct light is what it shows of the
+// lights and emitters: their small, bright images, which one jittered sample hits or misses.
+const SPECULAR_ROUGHNESS: f32 = 0.5;
+
+// What the surface at a G-buffer texel shows of the view (`view_shown`): the lights and the
+// scene as the camera sees them (glass and glossy metal under SPECULAR_ROUGHNESS), and blurred
+// (a rough metal, not a mirror: one sample of it is little noisier than its history).
+const SHOWS_VIEW: u32 = 1u;
+const SHOWS_BLURRED: u32 = 2u;
+
+fn view_shown(position: vec4<f32>, footprint: f32) -> u32 {
+    if position.w == 0.0 {
+        return 0u;
+    }
+    let m = gbuffer_material(position, footprint);
+    let metal = m.metallic >= 0.5;
+    if !(metal || m.specular_transmission > 0.0) || m.perceptual_roughness >= SPECULAR_ROUGHNESS {
+        return 0u;
+    }
+    return SHOWS_VIEW | select(0u, SHOWS_BLURRED, metal && m.perceptual_roughness >= DELTA_ROUGHNESS);
+}
+
+// The point a pixel's glass or mirror shows (where its camera path went on to: its importon,
+// `beyond` past the G-buffer point along the path), w its footprint there (0: none).
+fn shown_point(params: IterationParams, position: vec4<f32>, normal: vec4<f32>, index: u32, beyond: f32) -> vec4<f32> {
+#ifdef IMPORTONS
+    let importon = importons[index];
+    if position.w == 0.0 || beyond <= 0.0 || importon.triangle == NO_IMPORTON {
+        return vec4<f32>(0.0);
+    }
+    let near = distance(params.camera_position.xyz, position.xyz);
+    let footprint = select(normal.w * (near + beyond) / max(near, 1e-30), normal.w, params.orthographic != 0u);
+    return vec4<f32>(importon.position, footprint);
+#else
+    return vec4<f32>(0.0);
+#endif
+}
+
+// Where in last frame's image this pixel's glass or mirror showed the point it shows now
+// (`shown`; z: 1 if found): what they show moves with that point, not with their surface.
+// Looked for around the point's image in a mirror (unfolded along the camera ray, `beyond`
+// past the surface; near it through flat water): the pixel whose point lay nearest, offset
+// as the unfolded image is from its pixel.
+fn previous_shown(params: IterationParams, position: vec4<f32>, shown: vec4<f32>, beyond: f32) -> vec3<f32> {
+    let unfolded = position.xyz - toward_eye(params, position.xyz) * beyond;
+    let centre = previous_pixel(params, vec4<f32>(unfolded, 1.0));
+    if shown.w == 0.0 || centre.z == 0.0 {
+        return vec3<f32>(0.0);
+    }
+    let at = vec2<i32>(floor(centre.xy));
+    var best = vec2<i32>(-1);
+    var nearest = SHOWN_MATCH * shown.w;
+    for (var k = 0; k < (2 * SHOWN_SEARCH + 1) * (2 * SHOWN_SEARCH + 1); k += 1) {
+        let p = at + vec2<i32>(k % (2 * SHOWN_SEARCH + 1), k / (2 * SHOWN_SEARCH + 1)) - SHOWN_SEARCH;
+        let kept = previous_shown_point(params, p);
+        let d = distance(kept.xyz, shown.xyz);
+        if kept.w > 0.0 && d <= nearest {
+            nearest = d;
+            best = p;
+        }
+    }
+    if best.x < 0 {
+        return vec3<f32>(0.0);
+    }
+    return vec3<f32>(vec2<f32>(best) + 0.5 + subpixel(params, best, shown.xyz), 1.0);
+}
+
+// Where between pixel `p` and its neighbours last frame's shown point would be `x`: one
+// Gauss-Newton step on the points' differences across the pixels (within a pixel each way),
+// so that a history moved less than a pixel a frame does not stay behind.
+fn subpixel(params: IterationParams, p: vec2<i32>, x: vec3<f32>) -> vec2<f32> {
+    let here = previous_shown_point(params, p);
+    var axes: array<vec3<f32>, 2>;
+    for (var a = 0; a < 2; a += 1) {
+        let step = vec2<i32>(1 - a, a);
+        let after = previous_shown_point(params, p + step);
+        let before = previous_shown_point(params, p - step);
+        let ahead = select(here.xyz, after.xyz, after.w > 0.0);
+        let behind = select(here.xyz, before.xyz, before.w > 0.0);
+        let span = select(0.0, 1.0, after.w > 0.0) + select(0.0, 1.0, before.w > 0.0);
+        axes[a] = select(vec3<f32>(0.0), (ahead - behind) / max(span, 1.0), span > 0.0);
+    }
+    let gx = axes[0];
+    let gy = axes[1];
+    let r = x - here.xyz;
+    let a = vec3<f32>(dot(gx, gx), dot(gx, gy), dot(gy, gy));
+    let det = a.x * a.z - a.y * a.y;
+    if det <= 1e-12 * (a.x + a.z) * (a.x + a.z) {
+        return vec2<f32>(0.0);
+    }
+    let b = vec2<f32>(dot(gx, r), dot(gy, r));
+    return clamp(vec2<f32>(a.z * b.x - a.y * b.y, a.x * b.y - a.y * b.x) / det, vec2<f32>(-1.0), vec2<f32>(1.0));
+}
+
+// Last frame's shown point at pixel `p` (none outside the image).
+fn previous_shown_point(params: IterationParams, p: vec2<i32>) -> vec4<f32> {
+    if any(p < vec2<i32>(0)) || any(p >= vec2<i32>(params.size)) {
+        return vec4<f32>(0.0);
+    }
+    return previous_history[3u * params.size.x * params.size.y + u32(p.y) * params.size.x + u32(p.x)];
+}
+
+// How far (pixels) around a shown point's unfolded image its last pixel is looked for, and
+// how near (footprints) its point must have been.
+const SHOWN_SEARCH: i32 = 2;
+const SHOWN_MATCH: f32 = 2.0;
+
+// Last frame's estimate, direct light and surface where this pixel's point was.
+struct Reprojected {
+    radiance: vec4<f32>,
+    direct: vec4<f32>,
+    surface: vec4<f32>,
+    found: bool,
+}
+
+// Catmull-Rom weights of the four taps around a point `t` past the second (0..1).
+fn catmull_rom(t: f32) -> vec4<f32> {
+    let t2 = t * t;
+    let t3 = t2 * t;
+    return vec4<f32>(-0.5 * t3 + t2 - 0.5 * t, 1.5 * t3 - 2.5 * t2 + 1.0, -1.5 * t3 + 2.0 * t2 + 0.5 * t, 0.5 * t3 - 0.5 * t2);
+}
+
+// This pixel's history under a camera move: last frame's at the point's position, of the
+// pixels around it that saw this surface (or, through glass and mirrors, `shown`) and no
+// other. Taken from the nearest pixel, a history stays put while the image moves less than
+// half a pixel a frame, and drags; bilinearly, it blurs a little more each frame. So the
+// 4 × 4 pixels around it weigh in by Catmull-Rom, bounded by the four nearest (which alone
+// weigh in, bilinearly, where any of the 16 saw something else).
+fn reproject(params: IterationParams, position: vec4<f32>, normal: vec4<f32>, marks: u32, shown: u32, shown_here: vec4<f32>, beyond: f32, pixel: vec2<u32>) -> Reprojected {
+    var point = vec4<f32>(position.xyz, 1.0);
+    if position.w == 0.0 {
+        point = vec4<f32>(camera_ray(params, pixel).direction, 0.0);
+    }
+    var at = previous_pixel(params, point);
+    var through = false;
+    if (shown & SHOWS_VIEW) != 0u && (shown & SHOWS_BLURRED) == 0u {
+        let seen = previous_shown(params, position, shown_here, beyond);
+        through = seen.z != 0.0;
+        at = select(at, seen, through);
+    }
+    var r = Reprojected(vec4<f32>(0.0), vec4<f32>(0.0), vec4<f32>(0.0), false);
+    if at.z == 0.0 {
+        return r;
+    }
+    let pixels = params.size.x * params.size.y;
+    // Last frame's samples lay `jitter` before their pixels' centres, as this one's do (a
+    // camera move restarts the jitter): a history read at the centres would move by as much
+    // each frame. (A shown point's pixel was found among those samples.)
+    let corner = at.xy + select(params.jitter, vec2<f32>(0.0), through) - 0.5;
+    let base = vec2<i32>(floor(corner)) - 1;
+    let f = corner - floor(corner);
+    let wx = catmull_rom(f.x);
+    let wy = catmull_rom(f.y);
+    // Which of the 16 taps saw this pixel's surface.
+    var seen = 0u;
+    for (var k = 0; k < 16; k += 1) {
+        let p = base + vec2<i32>(k & 3, k >> 2u);
+        if any(p < vec2<i32>(0)) || any(p >= vec2<i32>(params.size)) {
+            continue;
+        }
+        let source = u32(p.y) * params.size.x + u32(p.x);
+        let surface = previous_history[source];
+        var same = same_surface(params, surface, position, normal, marks);
+        if through {
+            let kept = previous_history[3u * pixels + source];
+            same = kept.w > 0.0 && distance(kept.xyz, shown_here.xyz) <= SHOWN_MATCH * shown_here.w;
+        }
+        seen |= select(0u, 1u << u32(k), same && !mixed_surface(surface));
+    }
+    let sharp = seen == 0xffffu;
+    var total = 0.0;
+    var most = 0.0;
+    var lo = vec3<f32>(1e30);
+    var hi = vec3<f32>(-1e30);
+    var lo_direct = vec3<f32>(1e30);
+    var hi_direct = vec3<f32>(-1e30);
+    var radiance = vec3<f32>(0.0);
+    var direct = vec3<f32>(0.0);
+    for (var k = 0; k < 16; k += 1) {
+        let tap = vec2<i32>(k & 3, k >> 2u);
+        let inner = all(tap >= vec2<i32>(1)) && all(tap <= vec2<i32>(2));
+        if (seen & (1u << u32(k))) == 0u || !(sharp || inner) {
+            continue;
+        }
+        let p = base + tap;
+        let source = u32(p.y) * params.size.x + u32(p.x);
+        let kept = previous_radiance[source];
+        let kept_direct = previous_history[pixels + source];
+        if inner {
+            let w = mix(1.0 - f.x, f.x, f32(tap.x - 1)) * mix(1.0 - f.y, f.y, f32(tap.y - 1)) + 1e-6;
+            r.radiance += w * kept;
+            r.direct += w * kept_direct;
+            total += w;
+            lo = min(lo, kept.rgb);
+            hi = max(hi, kept.rgb);
+            lo_direct = min(lo_direct, kept_direct.rgb);
+            hi_direct = max(hi_direct, kept_direct.rgb);
+            if w > most {
+                most = w;
+                r.surface = previous_history[source];
+            }
+        }
+        let sharp_weight = wx[tap.x] * wy[tap.y];
+        radiance += sharp_weight * kept.rgb;
+        direct += sharp_weight * kept_direct.rgb;
+    }
+    if total > 0.0 {
+        r.radiance /= total;
+        r.direct /= total;
+        r.found = true;
+    }
+    if sharp {
+        r.radiance = vec4<f32>(clamp(radiance, lo, hi), r.radiance.w);
+        r.direct = vec4<f32>(clamp(direct, lo_direct, hi_direct), r.direct.w);
+    }
+    return r;
+}

@@ -18,7 +18,6 @@
 @group(1) @binding(10) var<storage, read> importons: array<Importon>;
 #endif
 
-
 // Bits of a surface's marker byte (0: no surface): a surface, on a triangle that moved in
 // this frame's placement, emitting (its emissive factor, a texture only scales it, seen from
 // the front); and, of a kept one, that the pixel's history holds samples of another surface
@@ -137,12 +136,12 @@ fn previous_shown(params: IterationParams, position: vec4<f32>, shown: vec4<f32>
     }
     let at = vec2<i32>(floor(centre.xy));
     var best = vec2<i32>(-1);
-    var nearest = SHOWN_MATCH * shown.w;
+    var nearest = 1e30;
     for (var k = 0; k < (2 * SHOWN_SEARCH + 1) * (2 * SHOWN_SEARCH + 1); k += 1) {
         let p = at + vec2<i32>(k % (2 * SHOWN_SEARCH + 1), k / (2 * SHOWN_SEARCH + 1)) - SHOWN_SEARCH;
         let kept = previous_shown_point(params, p);
         let d = distance(kept.xyz, shown.xyz);
-        if kept.w > 0.0 && d <= nearest {
+        if shows_same(kept, shown) && d <= nearest {
             nearest = d;
             best = p;
         }
@@ -192,6 +191,11 @@ fn previous_shown_point(params: IterationParams, p: vec2<i32>) -> vec4<f32> {
 // how near (footprints) its point must have been.
 const SHOWN_SEARCH: i32 = 2;
 const SHOWN_MATCH: f32 = 2.0;
+
+// Whether last frame's shown point `kept` is the point `shown` is now.
+fn shows_same(kept: vec4<f32>, shown: vec4<f32>) -> bool {
+    return kept.w > 0.0 && distance(kept.xyz, shown.xyz) <= SHOWN_MATCH * shown.w;
+}
 
 // Last frame's estimate, direct light and surface where this pixel's point was.
 struct Reprojected {
@@ -250,8 +254,7 @@ fn reproject(params: IterationParams, position: vec4<f32>, normal: vec4<f32>, ma
         let surface = previous_history[source];
         var same = same_surface(params, surface, position, normal, marks);
         if through {
-            let kept = previous_history[3u * pixels + source];
-            same = kept.w > 0.0 && distance(kept.xyz, shown_here.xyz) <= SHOWN_MATCH * shown_here.w;
+            same = shows_same(previous_shown_point(params, p), shown_here);
         }
         seen |= select(0u, 1u << u32(k), same && !mixed_surface(surface));
     }

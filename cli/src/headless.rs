@@ -342,6 +342,19 @@ fn stalled_stage(stats: Option<&ViewStats>) -> String {
     }
 }
 
+/// The error that stopped `camera`'s rendering, if any: one wgpu reported (validation, out
+/// of memory, device lost), or a pipeline that failed to build.
+pub fn failed(world: &World, camera: Entity) -> Result<(), String> {
+    if let Some(failure) = world.get_resource::<RenderFailure>() {
+        return Err(format!("the GPU refused to render ({})", failure.0));
+    }
+    let error = world.resource::<RppmStats>().views.get(&camera);
+    match error.and_then(|s| s.error.clone()) {
+        Some(error) => Err(error),
+        None => Ok(()),
+    }
+}
+
 fn run_until_done(
     app: &mut App,
     camera: Entity,
@@ -358,17 +371,7 @@ fn run_until_done(
         previous_frame = Instant::now();
         app.update();
         let world = app.world();
-        if let Some(failure) = world.get_resource::<RenderFailure>() {
-            return Err(format!("the GPU refused to render ({})", failure.0));
-        }
-        let error = world
-            .resource::<RppmStats>()
-            .views
-            .get(&camera)
-            .and_then(|s| s.error.clone());
-        if let Some(error) = error {
-            return Err(error);
-        }
+        failed(world, camera)?;
         let Some(image) = world
             .resource::<RppmRadiance>()
             .images

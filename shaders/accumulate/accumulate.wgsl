@@ -97,6 +97,12 @@ const RELIT_GAMMA: f32 = 2.0;
 // Direct samples a still silhouette's pixel keeps while the light changes (`relit_edge`).
 const EDGE_SAMPLES: f32 = 3.0;
 
+// Direct samples a pixel keeps through a camera move where direct light is exact at each
+// sample's point (EXACT_DIRECT): what its history adds there is the jitter's anti-aliasing
+// of edges and textures, which each frame's reprojection (a resampling) blurs a little more.
+// (Sampled lights — sphere lights, emitters, a sky — need the window for their noise.)
+const MOVING_DIRECT_SAMPLES: f32 = 3.0;
+
 // Fills the tile around workgroup `group` with direct and indirect samples (pixels outside
 // the image repeat its edge).
 fn fill_tile(group: vec2<u32>, thread: u32) {
@@ -336,6 +342,12 @@ fn main(
     if relit_edge {
         kept_direct.w = min(kept_direct.w, EDGE_SAMPLES);
     }
+#ifdef EXACT_DIRECT
+    // Not on glass and mirrors: one sample of a light's image there is noisy.
+    if reprojecting && checking && !view_dependent {
+        kept_direct.w = min(kept_direct.w, MOVING_DIRECT_SAMPLES);
+    }
+#endif
     kept.w = min(kept.w, f32(params.history_cap));
     // An emitter's rim keeps all its samples: a window of them would leave the rim's
     // coverage as noisy as the window is short, and the clamp bounds what a change leaves.
@@ -348,7 +360,9 @@ fn main(
     history[index] = packed_surface(position, normal.xyz, marks | select(0u, KEPT_MIXED, mixed));
     history[pixels + index] = vec4<f32>(direct, kept_direct.w + 1.0);
     history[2u * pixels + index] = fresh_after(history[2u * pixels + index], indirect_sample);
+#ifdef IMPORTONS
     history[3u * pixels + index] = shown_here;
+#endif
     radiance[index] = vec4<f32>(direct + indirect, kept.w + 1.0);
 #else
     let previous = select(kept.rgb, vec3<f32>(0.0), params.iteration == 0u);

@@ -181,10 +181,14 @@ fn subpixel(params: IterationParams, p: vec2<i32>, x: vec3<f32>) -> vec2<f32> {
 
 // Last frame's shown point at pixel `p` (none outside the image).
 fn previous_shown_point(params: IterationParams, p: vec2<i32>) -> vec4<f32> {
+#ifdef IMPORTONS
     if any(p < vec2<i32>(0)) || any(p >= vec2<i32>(params.size)) {
         return vec4<f32>(0.0);
     }
     return previous_history[3u * params.size.x * params.size.y + u32(p.y) * params.size.x + u32(p.x)];
+#else
+    return vec4<f32>(0.0);
+#endif
 }
 
 // How far (pixels) around a shown point's unfolded image its last pixel is looked for, and

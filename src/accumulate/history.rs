@@ -9,9 +9,9 @@ use bevy::render::renderer::RenderDevice;
 use crate::view::{per_pixel_binding_fits, pixel_buffer};
 
 pub struct History {
-    /// Four blocks of one vec4 a pixel: surface (position, packed normal), direct light
-    /// (mean, count), indirect light since the last change (mean, count) and the point its
-    /// glass or mirror showed (`shaders/accumulate/`).
+    /// Blocks of one vec4 a pixel: surface (position, packed normal), direct light (mean,
+    /// count), indirect light since the last change (mean, count) and, where camera paths go
+    /// on past the G-buffer (glass, mirrors), the point they showed (`shaders/accumulate/`).
     pub history: Buffer,
     /// Last frame's estimate and history, which a camera move reprojects from and a settling
     /// change clamps with: made at the view's first change (`make_previous`), as a still
@@ -20,36 +20,37 @@ pub struct History {
     /// Bound in their place until then.
     placeholder: Buffer,
     size: UVec2,
+    /// Bytes a pixel of `history`.
+    pixel_bytes: u64,
 }
 
-/// Bytes a pixel of the largest history buffer (four vec4 blocks, bound whole).
-const HISTORY_BYTES: u64 = 64;
+/// Bytes a pixel of the history buffer (bound whole): three vec4 blocks, and a fourth for the
+/// points that glass and mirrors show where camera paths go on (`importons`).
+const fn history_bytes(importons: bool) -> u64 {
+    if importons { 64 } else { 48 }
+}
 
 /// Whether the view's history fits this device's bindings; a target too large for them runs
 /// `Reuse` as `Reset` (with a warning) rather than fail.
-pub(crate) fn history_fits(device: &RenderDevice, size: UVec2) -> bool {
-    per_pixel_binding_fits(device, size, HISTORY_BYTES, "history")
+pub(crate) fn history_fits(device: &RenderDevice, size: UVec2, importons: bool) -> bool {
+    per_pixel_binding_fits(device, size, history_bytes(importons), "history")
         .inspect_err(|e| warn_once!("bevy_rppm: {e}: RppmHistory::Reuse runs as Reset"))
         .is_ok()
 }
 
 impl History {
-    pub fn new(device: &RenderDevice, size: UVec2) -> Self {
+    pub fn new(device: &RenderDevice, size: UVec2, importons: bool) -> Self {
+        let bytes = history_bytes(importons);
         Self {
-            history: pixel_buffer(
-                device,
-                size,
-                "rppm_history",
-                HISTORY_BYTES,
-                BufferUsages::COPY_SRC,
-            ),
+            history: pixel_buffer(device, size, "rppm_history", bytes, BufferUsages::COPY_SRC),
             previous: None,
             size,
+            pixel_bytes: bytes,
             placeholder: pixel_buffer(
                 device,
                 UVec2::ONE,
                 "rppm_history_placeholder",
-                HISTORY_BYTES,
+                bytes,
                 BufferUsages::empty(),
             ),
         }
@@ -63,7 +64,13 @@ impl History {
         let (size, copy) = (self.size, BufferUsages::COPY_DST);
         self.previous = Some([
             pixel_buffer(device, size, "rppm_previous_radiance", 16, copy),
-            pixel_buffer(device, size, "rppm_previous_history", HISTORY_BYTES, copy),
+            pixel_buffer(
+                device,
+                size,
+                "rppm_previous_history",
+                self.pixel_bytes,
+                copy,
+            ),
         ]);
         true
     }
@@ -95,7 +102,7 @@ impl History {
         let Some([_, previous_history]) = &self.previous else {
             return;
         };
-        let block = self.history.size() / 4;
+        let block = self.history.size() / (self.pixel_bytes / 16);
         encoder.copy_buffer_to_buffer(&self.history, 2 * block, previous_history, 2 * block, block);
     }
 

@@ -75,6 +75,10 @@ pub struct AccumulateKey {
     /// The scene has emissive surfaces (`EMITTERS`), whose rims a change elsewhere leaves
     /// alone (`HISTORY`).
     pub emitters: bool,
+    /// Direct light is exact at each sample's point (`EXACT_DIRECT`: point, spot and
+    /// directional lights alone, no sphere light, emitter or sky to sample), so that a camera
+    /// move keeps little of its history (`HISTORY`).
+    pub exact_direct: bool,
 }
 
 impl SpecializedComputePipeline for AccumulatePipeline {
@@ -92,6 +96,9 @@ impl SpecializedComputePipeline for AccumulatePipeline {
             shader_defs.push("HISTORY".into());
             if key.emitters {
                 shader_defs.push("EMITTERS".into());
+            }
+            if key.exact_direct {
+                shader_defs.push("EXACT_DIRECT".into());
             }
             &self.history_layout
         } else {
@@ -172,7 +179,7 @@ impl Estimate {
         let radiance = pixel_buffer(device, size, "rppm_radiance", 16, BufferUsages::COPY_SRC);
         Self {
             radiance,
-            history: history.then(|| History::new(device, size)),
+            history: history.then(|| History::new(device, size, importons)),
             outliers: importons.then(|| Outliers::new(device, size)),
             group: None,
         }

@@ -158,6 +158,10 @@ pub(super) fn select_stages(
                 layers,
                 history: state.key.history,
                 emitters: emitters && state.key.history,
+                exact_direct: state.key.history
+                    && !(emitters
+                        || scene.data.has_sphere_lights()
+                        || scene.paths.contains(ScatterPaths::SKY)),
             },
         ),
         outliers: state

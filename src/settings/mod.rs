@@ -60,8 +60,9 @@ pub enum RppmHistory {
     /// converges as with `Reset`. The window counts iterations, not frames: with several a
     /// frame ([`IterationsPerFrame`]) it spans fewer frames (on the README's moving pool a
     /// longer window was worse at every count of iterations a frame tried: what it keeps of
-    /// earlier frames lags the caustics). Holds 48 bytes a pixel, and from the first change
-    /// on 64 more (last frame's copies, for reprojection). Range of `iterations` 1..=1024.
+    /// earlier frames lags the caustics). Holds 48 bytes a pixel (64 where glass or mirrors
+    /// show what is past them), and from the first change on 64 more (80): last frame's
+    /// copies, for reprojection. Range of `iterations` 1..=1024.
     Reuse { iterations: u32 },
 }
 

@@ -455,7 +455,6 @@ pub fn spawn_occluder(app: &mut App, half: f32, y: f32, material: StandardMateri
     spawn_mesh(world, mesh, material, Transform::from_xyz(0.0, y, 0.0))
 }
 
-/// `mesh` with `material` at `transform`.
 /// A smooth glass ball of radius 0.4 m, 0.5 m above the origin.
 pub fn spawn_glass_ball(world: &mut World) {
     let glass = world
@@ -473,6 +472,7 @@ pub fn spawn_glass_ball(world: &mut World) {
     ));
 }
 
+/// `mesh` with `material` at `transform`.
 pub fn spawn_mesh(
     world: &mut World,
     mesh: impl Into<Mesh>,

@@ -13,7 +13,7 @@ use bevy::prelude::*;
 use bevy_rppm::{PhotonMapping, RppmHistory, RppmRadiance, RppmScene, ViewEpoch};
 
 use crate::animation::{self, Posed};
-use crate::headless::{Budget, RenderRequest, attach_camera, render_loaded};
+use crate::headless::{Budget, RenderRequest, attach_camera, failed, render_loaded};
 use crate::image_io::{RgbImage, relmse};
 use crate::load::load_gltf;
 
@@ -229,6 +229,7 @@ fn run(request: &MotionRequest, history: RppmHistory, still: bool) -> Result<Run
     let start = Instant::now();
     while scripted.image().is_none_or(|image| image.iteration == 0) {
         scripted.app.update();
+        failed(scripted.app.world(), scripted.camera)?;
         if start.elapsed().as_secs() > 120 {
             return Err("no iteration within 120 s".into());
         }
@@ -246,6 +247,7 @@ fn run(request: &MotionRequest, history: RppmHistory, still: bool) -> Result<Run
         let frame = update.min(request.frames - 1);
         scripted.set(&request.script, state(frame), request.frames);
         scripted.app.update();
+        failed(scripted.app.world(), scripted.camera)?;
         frame_of.push((scripted.changes(), frame));
         let image = scripted.image().ok_or("no image came back")?;
         let shown = frame_of.iter().rev().find(|(e, _)| *e == image.epoch);

@@ -84,9 +84,10 @@ def screen(g, draw, x, z, s):
     g.quads([quad], material, uv_size=2 * s / draw.choice([1, 2]))
 
 
-def scene(path, seed, wide=False, textures=False):
+def scene(path, seed, wide=False, textures=False, coarse=False):
     """One room; `wide` also draws mirrors, emissive balls and a window with the sun in it;
-    `textures` checkered floors, normal-mapped walls, cut-out screens and dense spheres."""
+    `textures` checkered floors, normal-mapped walls, cut-out screens and dense spheres
+    (`coarse`: of as few triangles as the others, for small test assets)."""
     draw = random.Random(seed)
     w, h, d = draw.uniform(2.5, 5.0), draw.uniform(2.2, 3.4), draw.uniform(2.5, 5.0)
     closed = draw.random() < 0.5
@@ -119,7 +120,8 @@ def scene(path, seed, wide=False, textures=False):
             continue
         if kind == "dense":
             # ~10⁵ triangles of diffuse or metal: many triangles per deep-cubemap pixel.
-            pos, nor, idx = sphere([x, LIFT + s, z], s, rings=180, segments=360)
+            rings = 24 if coarse else 180
+            pos, nor, idx = sphere([x, LIFT + s, z], s, rings=rings, segments=2 * rings)
             g.mesh(pos, nor, idx, object_material(g, draw, draw.choice(["diffuse", "metal"])))
             continue
         material = object_material(g, draw, kind)
@@ -181,13 +183,15 @@ def main():
     parser.add_argument("--wide", action="store_true", help="mirrors, emissive balls and windows too")
     parser.add_argument("--textured", action="store_true",
                         help="checkered floors, normal-mapped walls, cut-out screens and dense spheres too")
+    parser.add_argument("--coarse", action="store_true",
+                        help="dense spheres of as few triangles as the others (small test assets)")
     args = parser.parse_args()
     os.makedirs(args.out, exist_ok=True)
     if args.textured:
         shutil.copytree(TEXTURES, os.path.join(args.out, "textures"), dirs_exist_ok=True)
     for i in range(args.count):
         path = os.path.join(args.out, f"r{args.seed}_{i:02}.gltf")
-        print(path, scene(path, args.seed * 1000 + i, args.wide, args.textured))
+        print(path, scene(path, args.seed * 1000 + i, args.wide, args.textured, args.coarse))
 
 
 if __name__ == "__main__":

@@ -102,7 +102,7 @@ impl History {
         let Some([_, previous_history]) = &self.previous else {
             return;
         };
-        let block = self.history.size() / (self.pixel_bytes / 16);
+        let block = 16 * u64::from(self.size.x) * u64::from(self.size.y);
         encoder.copy_buffer_to_buffer(&self.history, 2 * block, previous_history, 2 * block, block);
     }
 

@@ -80,6 +80,9 @@ pub(super) fn select_stages(
         layers.contains(ScatterPaths::GLOSSY_TRACED) && state.importons,
     );
     let emitters = !scene.data.emitters.is_empty();
+    // Light that is drawn (sampled), not exact at a point: emissive surfaces, a sky, spheres.
+    let sampled_lights =
+        emitters || scene.paths.contains(ScatterPaths::SKY) || scene.data.has_sphere_lights();
     // Shadow rays drawn toward them.
     let traced_emitters = emitters && state.traced_shadows;
     // Camera paths go on past the G-buffer and trace their shadow rays.
@@ -105,9 +108,7 @@ pub(super) fn select_stages(
                 spheres_seen: scene.data.has_sphere_lights(),
                 reflected_emission: state.importons
                     && scene.paths.contains(ScatterPaths::REFRACTION)
-                    && (emitters
-                        || scene.paths.contains(ScatterPaths::SKY)
-                        || scene.data.has_sphere_lights()),
+                    && sampled_lights,
                 emitters: traced_emitters,
                 emitter_rays: traced_emitters && scene.many_faced_emitters,
             },
@@ -158,10 +159,7 @@ pub(super) fn select_stages(
                 layers,
                 history: state.key.history,
                 emitters: emitters && state.key.history,
-                exact_direct: state.key.history
-                    && !(emitters
-                        || scene.data.has_sphere_lights()
-                        || scene.paths.contains(ScatterPaths::SKY)),
+                exact_direct: state.key.history && !sampled_lights,
             },
         ),
         outliers: state

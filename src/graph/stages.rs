@@ -159,7 +159,9 @@ pub(super) fn select_stages(
                 layers,
                 history: state.key.history,
                 emitters: emitters && state.key.history,
-                exact_direct: state.key.history && !sampled_lights,
+                exact_direct: state.key.history
+                    && !sampled_lights
+                    && scene.data.lights.len() <= crate::shadows::MANY_LIGHTS,
             },
         ),
         outliers: state

@@ -17,6 +17,10 @@ use crate::view::ViewLayouts;
 
 pub const SHADOW_FORMAT: TextureFormat = TextureFormat::Depth32Float;
 
+/// Past this many point, spot and directional lights, a point's direct light draws this many
+/// of them by power (`MANY_LIGHTS` in `shaders/shadows/lighting.wgsl`): it is sampled.
+pub const MANY_LIGHTS: usize = 8;
+
 pub(crate) struct ShadowsPlugin;
 
 impl Plugin for ShadowsPlugin {
@@ -90,5 +94,17 @@ pub fn render_layers(
         pass.set_pipeline(pipeline);
         pass.set_bind_group(0, scene_group, &[]);
         pass.draw(0..triangle_count * 3, view..view + 1);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    /// `MANY_LIGHTS` is the shader's.
+    #[test]
+    fn many_lights_is_the_shaders() {
+        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/shaders/shadows/lighting.wgsl");
+        let text = std::fs::read_to_string(path).unwrap();
+        let line = format!("const MANY_LIGHTS: u32 = {}u;", super::MANY_LIGHTS);
+        assert!(text.contains(&line), "lighting.wgsl has no `{line}`");
     }
 }

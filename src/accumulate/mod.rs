@@ -75,7 +75,7 @@ pub struct AccumulateKey {
     /// The scene has emissive surfaces (`EMITTERS`), whose rims a change elsewhere leaves
     /// alone (`HISTORY`).
     pub emitters: bool,
-    /// Direct light is exact at each sample's point (`EXACT_DIRECT`: point, spot and
+    /// Direct light is exact at each sample's point (`EXACT_DIRECT`: up to 8 point, spot and
     /// directional lights alone, no sphere light, emitter or sky to sample), so that a camera
     /// move keeps little of its history (`HISTORY`).
     pub exact_direct: bool,

@@ -54,7 +54,7 @@ pub enum RppmHistory {
     /// pixel keeps at most `iterations` iterations of history (an exponential window) for
     /// `iterations` more iterations. After a camera move the history is reprojected to
     /// where each pixel's surface was, and dropped where the pixel sees another surface
-    /// (disocclusion); where direct light is exact (point, spot and directional lights
+    /// (disocclusion); where direct light is exact (up to 8 point, spot and directional lights
     /// alone) a move keeps 3 samples of it, as each reprojection blurs edges and textures.
     /// After a change in the scene, indirect light is clamped to mean ± σ of the
     /// neighbouring pixels' means since the change, so a caustic that moved does not

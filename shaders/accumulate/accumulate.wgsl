@@ -7,6 +7,18 @@
 #ifdef SUBSAMPLED
 #import bevy_rppm::bsdf::{bsdf_from, bsdf_gathered}
 #import bevy_rppm::scene::gbuffer_material
+#else
+#ifdef DEMODULATED
+#import bevy_rppm::scene::gbuffer_material
+#endif
+#endif
+#ifdef DEMODULATED
+#import bevy_rppm::scene::{material_at, triangle_at, barycentrics, as_seen_from}
+#import bevy_rppm::camera::camera_ray_at
+#import bevy_rppm::bsdf::diffuse_color
+#import bevy_rppm::microfacet::specular_f0
+#import bevy_rppm::common::Material
+#import bevy_rppm::reproject::albedo_block
 #endif
 #ifdef HISTORY
 #import bevy_rppm::reproject::{previous_history, surface_marks, emitting, packed_surface, mixed_surface, moved_surface, same_surface, view_shown, shown_point, reproject, KEPT, KEPT_EMITTING, KEPT_MOVING, KEPT_MIXED, SHOWS_VIEW, SHOWS_BLURRED}
@@ -102,6 +114,45 @@ const EDGE_SAMPLES: f32 = 3.0;
 // of edges and textures, which each frame's reprojection (a resampling) blurs a little more.
 // (Sampled lights — sphere lights, emitters, a sky — need the window for their noise.)
 const MOVING_DIRECT_SAMPLES: f32 = 3.0;
+
+#ifdef DEMODULATED
+// What textures scale a surface's light by: its diffuse colour plus its specular F0 (1
+// where the pixel sees nothing).
+fn albedo(m: Material) -> vec3<f32> {
+    return diffuse_color(m) + specular_f0(m);
+}
+
+fn sample_albedo(position: vec4<f32>, footprint: f32) -> vec3<f32> {
+    if position.w == 0.0 {
+        return vec3<f32>(1.0);
+    }
+    return albedo(gbuffer_material(position, footprint));
+}
+
+// The albedo over a pixel's footprint, as a converged image's jittered samples average it:
+// the surface's plane (the G-buffer's triangle's) met by the rays through the centres of
+// the pixel's four quarters.
+fn footprint_albedo(pixel: vec2<u32>, position: vec4<f32>, footprint: f32) -> vec3<f32> {
+    let triangle = u32(abs(position.w)) - 1u;
+    let t = triangle_at(triangle);
+    let n = cross(t.position_b - t.position_a, t.position_c - t.position_a);
+    var sum = vec3<f32>(0.0);
+    for (var k = 0u; k < 4u; k += 1u) {
+        // The pixel's centre is `jitter` past its sample's, which the view's centre is.
+        let at = vec2<f32>(pixel) + 0.5 + params.jitter + (vec2<f32>(f32(k & 1u), f32(k >> 1u)) - 0.5) * 0.5;
+        let ray = camera_ray_at(params, at);
+        let along = dot(ray.direction, n);
+        let x = select(position.xyz, ray.origin + ray.direction * (dot(position.xyz - ray.origin, n) / along), abs(along) > 1e-6 * length(n));
+        sum += albedo(as_seen_from(material_at(triangle, barycentrics(t, x), 0.5 * footprint), position.w > 0.0));
+    }
+    return sum * 0.25;
+}
+
+// What turns light on a texture of mean albedo `kept` into light on one of albedo `now`.
+fn texture_ratio(now: vec3<f32>, kept: vec3<f32>) -> vec3<f32> {
+    return select(vec3<f32>(1.0), now / kept, kept > vec3<f32>(0.0));
+}
+#endif
 
 // Fills the tile around workgroup `group` with direct and indirect samples (pixels outside
 // the image repeat its edge).
@@ -263,6 +314,10 @@ fn main(
     var kept_direct = select(history[pixels + index], vec4<f32>(0.0), params.iteration == 0u);
     // The surface this pixel's last sample saw (where it was, under a camera move).
     var kept_surface = history[index];
+    var kept_albedo = vec3<f32>(0.0);
+#ifdef DEMODULATED
+    kept_albedo = history[albedo_block() * pixels + index].rgb;
+#endif
     let marks = pixel_marks(vec2<i32>(id.xy));
     var shown = 0u;
     if clamping {
@@ -278,6 +333,7 @@ fn main(
         kept = r.radiance;
         kept_direct = r.direct;
         kept_surface = r.surface;
+        kept_albedo = r.albedo;
         same = r.found;
     } else {
         same = same_surface(params, kept_surface, position, normal, marks);
@@ -354,6 +410,22 @@ fn main(
     kept_direct.w = select(min(kept_direct.w, f32(params.history_cap)), kept_direct.w, near_emitter);
     indirect += (indirect_sample - indirect) / (kept.w + 1.0);
     direct += (direct_sample - direct) / (kept_direct.w + 1.0);
+#ifdef DEMODULATED
+    // The mean albedo of the direct light's samples (`kept_a`). Each frame's reprojection
+    // blurs the textures in a pixel's history a little, and a window of them a lot; so under
+    // a camera move the light (each part a mean of albedo × light) is kept, and the albedo
+    // it shows is the pixel's footprint's now: sharp, and anti-aliased. Not on an emitter,
+    // whose emission its albedo does not scale.
+    let a = sample_albedo(position, normal.w);
+    var kept_a = kept_albedo + (a - kept_albedo) / (kept_direct.w + 1.0);
+    if reprojecting && checking && !view_dependent && !emitting(marks) && position.w != 0.0 {
+        let area = footprint_albedo(id.xy, position, normal.w);
+        direct *= texture_ratio(area, kept_a);
+        indirect *= texture_ratio(area, kept_albedo + (a - kept_albedo) / (kept.w + 1.0));
+        kept_a = area;
+    }
+    history[albedo_block() * pixels + index] = vec4<f32>(kept_a, 0.0);
+#endif
     // Samples of another surface than the last one's mix the history (jitter across an edge).
     let held = kept.w > 0.0;
     let mixed = held && (mixed_surface(kept_surface) || !same);

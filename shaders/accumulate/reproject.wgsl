@@ -201,13 +201,26 @@ fn shows_same(kept: vec4<f32>, shown: vec4<f32>) -> bool {
     return kept.w > 0.0 && distance(kept.xyz, shown.xyz) <= SHOWN_MATCH * shown.w;
 }
 
-// Last frame's estimate, direct light and surface where this pixel's point was.
+// Last frame's estimate, direct light and surface where this pixel's point was (and, where
+// textures vary, the albedo its direct light was demodulated by).
 struct Reprojected {
     radiance: vec4<f32>,
     direct: vec4<f32>,
     surface: vec4<f32>,
     found: bool,
+    albedo: vec3<f32>,
 }
+
+#ifdef DEMODULATED
+// The history block of a pixel's albedo: after the points glass and mirrors show.
+fn albedo_block() -> u32 {
+#ifdef IMPORTONS
+    return 4u;
+#else
+    return 3u;
+#endif
+}
+#endif
 
 // Catmull-Rom weights of the four taps around a point `t` past the second (0..1).
 fn catmull_rom(t: f32) -> vec4<f32> {
@@ -234,7 +247,7 @@ fn reproject(params: IterationParams, position: vec4<f32>, normal: vec4<f32>, ma
         through = seen.z != 0.0;
         at = select(at, seen, through);
     }
-    var r = Reprojected(vec4<f32>(0.0), vec4<f32>(0.0), vec4<f32>(0.0), false);
+    var r = Reprojected(vec4<f32>(0.0), vec4<f32>(0.0), vec4<f32>(0.0), false, vec3<f32>(0.0));
     if at.z == 0.0 {
         return r;
     }
@@ -271,6 +284,9 @@ fn reproject(params: IterationParams, position: vec4<f32>, normal: vec4<f32>, ma
     var hi_direct = vec3<f32>(-1e30);
     var radiance = vec3<f32>(0.0);
     var direct = vec3<f32>(0.0);
+    var albedo = vec3<f32>(0.0);
+    var lo_albedo = vec3<f32>(1e30);
+    var hi_albedo = vec3<f32>(-1e30);
     for (var k = 0; k < 16; k += 1) {
         let tap = vec2<i32>(k & 3, k >> 2u);
         let inner = all(tap >= vec2<i32>(1)) && all(tap <= vec2<i32>(2));
@@ -281,15 +297,22 @@ fn reproject(params: IterationParams, position: vec4<f32>, normal: vec4<f32>, ma
         let source = u32(p.y) * params.size.x + u32(p.x);
         let kept = previous_radiance[source];
         let kept_direct = previous_history[pixels + source];
+        var kept_albedo = vec3<f32>(0.0);
+#ifdef DEMODULATED
+        kept_albedo = previous_history[albedo_block() * pixels + source].rgb;
+#endif
         if inner {
             let w = mix(1.0 - f.x, f.x, f32(tap.x - 1)) * mix(1.0 - f.y, f.y, f32(tap.y - 1)) + 1e-6;
             r.radiance += w * kept;
             r.direct += w * kept_direct;
+            r.albedo += w * kept_albedo;
             total += w;
             lo = min(lo, kept.rgb);
             hi = max(hi, kept.rgb);
             lo_direct = min(lo_direct, kept_direct.rgb);
             hi_direct = max(hi_direct, kept_direct.rgb);
+            lo_albedo = min(lo_albedo, kept_albedo);
+            hi_albedo = max(hi_albedo, kept_albedo);
             if w > most {
                 most = w;
                 r.surface = previous_history[source];
@@ -298,15 +321,18 @@ fn reproject(params: IterationParams, position: vec4<f32>, normal: vec4<f32>, ma
         let sharp_weight = wx[tap.x] * wy[tap.y];
         radiance += sharp_weight * kept.rgb;
         direct += sharp_weight * kept_direct.rgb;
+        albedo += sharp_weight * kept_albedo;
     }
     if total > 0.0 {
         r.radiance /= total;
         r.direct /= total;
+        r.albedo /= total;
         r.found = true;
     }
     if sharp {
         r.radiance = vec4<f32>(clamp(radiance, lo, hi), r.radiance.w);
         r.direct = vec4<f32>(clamp(direct, lo_direct, hi_direct), r.direct.w);
+        r.albedo = clamp(albedo, lo_albedo, hi_albedo);
     }
     return r;
 }

@@ -12,7 +12,12 @@ struct CameraRay {
 // The camera's ray through the centre of `pixel`, from the near plane. Reverse Z: clip depth 1
 // is the near plane and 0.5 another point on the same ray, under either projection.
 fn camera_ray(params: IterationParams, pixel: vec2<u32>) -> CameraRay {
-    let ndc = (vec2<f32>(pixel) + 0.5) / vec2<f32>(params.size) * vec2<f32>(2.0, -2.0) + vec2<f32>(-1.0, 1.0);
+    return camera_ray_at(params, vec2<f32>(pixel) + 0.5);
+}
+
+// The camera's ray through point `at` of the image (pixels, x right and y down).
+fn camera_ray_at(params: IterationParams, at: vec2<f32>) -> CameraRay {
+    let ndc = at / vec2<f32>(params.size) * vec2<f32>(2.0, -2.0) + vec2<f32>(-1.0, 1.0);
     let near = params.world_from_clip * vec4<f32>(ndc, 1.0, 1.0);
     let mid = params.world_from_clip * vec4<f32>(ndc, 0.5, 1.0);
     let origin = near.xyz / near.w;

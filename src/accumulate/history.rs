@@ -10,8 +10,10 @@ use crate::view::{per_pixel_binding_fits, pixel_buffer};
 
 pub struct History {
     /// Blocks of one vec4 a pixel: surface (position, packed normal), direct light (mean,
-    /// count), indirect light since the last change (mean, count) and, where camera paths go
-    /// on past the G-buffer (glass, mirrors), the point they showed (`shaders/accumulate/`).
+    /// count), indirect light since the last change (mean, count), where camera paths go on
+    /// past the G-buffer (glass, mirrors) the point they showed, and where textures or
+    /// vertex colours vary albedo the mean albedo of the direct light's samples
+    /// (`shaders/accumulate/`).
     pub history: Buffer,
     /// Last frame's estimate and history, which a camera move reprojects from and a settling
     /// change clamps with: made at the view's first change (`make_previous`), as a still
@@ -24,23 +26,34 @@ pub struct History {
     pixel_bytes: u64,
 }
 
-/// Bytes a pixel of the history buffer (bound whole): three vec4 blocks, and a fourth for the
-/// points that glass and mirrors show where camera paths go on (`importons`).
-const fn history_bytes(importons: bool) -> u64 {
-    if importons { 64 } else { 48 }
+/// Bytes a pixel of the history buffer (bound whole): three vec4 blocks, one for the points
+/// that glass and mirrors show where camera paths go on (`importons`), and one for the
+/// albedo where it varies (`demodulated`).
+const fn history_bytes(importons: bool, demodulated: bool) -> u64 {
+    48 + if importons { 16 } else { 0 } + if demodulated { 16 } else { 0 }
 }
 
 /// Whether the view's history fits this device's bindings; a target too large for them runs
 /// `Reuse` as `Reset` (with a warning) rather than fail.
-pub(crate) fn history_fits(device: &RenderDevice, size: UVec2, importons: bool) -> bool {
-    per_pixel_binding_fits(device, size, history_bytes(importons), "history")
-        .inspect_err(|e| warn_once!("bevy_rppm: {e}: RppmHistory::Reuse runs as Reset"))
-        .is_ok()
+pub(crate) fn history_fits(
+    device: &RenderDevice,
+    size: UVec2,
+    importons: bool,
+    demodulated: bool,
+) -> bool {
+    per_pixel_binding_fits(
+        device,
+        size,
+        history_bytes(importons, demodulated),
+        "history",
+    )
+    .inspect_err(|e| warn_once!("bevy_rppm: {e}: RppmHistory::Reuse runs as Reset"))
+    .is_ok()
 }
 
 impl History {
-    pub fn new(device: &RenderDevice, size: UVec2, importons: bool) -> Self {
-        let bytes = history_bytes(importons);
+    pub fn new(device: &RenderDevice, size: UVec2, importons: bool, demodulated: bool) -> Self {
+        let bytes = history_bytes(importons, demodulated);
         Self {
             history: pixel_buffer(device, size, "rppm_history", bytes, BufferUsages::COPY_SRC),
             previous: None,

@@ -79,6 +79,9 @@ pub struct AccumulateKey {
     /// directional lights alone, no sphere light, emitter or sky to sample), so that a camera
     /// move keeps little of its history (`HISTORY`).
     pub exact_direct: bool,
+    /// Textures vary the direct light, which a camera move keeps demodulated
+    /// (`DEMODULATED`: its albedo's own shorter window; `HISTORY`, not `EXACT_DIRECT`).
+    pub demodulated: bool,
 }
 
 impl SpecializedComputePipeline for AccumulatePipeline {
@@ -99,6 +102,9 @@ impl SpecializedComputePipeline for AccumulatePipeline {
             }
             if key.exact_direct {
                 shader_defs.push("EXACT_DIRECT".into());
+            }
+            if key.demodulated {
+                shader_defs.push("DEMODULATED".into());
             }
             &self.history_layout
         } else {
@@ -175,11 +181,17 @@ pub struct EstimateInputs<'a> {
 }
 
 impl Estimate {
-    pub fn new(device: &RenderDevice, size: UVec2, history: bool, importons: bool) -> Self {
+    pub fn new(
+        device: &RenderDevice,
+        size: UVec2,
+        history: bool,
+        importons: bool,
+        demodulated: bool,
+    ) -> Self {
         let radiance = pixel_buffer(device, size, "rppm_radiance", 16, BufferUsages::COPY_SRC);
         Self {
             radiance,
-            history: history.then(|| History::new(device, size, importons)),
+            history: history.then(|| History::new(device, size, importons, demodulated)),
             outliers: importons.then(|| Outliers::new(device, size)),
             group: None,
         }

@@ -117,7 +117,13 @@ pub(crate) fn prepare_views(
             ),
             photon_tiles: cubemap::fitted(cubemap_config(settings), &device).tiles(),
             subsampling: settings.indirect_subsampling,
-            history: settings.history.window().is_some() && history_fits(&device, size, importons),
+            history: settings.history.window().is_some()
+                && history_fits(
+                    &device,
+                    size,
+                    importons,
+                    scene.lookups.contains(Lookups::TEXTURED),
+                ),
             // A hierarchy too large for this device's textures gives way to the cubemap.
             bvh: settings.tracer.uses_bvh() && cubemap::bvh::fits(&device, triangles),
             textured: scene.lookups.contains(Lookups::TEXTURED),

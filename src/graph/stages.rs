@@ -83,6 +83,7 @@ pub(super) fn select_stages(
     // Light that is drawn (sampled), not exact at a point: emissive surfaces, a sky, spheres.
     let sampled_lights =
         emitters || scene.paths.contains(ScatterPaths::SKY) || scene.data.has_sphere_lights();
+    let exact_direct = !sampled_lights && scene.data.lights.len() <= crate::shadows::MANY_LIGHTS;
     // Shadow rays drawn toward them.
     let traced_emitters = emitters && state.traced_shadows;
     // Camera paths go on past the G-buffer and trace their shadow rays.
@@ -159,9 +160,8 @@ pub(super) fn select_stages(
                 layers,
                 history: state.key.history,
                 emitters: emitters && state.key.history,
-                exact_direct: state.key.history
-                    && !sampled_lights
-                    && scene.data.lights.len() <= crate::shadows::MANY_LIGHTS,
+                exact_direct: state.key.history && exact_direct,
+                demodulated: state.key.history && state.key.textured,
             },
         ),
         outliers: state

@@ -192,7 +192,7 @@ impl RppmViewState {
             key.textured,
         );
         let splats = SplatTarget::new(textures, device, size, key.subsampling);
-        let estimate = Estimate::new(device, size, key.history, key.importons);
+        let estimate = Estimate::new(device, size, key.history, key.importons, key.textured);
         let (store, indirect_group) = photon_store(key, device, cache, pipelines, &eye_paths);
         let seen_region = device.create_buffer(&BufferDescriptor {
             label: Some("rppm_seen_region"),

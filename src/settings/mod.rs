@@ -47,23 +47,23 @@ pub enum RppmHistory {
     /// Any change starts the estimate again: RPPM's behaviour, for stills (the `rppm` CLI and
     /// the accuracy tests use it). Holds no history.
     Reset,
-    /// Keep the estimate through motion (default, `iterations: 8`: a game, where something
-    /// always moves, shows converging light instead of one iteration's noise a frame; see
-    /// the README's measurements: 4× lower error than `Reset` on the moving pool, 1.1–10×
-    /// under a camera orbit, a moving light and a walking character). After any change each
-    /// pixel keeps at most `iterations` iterations of history (an exponential window) for
-    /// `iterations` more iterations. After a camera move the history is reprojected to
-    /// where each pixel's surface was, and dropped where the pixel sees another surface
-    /// (disocclusion); where direct light is exact (up to 8 point, spot and directional lights
-    /// alone) a move keeps 3 samples of it, as each reprojection blurs edges and textures.
-    /// After a change in the scene, indirect light is clamped to mean ± σ of the
-    /// neighbouring pixels' means since the change, so a caustic that moved does not
-    /// linger, and direct light starts again (shadows follow at once). A still scene
-    /// converges as with `Reset`. The window counts iterations, not frames: with several a
-    /// frame ([`IterationsPerFrame`]) it spans fewer frames (on the README's moving pool a
-    /// longer window lagged the caustics at every count a frame). Holds 48 bytes a pixel
-    /// (64 where glass or mirrors show what is past them), and from the first change on 64
-    /// more (80): last frame's copies, for reprojection. Range of `iterations` 1..=1024.
+    /// Keep the estimate through motion (default, `iterations: 8`: a game, where something always
+    /// moves, shows converging light instead of one iteration's noise a frame; see the README's
+    /// measurements: 4× lower error than `Reset` on the moving pool, 1.3–10× under a camera orbit,
+    /// a moving light and a walking character). After any change each pixel keeps at most
+    /// `iterations` iterations of history (an exponential window) for `iterations` more iterations.
+    /// After a camera move the history is reprojected to where each pixel's surface was, and
+    /// dropped where the pixel sees another surface (disocclusion). Each reprojection blurs edges
+    /// and textures: a move keeps the light on a texture and shows each pixel's footprint's albedo
+    /// now, and keeps 3 samples of direct light where it is exact (up to 8 point, spot and
+    /// directional lights alone). After a change in the scene, indirect light is clamped to mean ±
+    /// σ of the neighbouring pixels' means since the change, so a caustic that moved does not
+    /// linger, and direct light starts again (shadows follow at once). A still scene converges as
+    /// with `Reset`. The window counts iterations, not frames: with several a frame
+    /// ([`IterationsPerFrame`]) it spans fewer frames. Holds 48 bytes a pixel (16 more where glass
+    /// or mirrors show what is past them, 16 where textures vary albedo), and from the first change
+    /// on as much and 16 more: last frame's copies, for reprojection. Range of `iterations`
+    /// 1..=1024.
     Reuse { iterations: u32 },
 }
 

@@ -23,6 +23,7 @@ mod motion;
 mod ppm;
 mod robustness;
 mod rooms;
+mod scripted_motion;
 mod sky;
 mod suite;
 mod textures;

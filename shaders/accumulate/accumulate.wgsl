@@ -17,7 +17,7 @@
 #import bevy_rppm::camera::camera_ray_at
 #import bevy_rppm::bsdf::diffuse_color
 #import bevy_rppm::microfacet::specular_f0
-#import bevy_rppm::common::Material
+#import bevy_rppm::common::{Material, MATERIAL_ALPHA_MASK}
 #import bevy_rppm::reproject::albedo_block
 #endif
 #ifdef HISTORY
@@ -131,21 +131,26 @@ fn sample_albedo(position: vec4<f32>, footprint: f32) -> vec3<f32> {
 
 // The albedo over a pixel's footprint, as a converged image's jittered samples average it:
 // the surface's plane (the G-buffer's triangle's) met by the rays through the centres of
-// the pixel's four quarters.
-fn footprint_albedo(pixel: vec2<u32>, position: vec4<f32>, footprint: f32) -> vec3<f32> {
+// the pixel's four quarters, but where a cut-out leaves a hole (`sample`, this iteration's
+// albedo, where all four do).
+fn footprint_albedo(pixel: vec2<u32>, position: vec4<f32>, footprint: f32, sample: vec3<f32>) -> vec3<f32> {
     let triangle = u32(abs(position.w)) - 1u;
     let t = triangle_at(triangle);
     let n = cross(t.position_b - t.position_a, t.position_c - t.position_a);
     var sum = vec3<f32>(0.0);
+    var taps = 0.0;
     for (var k = 0u; k < 4u; k += 1u) {
         // The pixel's centre is `jitter` past its sample's, which the view's centre is.
         let at = vec2<f32>(pixel) + 0.5 + params.jitter + (vec2<f32>(f32(k & 1u), f32(k >> 1u)) - 0.5) * 0.5;
         let ray = camera_ray_at(params, at);
         let along = dot(ray.direction, n);
         let x = select(position.xyz, ray.origin + ray.direction * (dot(position.xyz - ray.origin, n) / along), abs(along) > 1e-6 * length(n));
-        sum += albedo(as_seen_from(material_at(triangle, barycentrics(t, x), 0.5 * footprint), position.w > 0.0));
+        let m = as_seen_from(material_at(triangle, barycentrics(t, x), 0.5 * footprint), position.w > 0.0);
+        let hole = (m.flags & MATERIAL_ALPHA_MASK) != 0u && m.base_color.a < m.alpha_cutoff;
+        sum += select(albedo(m), vec3<f32>(0.0), hole);
+        taps += select(1.0, 0.0, hole);
     }
-    return sum * 0.25;
+    return select(sample, sum / taps, taps > 0.0);
 }
 
 // What turns light on a texture of mean albedo `kept` into light on one of albedo `now`.
@@ -419,7 +424,7 @@ fn main(
     let a = sample_albedo(position, normal.w);
     var kept_a = kept_albedo + (a - kept_albedo) / (kept_direct.w + 1.0);
     if reprojecting && checking && !view_dependent && !emitting(marks) && position.w != 0.0 {
-        let area = footprint_albedo(id.xy, position, normal.w);
+        let area = footprint_albedo(id.xy, position, normal.w, a);
         direct *= texture_ratio(area, kept_a);
         indirect *= texture_ratio(area, kept_albedo + (a - kept_albedo) / (kept.w + 1.0));
         kept_a = area;

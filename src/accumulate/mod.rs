@@ -79,8 +79,9 @@ pub struct AccumulateKey {
     /// directional lights alone, no sphere light, emitter or sky to sample), so that a camera
     /// move keeps little of its history (`HISTORY`).
     pub exact_direct: bool,
-    /// Textures vary the direct light, which a camera move keeps demodulated
-    /// (`DEMODULATED`: its albedo's own shorter window; `HISTORY`, not `EXACT_DIRECT`).
+    /// Textures or vertex colours vary albedo (`DEMODULATED`, with `HISTORY`): the history
+    /// keeps its mean, and a camera move keeps the light on it and shows the albedo of each
+    /// pixel's footprint now.
     pub demodulated: bool,
 }
 

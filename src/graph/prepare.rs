@@ -102,6 +102,7 @@ pub(crate) fn prepare_views(
         let photons =
             photon_count.count(device_photon_count(settings.photons_per_iteration, &device));
         let importons = makes_importons(settings, &scene.data) && importons_fit(&device, size);
+        let textured = scene.lookups.contains(Lookups::TEXTURED);
         let key = ResourceKey {
             size,
             slots: settings.iterations_per_frame.max(),
@@ -118,15 +119,10 @@ pub(crate) fn prepare_views(
             photon_tiles: cubemap::fitted(cubemap_config(settings), &device).tiles(),
             subsampling: settings.indirect_subsampling,
             history: settings.history.window().is_some()
-                && history_fits(
-                    &device,
-                    size,
-                    importons,
-                    scene.lookups.contains(Lookups::TEXTURED),
-                ),
+                && history_fits(&device, size, importons, textured),
             // A hierarchy too large for this device's textures gives way to the cubemap.
             bvh: settings.tracer.uses_bvh() && cubemap::bvh::fits(&device, triangles),
-            textured: scene.lookups.contains(Lookups::TEXTURED),
+            textured,
             photons_per_lane: crate::photons::photons_per_lane(software),
         };
         let fresh = |pipelines: &Pipelines, textures: &mut TextureCache| {

@@ -21,7 +21,7 @@
 #import bevy_rppm::reproject::albedo_block
 #endif
 #ifdef HISTORY
-#import bevy_rppm::reproject::{previous_history, surface_marks, emitting, packed_surface, mixed_surface, moved_surface, same_surface, view_shown, shown_point, reproject, KEPT, KEPT_EMITTING, KEPT_MOVING, KEPT_MIXED, SHOWS_VIEW, SHOWS_BLURRED}
+#import bevy_rppm::reproject::{previous_history, surface_marks, emitting, packed_surface, mixed_surface, moved_surface, same_surface, view_shown, lobe_iterations, shown_point, reproject, KEPT, KEPT_EMITTING, KEPT_MOVING, KEPT_MIXED, SHOWS_VIEW, SHOWS_BLURRED}
 #endif
 
 @group(1) @binding(0) var<uniform> params: IterationParams;
@@ -349,10 +349,16 @@ fn main(
         // camera move each frame starts the jitter again: the pixel's own test, and a history
         // of several surfaces (a silhouette's pixel, a frame's samples on both sides) is
         // dropped, as it would carry one's light onto the other as the silhouette moves.
-        // Glossy metal's history (a highlight where it was) is no history of this view.
+        // Rough metal and frosted glass keep their history while the view turns within their lobe.
         var kept_here: bool;
         if reprojecting {
-            kept_here = same && (shown & SHOWS_BLURRED) == 0u;
+            kept_here = same;
+            if (shown & SHOWS_BLURRED) != 0u {
+                let lobe = lobe_iterations(params, position, normal.w);
+                kept_here = kept_here && lobe >= 1.0;
+                kept.w = min(kept.w, lobe);
+                kept_direct.w = min(kept_direct.w, lobe);
+            }
         } else {
             kept_here = surface_nearby(kept_surface, id.xy);
         }

@@ -91,7 +91,8 @@ const SPECULAR_ROUGHNESS: f32 = 0.5;
 
 // What the surface at a G-buffer texel shows of the view (`view_shown`): the lights and the
 // scene as the camera sees them (glass and glossy metal under SPECULAR_ROUGHNESS), and blurred
-// (a rough metal, not a mirror: one sample of it is little noisier than its history).
+// (rough metal or frosted glass, not a mirror or clear glass: what it shows is fetched where
+// its surface was, and holds while the view turns within its lobe).
 const SHOWS_VIEW: u32 = 1u;
 const SHOWS_BLURRED: u32 = 2u;
 
@@ -104,7 +105,21 @@ fn view_shown(position: vec4<f32>, footprint: f32) -> u32 {
     if !(metal || m.specular_transmission > 0.0) || m.perceptual_roughness >= SPECULAR_ROUGHNESS {
         return 0u;
     }
-    return SHOWS_VIEW | select(0u, SHOWS_BLURRED, metal && m.perceptual_roughness >= DELTA_ROUGHNESS);
+    return SHOWS_VIEW | select(0u, SHOWS_BLURRED, m.perceptual_roughness >= DELTA_ROUGHNESS);
+}
+
+// Iterations of a rough metal's or frosted glass's history that still show this view under a
+// camera move: what it reflects or lets through turns with the view, and its oldest sample
+// kept must have seen it from within the lobe's width (GGX α, the roughness squared) of the
+// view now.
+fn lobe_iterations(params: IterationParams, position: vec4<f32>, footprint: f32) -> f32 {
+    let roughness = gbuffer_material(position, footprint).perceptual_roughness;
+    var then = params.previous_eye.xyz;
+    if params.previous_eye.w != 0.0 {
+        then = normalize(then - position.xyz);
+    }
+    let turn = acos(clamp(dot(toward_eye(params, position.xyz), then), -1.0, 1.0));
+    return floor(roughness * roughness / max(turn, 1e-6));
 }
 
 // The point a pixel's glass or mirror shows (where its camera path went on to: its importon,

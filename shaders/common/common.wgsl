@@ -231,6 +231,8 @@ struct IterationParams {
     // before the pixels' centres in the unjittered image.
     jitter: vec2<f32>,
     pad: vec2<f32>,
+    // Where last frame's camera was (w 1), or, orthographic, the direction toward it (w 0).
+    previous_eye: vec4<f32>,
 }
 
 // What f(wo, ·) needs of a material and wo alone (bsdf.wgsl's `bsdf_from`), found once for

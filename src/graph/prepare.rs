@@ -20,7 +20,7 @@ use crate::scene::{Lookups, ScatterPaths, SceneBuffers, SceneData};
 use crate::settings::{PhotonMapping, RppmDebugView, RppmMode};
 use crate::shadows::cube_views;
 use crate::stats::timing::StageTimer;
-use crate::view::params::{camera_params, halton_jitter, unjittered_clip_from_world};
+use crate::view::params::{camera_params, eye_of, halton_jitter, unjittered_clip_from_world};
 use crate::view::{ExtractedRppm, PARAMS_STRIDE};
 
 /// Whether camera paths go past the G-buffer (importons).
@@ -331,6 +331,7 @@ fn prepare_view(
         params.history_flags = flags.bits();
         state.clamps |= slot < count && flags.clamps();
         params.previous_clip_from_world = state.previous_clip_from_world.to_cols_array_2d();
+        params.previous_eye = eye_of(state.previous_clip_from_world).into();
         params.area_view = state.shadows.area_view_base(slot);
         params.area_layer = state.shadows.light_layers;
         params.shadow_resolution = state.shadows.resolution;

@@ -49,7 +49,7 @@ pub enum RppmHistory {
     Reset,
     /// Keep the estimate through motion (default, `iterations: 8`: a game, where something always
     /// moves, shows converging light instead of one iteration's noise a frame; see the README's
-    /// measurements: 4× lower error than `Reset` on the moving pool, 1–10× under a camera orbit,
+    /// measurements: 4× lower error than `Reset` on the moving pool, 2–14× under most orbits,
     /// a moving light and a walking character). After any change each pixel keeps at most
     /// `iterations` iterations of history (an exponential window) for `iterations` more iterations.
     /// After a camera move the history is reprojected to where each pixel's surface was, and

@@ -13,7 +13,7 @@ use crate::scene::{GpuTriangle, LightKind, SceneData};
 /// Byte stride between per-iteration slots of the params buffer (dynamic-offset alignment).
 pub const PARAMS_STRIDE: u64 = 512;
 
-/// Per-iteration constants (`IterationParams` in common.wgsl, 400 bytes).
+/// Per-iteration constants (`IterationParams` in common.wgsl, 416 bytes).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
 pub struct IterationParams {
@@ -67,6 +67,8 @@ pub struct IterationParams {
     /// far before the pixels' centres in the unjittered image.
     pub jitter: [f32; 2],
     pub pad: [f32; 2],
+    /// Where last frame's camera was (w 1), or, orthographic, the direction toward it (w 0).
+    pub previous_eye: [f32; 4],
 }
 
 /// Bytes of how far the camera sees (`seen` in importons/eye_paths.wgsl): visible pixels
@@ -180,7 +182,44 @@ pub fn camera_params(
     }
 }
 
+/// Where the camera of a clip_from_world is (w 1), or, orthographic, the direction toward it
+/// (w 0): the point (direction) that maps to clip x = y = w = 0, reversed z.
+pub fn eye_of(clip_from_world: Mat4) -> Vec4 {
+    let h = clip_from_world.inverse() * Vec4::Z;
+    if h.w.abs() > f32::EPSILON * h.truncate().length() {
+        (h.truncate() / h.w).extend(1.0)
+    } else {
+        h.truncate().normalize_or_zero().extend(0.0)
+    }
+}
+
 /// The unjittered clip_from_world of a view: where last frame's history is looked up.
 pub fn unjittered_clip_from_world(view: &ExtractedView) -> Mat4 {
     view.clip_from_view * view.world_from_view.to_matrix().inverse()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_eye_of_a_view_is_where_it_looks_from() {
+        let world_from_view =
+            Mat4::look_at_rh(Vec3::new(1.0, 2.0, 3.0), Vec3::ZERO, Vec3::Y).inverse();
+        let view_from_world = world_from_view.inverse();
+        let perspective = Mat4::perspective_infinite_reverse_rh(0.8, 1.5, 0.1) * view_from_world;
+        let eye = eye_of(perspective);
+        assert_eq!(eye.w, 1.0);
+        assert!(
+            eye.truncate().distance(Vec3::new(1.0, 2.0, 3.0)) < 1e-4,
+            "{eye}"
+        );
+        // Reversed z, as Bevy's orthographic projection: near maps to 1.
+        let orthographic =
+            Mat4::orthographic_rh(-2.0, 2.0, -1.0, 1.0, 100.0, 0.1) * view_from_world;
+        let toward = eye_of(orthographic);
+        assert_eq!(toward.w, 0.0);
+        let expected = Vec3::new(1.0, 2.0, 3.0).normalize();
+        assert!(toward.truncate().distance(expected) < 1e-4, "{toward}");
+    }
 }

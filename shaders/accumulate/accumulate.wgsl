@@ -21,7 +21,7 @@
 #import bevy_rppm::reproject::albedo_block
 #endif
 #ifdef HISTORY
-#import bevy_rppm::reproject::{previous_history, surface_marks, emitting, packed_surface, mixed_surface, moved_surface, same_surface, view_shown, lobe_iterations, shown_point, reproject, KEPT, KEPT_EMITTING, KEPT_MOVING, KEPT_MIXED, SHOWS_VIEW, SHOWS_BLURRED}
+#import bevy_rppm::reproject::{previous_history, surface_marks, emitting, packed_surface, mixed_surface, moved_surface, same_surface, view_shown, lobe_iterations, shown_point, reproject, Shown, KEPT, KEPT_EMITTING, KEPT_MOVING, KEPT_MIXED, SHOWS_VIEW, SHOWS_BLURRED, SHOWS_GLOSS}
 #endif
 
 @group(1) @binding(0) var<uniform> params: IterationParams;
@@ -324,7 +324,7 @@ fn main(
     kept_albedo = history[albedo_block() * pixels + index].rgb;
 #endif
     let marks = pixel_marks(vec2<i32>(id.xy));
-    var shown = 0u;
+    var shown = Shown(0u, 1.0);
     if clamping {
         shown = view_shown(position, normal.w);
     }
@@ -349,15 +349,18 @@ fn main(
         // camera move each frame starts the jitter again: the pixel's own test, and a history
         // of several surfaces (a silhouette's pixel, a frame's samples on both sides) is
         // dropped, as it would carry one's light onto the other as the silhouette moves.
-        // Rough metal and frosted glass keep their history while the view turns within their lobe.
+        // Rough metal and frosted glass keep their history while the view turns within their
+        // lobe; a glossy dielectric, its direct light (its highlights).
         var kept_here: bool;
         if reprojecting {
             kept_here = same;
-            if (shown & SHOWS_BLURRED) != 0u {
-                let lobe = lobe_iterations(params, position, normal.w);
-                kept_here = kept_here && lobe >= 1.0;
-                kept.w = min(kept.w, lobe);
+            if (shown.flags & (SHOWS_BLURRED | SHOWS_GLOSS)) != 0u {
+                let lobe = lobe_iterations(params, position, shown.roughness);
                 kept_direct.w = min(kept_direct.w, lobe);
+                if (shown.flags & SHOWS_BLURRED) != 0u {
+                    kept_here = kept_here && lobe >= 1.0;
+                    kept.w = min(kept.w, lobe);
+                }
             }
         } else {
             kept_here = surface_nearby(kept_surface, id.xy);
@@ -381,7 +384,7 @@ fn main(
     let near_emitter = settling && emitter_nearby(id.xy);
     // Glass and mirrors show the scene as the camera sees it, sharp: what a camera move
     // reprojects there is clamped, both parts (one sample of them is too noisy to start from).
-    let view_dependent = (shown & SHOWS_VIEW) != 0u;
+    let view_dependent = (shown.flags & SHOWS_VIEW) != 0u;
     let bright_edges = near_emitter || view_dependent;
     let relit = (params.history_flags & RELIT) != 0u;
     if settling || view_dependent {
@@ -400,7 +403,10 @@ fn main(
     // surface: the jitter crosses it) keeps a few samples, clamped: one a frame would show it
     // all lit or all dark, and a shadow moving over it lags little.
     let relit_edge = settling && relit && still_surface && mixed_surface(kept_surface) && !bright_edges;
-    if bright_edges || still || relit_edge {
+    // A glossy dielectric's highlights move under a camera move: its direct history is
+    // clamped to what this iteration's neighbourhood sees too.
+    let moving_gloss = reprojecting && (shown.flags & SHOWS_GLOSS) != 0u;
+    if bright_edges || still || relit_edge || moving_gloss {
         direct = clamped(direct, local.xy, 0u, GAMMA);
     } else if (params.history_flags & NEW_DIRECT) != 0u {
         kept_direct.w = 0.0;

@@ -5,18 +5,20 @@
 // around it (within 4 pixels, or as far as keeps each of them within its own bound, up to 16),
 // in proportion to their own estimates. The image keeps its energy and the rare light lands
 // near where it falls on average; as the bound grows with k, ever fewer samples are spread.
+// What the camera sees of an emitter or a sphere light is never spread.
 #import bevy_rppm::common::{IterationParams, luminance}
+#import bevy_rppm::scene::{scene_material, triangles}
 
-@group(0) @binding(0) var<uniform> params: IterationParams;
-@group(0) @binding(1) var<storage, read_write> samples: array<vec4<f32>>;
-@group(0) @binding(2) var<storage, read> radiance: array<vec4<f32>>;
+@group(1) @binding(0) var<uniform> params: IterationParams;
+@group(1) @binding(1) var<storage, read_write> samples: array<vec4<f32>>;
+@group(1) @binding(2) var<storage, read> radiance: array<vec4<f32>>;
 // Per pixel: the light it spreads (`bound`).
-@group(0) @binding(3) var<storage, read_write> excess: array<vec4<f32>>;
-@group(0) @binding(4) var gbuffer_position: texture_2d<f32>;
-@group(0) @binding(5) var gbuffer_normal: texture_2d<f32>;
+@group(1) @binding(3) var<storage, read_write> excess: array<vec4<f32>>;
+@group(1) @binding(4) var gbuffer_position: texture_2d<f32>;
+@group(1) @binding(5) var gbuffer_normal: texture_2d<f32>;
 // Photons gathered by this iteration's importons, per pixel: a path's weight through rough
 // glass brings its outliers too.
-@group(0) @binding(6) var<storage, read_write> importon_radiance: array<vec4<f32>>;
+@group(1) @binding(6) var<storage, read_write> importon_radiance: array<vec4<f32>>;
 
 // Pixels each side over which a sample spreads, and the most: a sample that would lift its
 // surface's pixels within RADIUS past their own bound spreads farther.
@@ -95,6 +97,11 @@ fn bound(@builtin(global_invocation_id) id: vec3<u32>) {
     if at.w == 0.0 || params.iteration == 0u || params.history_cap != 0xffffffffu {
         return;
     }
+    // An emitter's face or a sphere light seen by the camera is where it is, however few
+    // jittered samples meet it (a sliver of it at an image's edge): none of it is spread.
+    if seen_emitting(at) || samples[index].w < 0.0 {
+        return;
+    }
     let count = radiance[index].w;
     let sample = path_sample(index);
     let l = luminance(sample);
@@ -123,6 +130,12 @@ fn bound(@builtin(global_invocation_id) id: vec3<u32>) {
     // w: the radius, and (twice its fraction, under 1 so that it never rounds up to the next
     // radius) the share of the sample the pixel keeps.
     excess[index] = vec4<f32>(sample * ((1.0 - limit / l) / sums.x), f32(radius) + 0.5 * (limit / l));
+}
+
+// Whether a G-buffer texel is an emitting surface seen from its front.
+fn seen_emitting(at: vec4<f32>) -> bool {
+    let material = triangles[u32(abs(at.w)) - 1u].material;
+    return at.w > 0.0 && any(scene_material(material).emissive.rgb > vec3<f32>(0.0));
 }
 
 // The levels of the pixels of this pixel's surface within `radius`, weighed by their

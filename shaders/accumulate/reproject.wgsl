@@ -95,25 +95,38 @@ const SPECULAR_ROUGHNESS: f32 = 0.5;
 // its surface was, and holds while the view turns within its lobe).
 const SHOWS_VIEW: u32 = 1u;
 const SHOWS_BLURRED: u32 = 2u;
+// A glossy dielectric under SPECULAR_ROUGHNESS (plastic): its direct light holds the lights'
+// highlights, which move over it as the view turns; what it shows of the scene is its
+// photons' (indirect light), kept as a diffuse surface's.
+const SHOWS_GLOSS: u32 = 4u;
 
-fn view_shown(position: vec4<f32>, footprint: f32) -> u32 {
-    if position.w == 0.0 {
-        return 0u;
-    }
-    let m = gbuffer_material(position, footprint);
-    let metal = m.metallic >= 0.5;
-    if !(metal || m.specular_transmission > 0.0) || m.perceptual_roughness >= SPECULAR_ROUGHNESS {
-        return 0u;
-    }
-    return SHOWS_VIEW | select(0u, SHOWS_BLURRED, m.perceptual_roughness >= DELTA_ROUGHNESS);
+// `view_shown`'s bits, and the surface's perceptual roughness.
+struct Shown {
+    flags: u32,
+    roughness: f32,
 }
 
-// Iterations of a rough metal's or frosted glass's history that still show this view under a
-// camera move: what it reflects or lets through turns with the view, and its oldest sample
-// kept must have seen it from within the lobe's width (GGX α, the roughness squared) of the
-// view now.
-fn lobe_iterations(params: IterationParams, position: vec4<f32>, footprint: f32) -> f32 {
-    let roughness = gbuffer_material(position, footprint).perceptual_roughness;
+fn view_shown(position: vec4<f32>, footprint: f32) -> Shown {
+    if position.w == 0.0 {
+        return Shown(0u, 1.0);
+    }
+    let m = gbuffer_material(position, footprint);
+    let r = m.perceptual_roughness;
+    let rough = r >= DELTA_ROUGHNESS;
+    if r >= SPECULAR_ROUGHNESS {
+        return Shown(0u, r);
+    }
+    if !(m.metallic >= 0.5 || m.specular_transmission > 0.0) {
+        return Shown(select(0u, SHOWS_GLOSS, rough), r);
+    }
+    return Shown(SHOWS_VIEW | select(0u, SHOWS_BLURRED, rough), r);
+}
+
+// Iterations of a rough metal's or frosted glass's history (a glossy dielectric's direct
+// light) that still show this view under a camera move: what it reflects or lets through
+// turns with the view, and its oldest sample kept must have seen it from within the lobe's
+// width (GGX α, the roughness squared) of the view now.
+fn lobe_iterations(params: IterationParams, position: vec4<f32>, roughness: f32) -> f32 {
     var then = params.previous_eye.xyz;
     if params.previous_eye.w != 0.0 {
         then = normalize(then - position.xyz);
@@ -250,14 +263,14 @@ fn catmull_rom(t: f32) -> vec4<f32> {
 // half a pixel a frame, and drags; bilinearly, it blurs a little more each frame. So the
 // 4 × 4 pixels around it weigh in by Catmull-Rom, bounded by the four nearest (which alone
 // weigh in, bilinearly, where any of the 16 saw something else).
-fn reproject(params: IterationParams, position: vec4<f32>, normal: vec4<f32>, marks: u32, shown: u32, shown_here: vec4<f32>, beyond: f32, pixel: vec2<u32>) -> Reprojected {
+fn reproject(params: IterationParams, position: vec4<f32>, normal: vec4<f32>, marks: u32, shown: Shown, shown_here: vec4<f32>, beyond: f32, pixel: vec2<u32>) -> Reprojected {
     var point = vec4<f32>(position.xyz, 1.0);
     if position.w == 0.0 {
         point = vec4<f32>(camera_ray(params, pixel).direction, 0.0);
     }
     var at = previous_pixel(params, point);
     var through = false;
-    if (shown & SHOWS_VIEW) != 0u && (shown & SHOWS_BLURRED) == 0u {
+    if (shown.flags & SHOWS_VIEW) != 0u && (shown.flags & SHOWS_BLURRED) == 0u {
         let seen = previous_shown(params, position, shown_here, beyond);
         through = seen.z != 0.0;
         at = select(at, seen, through);

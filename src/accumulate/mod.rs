@@ -158,7 +158,7 @@ fn init_accumulate_pipeline(
         history_layout,
         scene: layouts.scene.clone(),
         shader: shaders.accumulate.clone(),
-        outliers: OutlierPipelines::new(&cache, &shaders),
+        outliers: OutlierPipelines::new(&cache, &shaders, &layouts.scene),
     });
 }
 
@@ -284,7 +284,7 @@ impl Estimate {
             timestamp_writes: timer.compute_pass(Stage::Accumulate),
         });
         if let (Some(own), Some(passes)) = (&self.outliers, outliers) {
-            own.dispatch(&mut pass, passes, size, offset);
+            own.dispatch(&mut pass, passes, scene_group, size, offset);
         }
         pass.set_pipeline(pipeline);
         pass.set_bind_group(0, scene_group, &[]);

@@ -21,14 +21,18 @@ use crate::view::pixel_buffer;
 /// The two passes: `bound` (each pixel's sample bounded, the rest kept aside) and `spread`
 /// (each pixel's share of what its neighbours kept aside).
 pub struct OutlierPipelines {
-    /// 0 params (dynamic offset), 1 samples, 2 the running estimate, 3 what each pixel
+    /// Group 1 (group 0: the scene's): 0 params (dynamic offset), 1 samples, 2 the running estimate, 3 what each pixel
     /// spreads, 4 G-buffer position, 5 G-buffer normal, 6 importon radiance.
     pub layout: BindGroupLayoutDescriptor,
     pub passes: [CachedComputePipelineId; 2],
 }
 
 impl OutlierPipelines {
-    pub fn new(cache: &PipelineCache, shaders: &RppmShaders) -> Self {
+    pub fn new(
+        cache: &PipelineCache,
+        shaders: &RppmShaders,
+        scene: &BindGroupLayoutDescriptor,
+    ) -> Self {
         let unfilterable = TextureSampleType::Float { filterable: false };
         let layout = BindGroupLayoutDescriptor::new(
             "rppm_outliers_layout",
@@ -48,7 +52,7 @@ impl OutlierPipelines {
         let passes = ["bound", "spread"].map(|entry| {
             cache.queue_compute_pipeline(ComputePipelineDescriptor {
                 label: Some(format!("rppm_outliers_{entry}").into()),
-                layout: vec![layout.clone()],
+                layout: vec![scene.clone(), layout.clone()],
                 shader: shaders.outliers.clone(),
                 entry_point: Some(entry.into()),
                 ..default()
@@ -107,13 +111,15 @@ impl Outliers {
         &self,
         pass: &mut ComputePass,
         passes: [&ComputePipeline; 2],
+        scene_group: &BindGroup,
         size: UVec2,
         offset: u32,
     ) {
         let Some(group) = &self.group else { return };
         for pipeline in passes {
             pass.set_pipeline(pipeline);
-            pass.set_bind_group(0, group, &[offset]);
+            pass.set_bind_group(0, scene_group, &[]);
+            pass.set_bind_group(1, group, &[offset]);
             pass.dispatch_workgroups(size.x.div_ceil(8), size.y.div_ceil(8), 1);
         }
     }

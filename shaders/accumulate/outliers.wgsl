@@ -7,7 +7,7 @@
 // near where it falls on average; as the bound grows with k, ever fewer samples are spread.
 // What the camera sees of an emitter or a sphere light is never spread.
 #import bevy_rppm::common::{IterationParams, luminance}
-#import bevy_rppm::scene::{scene_material, triangles}
+#import bevy_rppm::scene::{front_emitting, triangles}
 
 @group(1) @binding(0) var<uniform> params: IterationParams;
 @group(1) @binding(1) var<storage, read_write> samples: array<vec4<f32>>;
@@ -99,7 +99,7 @@ fn bound(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     // An emitter's face or a sphere light seen by the camera is where it is, however few
     // jittered samples meet it (a sliver of it at an image's edge): none of it is spread.
-    if seen_emitting(at) || samples[index].w < 0.0 {
+    if front_emitting(triangles[u32(abs(at.w)) - 1u].material, at.w) || samples[index].w < 0.0 {
         return;
     }
     let count = radiance[index].w;
@@ -130,12 +130,6 @@ fn bound(@builtin(global_invocation_id) id: vec3<u32>) {
     // w: the radius, and (twice its fraction, under 1 so that it never rounds up to the next
     // radius) the share of the sample the pixel keeps.
     excess[index] = vec4<f32>(sample * ((1.0 - limit / l) / sums.x), f32(radius) + 0.5 * (limit / l));
-}
-
-// Whether a G-buffer texel is an emitting surface seen from its front.
-fn seen_emitting(at: vec4<f32>) -> bool {
-    let material = triangles[u32(abs(at.w)) - 1u].material;
-    return at.w > 0.0 && any(scene_material(material).emissive.rgb > vec3<f32>(0.0));
 }
 
 // The levels of the pixels of this pixel's surface within `radius`, weighed by their

@@ -5,7 +5,7 @@
 
 #import bevy_rppm::common::{IterationParams, MOVED_TRIANGLE, DELTA_ROUGHNESS}
 #import bevy_rppm::camera::{camera_ray, toward_eye, previous_pixel}
-#import bevy_rppm::scene::{gbuffer_material, scene_material, triangles}
+#import bevy_rppm::scene::{gbuffer_material, front_emitting, triangles}
 #ifdef IMPORTONS
 #import bevy_rppm::common::{Importon, NO_IMPORTON}
 #endif
@@ -37,7 +37,7 @@ fn surface_marks(position: vec4<f32>) -> u32 {
         return 0u;
     }
     let material = triangles[u32(abs(position.w)) - 1u].material;
-    let emitting = position.w > 0.0 && any(scene_material(material).emissive.rgb > vec3<f32>(0.0));
+    let emitting = front_emitting(material, position.w);
     // The index's low four bits: materials fewer than 16 apart differ.
     let tag = (material & (TAG_BITS >> TAG_SHIFT)) << TAG_SHIFT;
     return KEPT | tag | select(0u, KEPT_MOVING, (material & MOVED_TRIANGLE) != 0u) | select(0u, KEPT_EMITTING, emitting);

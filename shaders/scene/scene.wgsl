@@ -49,6 +49,12 @@ fn scene_material(material: u32) -> Material {
     );
 }
 
+// Whether a surface of material i, seen from its front (a G-buffer texel's w above 0), emits:
+// its emissive factor, which a texture only scales.
+fn front_emitting(material: u32, w: f32) -> bool {
+    return w > 0.0 && any(scene_material(material).emissive.rgb > vec3<f32>(0.0));
+}
+
 fn material_texel(at: vec2<u32>, k: u32) -> vec4<f32> {
     return bitcast<vec4<f32>>(textureLoad(material_texels, at + vec2<u32>(k, 0u), 0));
 }

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The GPU numbers the issues ask for, in one run on a lent GPU machine (no network there):
 #   tools/gpu_checks.sh pack   here: release builds (stripped), Mitsuba 3 for Python 3.12 cut to
-#                              the RGB variants, the Vulkan loader's .debs, ../shared/scenes,
+#                              the RGB variants (not with MITSUBA=0: then no step 4), the Vulkan loader's .debs, ../shared/scenes,
 #                              into .gpu/ (about 40 MB, ignored by git)
 #   tools/gpu_checks.sh run    there, from the checkout (carry .gpu), with OUT set:
 #     1. a sanity render naming the adapter;
@@ -12,10 +12,10 @@
 #     5. ours alone on REST;
 #     6. (after 3) the stage times again under the BVH, to check RppmTracer::Auto's choice;
 #     7. `rppm bench motion` (Reset against Reuse) on the pool's waves, a slide, an orbit, a
-#        moving light and the fox, at k iterations a frame, window w and seed s (MOTION:
-#        name:k:w[:s] …; rows of every run in motion.csv).
+#        moving light, the fox and orbits of random rooms (rNN_MM), at k iterations a frame,
+#        window w and seed s (MOTION: name:k:w[:s] …; rows of every run in motion.csv).
 #   8. (after 6) each stage's wall time submitted alone (--profile) on ALONE (default: the suite).
-#   STEPS (default "2 3 6 4 5"), SUB, REST, BUDGET (4) and LIMIT (seconds, 560) trim it; each
+#   STEPS (default "2 3 6 4 5"), SUB, REST (names in assets/suite, or random/NAME), BUDGET (4) and LIMIT (seconds, 560) trim it; each
 #   step is skipped when the time left would not hold it. Results: $OUT/{stage_times,suite}.md,
 #   pool.txt, log.txt. The numbers of 2026-11-26 are in the README's GPU section.
 set -u
@@ -35,7 +35,7 @@ pack() {
     # Mitsuba for the machine's Python 3.12, without the variants and plugins no suite scene
     # uses (the wheel is 63 MB, the checkout's carry limit 64 MiB).
     # (kept from an earlier pack: the same pinned versions)
-    if [ ! -f .gpu/mi.tar.xz ]; then
+    if [ "${MITSUBA:-1}" != 0 ] && [ ! -f .gpu/mi.tar.xz ]; then
         rm -rf $mi && mkdir -p $mi/whl
         python3 -m pip download -q --no-deps --only-binary=:all: --python-version 3.12 \
             --implementation cp --platform manylinux_2_28_x86_64 -d $mi/whl mitsuba==3.9.1 drjit==1.5.0
@@ -151,16 +151,18 @@ run() {
             light) motion light "$@" assets/cornell_box.gltf --script light $small ;;
             fox) motion fox "$@" $m/fox/staged.gltf --script animation --animation 1 \
                 --width 96 --height 96 --photons 32768 --frames 32 ;;
+            r*) motion "$name" "$@" assets/suite/random/$name.gltf --script orbit $small ;;
             esac
         done
     fi
     wait $unpacking
     export PYTHONPATH=/tmp/gpu_mitsuba
-    one() { # scene, then bench suite's flags
-        local name=$1 dir=/tmp/gpu_one
+    one() { # scene (a name in assets/suite, or random/NAME), then bench suite's flags
+        local name=$1 dir=/tmp/gpu_one src=assets/suite
         shift
-        rm -rf $dir && mkdir -p $dir && cp -r assets/suite/textures $dir/
-        cp assets/suite/$name.gltf assets/suite/$name.ref.exr $dir/ 2>/dev/null ||
+        [[ $name == */* ]] && { src=assets/suite/${name%/*} && name=${name##*/}; }
+        rm -rf $dir && mkdir -p $dir && cp -r $src/textures $dir/
+        cp $src/$name.gltf $src/$name.ref.exr $dir/ 2>/dev/null ||
             cp .gpu/shared/$name.gltf .gpu/shared/$name.ref.exr $dir/
         timeout 150 $b/rppm.s bench suite $dir --budget "${BUDGET:-4}" --out /tmp/gpu_suite \
             --table $dir.md "$@" >$dir.log 2>&1 || tail -5 $dir.log

@@ -130,8 +130,23 @@ def transform_dir(m, d):
     return [sum(m[r][c] * d[c] for c in range(3)) for r in range(3)]
 
 
-def write_ply(path, positions, faces, uvs=None, colors=None):
-    extra = ("property float u\nproperty float v\n" if uvs else "") + (
+def transform_normal(m, n):
+    """A normal under the world matrix m: by its inverse transpose (the cofactors over the
+    determinant), unit length."""
+    c = [[m[(r + 1) % 3][(k + 1) % 3] * m[(r + 2) % 3][(k + 2) % 3] - m[(r + 1) % 3][(k + 2) % 3] * m[(r + 2) % 3][(k + 1) % 3]
+          for k in range(3)] for r in range(3)]
+    det = sum(m[0][k] * c[0][k] for k in range(3))
+    v = [sum(c[r][k] * n[k] for k in range(3)) * (1.0 if det >= 0 else -1.0) for r in range(3)]
+    length = max(sum(x * x for x in v) ** 0.5, 1e-30)
+    return [x / length for x in v]
+
+
+def write_ply(path, positions, faces, uvs=None, colors=None, normals=None):
+    """A binary PLY. With `normals` (the glTF's) Mitsuba shades with them; without, it
+    computes its own from the faces, which differ where a mesh repeats a vertex (a UV
+    sphere's pole: each copy gets the normal of its own triangles)."""
+    extra = ("property float nx\nproperty float ny\nproperty float nz\n" if normals else "") + (
+        "property float u\nproperty float v\n" if uvs else "") + (
         "property float r\nproperty float g\nproperty float b\n" if colors else "")
     with open(path, "wb") as f:
         f.write(
@@ -143,6 +158,8 @@ def write_ply(path, positions, faces, uvs=None, colors=None):
         )
         for i, p in enumerate(positions):
             f.write(struct.pack("<3f", *p))
+            if normals:
+                f.write(struct.pack("<3f", *normals[i]))
             if uvs:
                 f.write(struct.pack("<2f", *uvs[i]))
             if colors:

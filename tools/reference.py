@@ -53,7 +53,7 @@ import tempfile
 import time
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from gltf_read import accessor, load, srgb_to_linear, transform_dir, transform_point, walk, write_ply  # noqa: E402
+from gltf_read import accessor, load, srgb_to_linear, transform_dir, transform_normal, transform_point, walk, write_ply  # noqa: E402
 from gltf_textures import Textures  # noqa: E402
 
 def green_opposite(positions, faces, uvs):
@@ -311,7 +311,9 @@ def build_scene(path, width, height, tmp, max_depth=16):
                 uvs = accessor(gltf, buffers, attributes[uv_set]) if uv_set in attributes else None
                 colors = accessor(gltf, buffers, attributes["COLOR_0"]) if "COLOR_0" in attributes else None
                 material, colors = with_vertex_colors(material, colors)
-                write_ply(ply, positions, faces, uvs, colors)
+                normals = [transform_normal(world, n) for n in accessor(gltf, buffers, attributes["NORMAL"])] \
+                    if "NORMAL" in attributes else None
+                write_ply(ply, positions, faces, uvs, colors, normals)
                 opposite = green_opposite(positions, faces, uvs) if uvs and "normalTexture" in material else True
                 bsdf, description = bsdf_of(material, textures, colors is not None, opposite)
                 shape = {"type": "ply", "filename": ply, "bsdf": bsdf, "face_normals": "NORMAL" not in prim["attributes"]}

@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # The GPU numbers the issues ask for, in one run on a lent GPU machine (no network there):
 #   tools/gpu_checks.sh pack   here: release builds (stripped), Mitsuba 3 for Python 3.12 cut to
-#                              the RGB variants (not with MITSUBA=0: then no step 4), the Vulkan loader's .debs, ../shared/scenes,
-#                              into .gpu/ (about 40 MB, ignored by git)
+#                              the RGB variants (not with MITSUBA=0: then no step 4), the
+#                              Vulkan loader's .debs, ../shared/scenes, into .gpu/ (about 40 MB,
+#                              ignored by git)
 #   tools/gpu_checks.sh run    there, from the checkout (carry .gpu), with OUT set:
 #     1. a sanity render naming the adapter;
 #     2. GPU ms per stage at 1024², 262 144 photons, depth 3 (tools/stage_times.sh), through
@@ -15,9 +16,9 @@
 #        moving light, the fox and orbits of random rooms (rNN_MM), at k iterations a frame,
 #        window w and seed s (MOTION: name:k:w[:s] …; rows of every run in motion.csv).
 #   8. (after 6) each stage's wall time submitted alone (--profile) on ALONE (default: the suite).
-#   STEPS (default "2 3 6 4 5"), SUB, REST (names in assets/suite, or random/NAME), BUDGET (4) and LIMIT (seconds, 560) trim it; each
-#   step is skipped when the time left would not hold it. Results: $OUT/{stage_times,suite}.md,
-#   pool.txt, log.txt. The numbers of 2026-11-26 are in the README's GPU section.
+#   STEPS (default "2 3 6 4 5"), SUB, REST (names in assets/suite, or random/NAME), BUDGET (4)
+#   and LIMIT (seconds, 560) trim it; each step is skipped when the time left would not hold it.
+#   Results: $OUT/{stage_times,suite}.md, pool.txt, log.txt. The numbers of 2026-11-26 are in the README's GPU section.
 set -u
 here=$(pwd)
 pack() {

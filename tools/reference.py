@@ -316,7 +316,7 @@ def build_scene(path, width, height, tmp, max_depth=16):
                 write_ply(ply, positions, faces, uvs, colors, normals)
                 opposite = green_opposite(positions, faces, uvs) if uvs and "normalTexture" in material else True
                 bsdf, description = bsdf_of(material, textures, colors is not None, opposite)
-                shape = {"type": "ply", "filename": ply, "bsdf": bsdf, "face_normals": "NORMAL" not in prim["attributes"]}
+                shape = {"type": "ply", "filename": ply, "bsdf": bsdf, "face_normals": normals is None}
                 if bsdf["type"] == "mask":
                     # `path` treats a cut-out as opaque to shadow rays (a point light's light
                     # never passes its holes); `volpath` carries them through null surfaces.

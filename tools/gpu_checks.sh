@@ -18,7 +18,8 @@
 #   8. (after 6) each stage's wall time submitted alone (--profile) on ALONE (default: the suite).
 #   STEPS (default "2 3 6 4 5"), SUB, REST (names in assets/suite, or random/NAME), BUDGET (4)
 #   and LIMIT (seconds, 560) trim it; each step is skipped when the time left would not hold it.
-#   Results: $OUT/{stage_times,suite}.md, pool.txt, log.txt. The numbers of 2026-11-26 are in the README's GPU section.
+#   Results: $OUT/{stage_times,suite}.md, pool.txt, log.txt. The numbers of each GPU round are
+#   in the README's GPU sections (the latest: 2026-11-29, twenty-fifth stop).
 set -u
 here=$(pwd)
 pack() {

@@ -13,7 +13,7 @@
 #endif
 #endif
 #ifdef DEMODULATED
-#import bevy_rppm::scene::{material_at, triangle_at, barycentrics, as_seen_from}
+#import bevy_rppm::scene::{material_at, triangle_at, barycentrics, as_seen_from, gbuffer_triangle}
 #import bevy_rppm::camera::camera_ray_at
 #import bevy_rppm::bsdf::diffuse_color
 #import bevy_rppm::microfacet::specular_f0
@@ -134,7 +134,7 @@ fn sample_albedo(position: vec4<f32>, footprint: f32) -> vec3<f32> {
 // the pixel's four quarters, but where a cut-out leaves a hole (`sample`, this iteration's
 // albedo, where all four do).
 fn footprint_albedo(pixel: vec2<u32>, position: vec4<f32>, footprint: f32, sample: vec3<f32>) -> vec3<f32> {
-    let triangle = u32(abs(position.w)) - 1u;
+    let triangle = gbuffer_triangle(position.w);
     let t = triangle_at(triangle);
     let n = cross(t.position_b - t.position_a, t.position_c - t.position_a);
     var sum = vec3<f32>(0.0);

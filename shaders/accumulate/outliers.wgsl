@@ -7,7 +7,7 @@
 // near where it falls on average; as the bound grows with k, ever fewer samples are spread.
 // What the camera sees of an emitter or a sphere light is never spread.
 #import bevy_rppm::common::{IterationParams, luminance}
-#import bevy_rppm::scene::{front_emitting, triangles}
+#import bevy_rppm::scene::{front_emitting, gbuffer_triangle, triangles}
 
 @group(1) @binding(0) var<uniform> params: IterationParams;
 @group(1) @binding(1) var<storage, read_write> samples: array<vec4<f32>>;
@@ -99,7 +99,7 @@ fn bound(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     // An emitter's face or a sphere light seen by the camera is where it is, however few
     // jittered samples meet it (a sliver of it at an image's edge): none of it is spread.
-    if front_emitting(triangles[u32(abs(at.w)) - 1u].material, at.w) || samples[index].w < 0.0 {
+    if front_emitting(triangles[gbuffer_triangle(at.w)].material, at.w) || samples[index].w < 0.0 {
         return;
     }
     let count = radiance[index].w;

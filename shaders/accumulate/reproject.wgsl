@@ -5,7 +5,7 @@
 
 #import bevy_rppm::common::{IterationParams, MOVED_TRIANGLE, DELTA_ROUGHNESS}
 #import bevy_rppm::camera::{camera_ray, toward_eye, previous_pixel}
-#import bevy_rppm::scene::{gbuffer_material, front_emitting, triangles}
+#import bevy_rppm::scene::{gbuffer_material, gbuffer_triangle, front_emitting, triangles}
 #ifdef IMPORTONS
 #import bevy_rppm::common::{Importon, NO_IMPORTON}
 #endif
@@ -36,7 +36,7 @@ fn surface_marks(position: vec4<f32>) -> u32 {
     if position.w == 0.0 {
         return 0u;
     }
-    let material = triangles[u32(abs(position.w)) - 1u].material;
+    let material = triangles[gbuffer_triangle(position.w)].material;
     let emitting = front_emitting(material, position.w);
     // The index's low four bits: materials fewer than 16 apart differ.
     let tag = (material & (TAG_BITS >> TAG_SHIFT)) << TAG_SHIFT;

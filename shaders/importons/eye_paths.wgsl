@@ -6,7 +6,7 @@
 #import bevy_rppm::common::{Material, IterationParams, Importon, NO_IMPORTON, gather_radius}
 #import bevy_rppm::camera::{camera_ray, toward_eye}
 #import bevy_rppm::sampling::{random, pcg_hash, stratified_draws}
-#import bevy_rppm::scene::{triangle_at, gbuffer_material, resolve_surface, kernel_normal, material_at, as_seen_from, normal_at, interpolated_normal}
+#import bevy_rppm::scene::{triangle_at, gbuffer_material, gbuffer_triangle, resolve_surface, kernel_normal, material_at, as_seen_from, normal_at, interpolated_normal}
 #import bevy_rppm::lighting::{params, surface_light}
 #ifdef EMITTERS
 #import bevy_rppm::lighting::{emitter_draws, EMITTER_DRAWS}
@@ -431,7 +431,7 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>, @builtin(local_invocation_
         surfaces[pixel] = resolve_surface(m, kernel_normal(gp, gn.xyz), gn.xyz);
 #endif
         let wo = toward_eye(params, gp.xyz);
-        let first = Vertex(gp.xyz, gn.xyz, m, gp.w > 0.0, u32(abs(gp.w)) - 1u, wo);
+        let first = Vertex(gp.xyz, gn.xyz, m, gp.w > 0.0, gbuffer_triangle(gp.w), wo);
         var paths = 1u;
 #ifdef IMPORTONS
         let rough_glass = glass_share(m) > 0.0 && m.perceptual_roughness >= DELTA_ROUGHNESS;

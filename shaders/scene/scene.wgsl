@@ -123,9 +123,15 @@ fn part_barycentrics(part: u32, b: vec2<f32>) -> vec2<f32> {
     return p + (q - p) * b.x + (r - p) * b.y;
 }
 
-// The material of a camera G-buffer texel (w: ±(triangle + 1)) `footprint` metres wide.
+// The triangle a camera G-buffer texel sees: its w is ±(triangle + 1), negative seen from
+// behind, 0 where it sees nothing.
+fn gbuffer_triangle(w: f32) -> u32 {
+    return u32(abs(w)) - 1u;
+}
+
+// The material of a camera G-buffer texel `footprint` metres wide.
 fn gbuffer_material(position: vec4<f32>, footprint: f32) -> Material {
-    let triangle = u32(abs(position.w)) - 1u;
+    let triangle = gbuffer_triangle(position.w);
     let m = material_at(triangle, barycentrics(triangle_at(triangle), position.xyz), footprint);
     return as_seen_from(m, position.w > 0.0);
 }
@@ -146,7 +152,7 @@ fn resolve_surface(m: Material, kernel: vec3<f32>, shading: vec3<f32>) -> vec4<u
 
 // `gbuffer_material` from the texel's `resolve_surface`.
 fn resolved_material(position: vec4<f32>, surface: vec4<u32>) -> Material {
-    var m = scene_material(triangles[u32(abs(position.w)) - 1u].material);
+    var m = scene_material(triangles[gbuffer_triangle(position.w)].material);
     m.base_color = vec4<f32>(unpack2x16float(surface.x), unpack2x16float(surface.y).x, m.base_color.a);
     let mr = unpack2x16unorm(surface.z);
     m.metallic = mr.x;
@@ -397,7 +403,7 @@ fn normal_at(triangle: u32, b: vec2<f32>, n: vec3<f32>) -> vec3<f32> {
 // seen by the kernel would turn away the photons of their own flat surface).
 fn kernel_normal(position: vec4<f32>, shading: vec3<f32>) -> vec3<f32> {
 #ifdef NORMAL_MAP
-    let triangle = u32(abs(position.w)) - 1u;
+    let triangle = gbuffer_triangle(position.w);
     let t = triangle_at(triangle);
     let m = scene_material(t.material);
     if (m.flags & MATERIAL_TEXTURED) == 0u || m.textures.w == NO_TEXTURE {

@@ -203,7 +203,8 @@ mod tests {
     /// llvmpipe compiles each inlined copy of a ray walk anew, for every shader variant a
     /// scene needs: with a walk per kind of light and per camera-path vertex, the
     /// local-illumination stage took 7.6 s to compile (16.8 s textured), with one 1.2 s
-    /// (3.3 s). Its shader calls the walk, the lighting and the BSDF from one place each.
+    /// (3.3 s). Its shader calls the walk, the lighting and the BSDF from one place each
+    /// (and, under `Reuse` alone, `camera_hit` for a pixel's shading point).
     #[test]
     fn local_illumination_calls_each_ray_walk_from_one_place() {
         let shaders = Path::new(env!("CARGO_MANIFEST_DIR")).join("shaders");

@@ -17,7 +17,7 @@ macro_rules! wgsl {
 #[derive(Resource, Clone)]
 pub struct RppmShaders {
     /// Import-only libraries (`bevy_rppm::sampling`, `common`, `camera`, `scene`, `microfacet`, `bsdf`, `mis`, `panes`, `cubemap`, `pane_rays`, `light_samples`, `lighting`,
-    /// `photon_map`, `eye_bounce`),
+    /// `photon_map`, `eye_bounce`, `surface`, `reproject`),
     /// held so they stay loaded.
     _libraries: Vec<Handle<Shader>>,
     pub place: Handle<Shader>,
@@ -32,6 +32,7 @@ pub struct RppmShaders {
     pub indirect_splat: Handle<Shader>,
     pub accumulate: Handle<Shader>,
     pub outliers: Handle<Shader>,
+    pub resolve: Handle<Shader>,
     pub output: Handle<Shader>,
     #[cfg(feature = "debug")]
     pub debug_view: Handle<Shader>,
@@ -59,6 +60,7 @@ impl RppmShaders {
                 wgsl!(shaders, "shadows/lighting.wgsl"),
                 wgsl!(shaders, "photons/map.wgsl"),
                 wgsl!(shaders, "importons/bounce.wgsl"),
+                wgsl!(shaders, "scene/surface.wgsl"),
                 wgsl!(shaders, "accumulate/reproject.wgsl"),
             ],
             place: wgsl!(shaders, "scene/place.wgsl"),
@@ -73,6 +75,7 @@ impl RppmShaders {
             indirect_splat: wgsl!(shaders, "indirect_splat/indirect_splat.wgsl"),
             accumulate: wgsl!(shaders, "accumulate/accumulate.wgsl"),
             outliers: wgsl!(shaders, "accumulate/outliers.wgsl"),
+            resolve: wgsl!(shaders, "accumulate/resolve.wgsl"),
             output: wgsl!(shaders, "output/output.wgsl"),
             #[cfg(feature = "debug")]
             debug_view: wgsl!(shaders, "debug/debug_view.wgsl"),

@@ -21,7 +21,8 @@
 #import bevy_rppm::reproject::albedo_block
 #endif
 #ifdef HISTORY
-#import bevy_rppm::reproject::{previous_history, surface_marks, emitting, packed_surface, mixed_surface, moved_surface, same_surface, view_shown, lobe_iterations, shown_point, reproject, Shown, KEPT, KEPT_EMITTING, KEPT_MOVING, KEPT_MIXED, SHOWS_VIEW, SHOWS_BLURRED, SHOWS_GLOSS}
+#import bevy_rppm::reproject::{previous_history, view_shown, lobe_iterations, shown_point, reproject, Shown, SHOWS_VIEW, SHOWS_BLURRED, SHOWS_GLOSS}
+#import bevy_rppm::surface::{surface_marks, emitting, packed_surface, mixed_surface, moved_surface, same_surface, KEPT, KEPT_EMITTING, KEPT_MOVING, KEPT_MIXED}
 #endif
 
 @group(1) @binding(0) var<uniform> params: IterationParams;

@@ -3,9 +3,10 @@
 // held them.
 #define_import_path bevy_rppm::reproject
 
-#import bevy_rppm::common::{IterationParams, MOVED_TRIANGLE, DELTA_ROUGHNESS}
+#import bevy_rppm::common::{IterationParams, DELTA_ROUGHNESS}
 #import bevy_rppm::camera::{camera_ray, toward_eye, previous_pixel}
-#import bevy_rppm::scene::{gbuffer_material, gbuffer_triangle, front_emitting, triangles}
+#import bevy_rppm::scene::gbuffer_material
+#import bevy_rppm::surface::{same_surface, mixed_surface}
 #ifdef IMPORTONS
 #import bevy_rppm::common::{Importon, NO_IMPORTON}
 #endif
@@ -17,73 +18,6 @@
 // This iteration's importons: where a pixel's camera path went on to.
 @group(1) @binding(10) var<storage, read> importons: array<Importon>;
 #endif
-
-// Bits of a surface's marker byte (0: no surface): a surface, on a triangle that moved in
-// this frame's placement, emitting (its emissive factor, a texture only scales it, seen from
-// the front); and, of a kept one, that the pixel's history holds samples of another surface
-// too (an edge its jitter crossed: empty pixels keep this bit alone).
-const KEPT: u32 = 0x80u;
-const KEPT_MOVING: u32 = 1u;
-const KEPT_EMITTING: u32 = 2u;
-const KEPT_MIXED: u32 = 4u;
-// Bits 3–6: a tag of its material, so that surfaces a footprint apart are told apart too (a
-// thin black square on a white floor).
-const TAG_SHIFT: u32 = 3u;
-const TAG_BITS: u32 = 0x78u;
-
-// The marker byte of the surface at a G-buffer texel, from one read of its triangle.
-fn surface_marks(position: vec4<f32>) -> u32 {
-    if position.w == 0.0 {
-        return 0u;
-    }
-    let material = triangles[gbuffer_triangle(position.w)].material;
-    let emitting = front_emitting(material, position.w);
-    // The index's low four bits: materials fewer than 16 apart differ.
-    let tag = (material & (TAG_BITS >> TAG_SHIFT)) << TAG_SHIFT;
-    return KEPT | tag | select(0u, KEPT_MOVING, (material & MOVED_TRIANGLE) != 0u) | select(0u, KEPT_EMITTING, emitting);
-}
-
-// Whether a marker byte is an emitting surface's.
-fn emitting(marks: u32) -> bool {
-    return (marks & KEPT_EMITTING) != 0u;
-}
-
-// A G-buffer texel as kept in `surface`: position, and the normal packed with its marker byte.
-fn packed_surface(position: vec4<f32>, normal: vec3<f32>, marks: u32) -> vec4<f32> {
-    let packed = (pack4x8snorm(vec4<f32>(normal, 0.0)) & 0x00ffffffu) | (marks << 24u);
-    return vec4<f32>(position.xyz, bitcast<f32>(select(marks << 24u, packed, position.w != 0.0)));
-}
-
-// Whether a kept history holds samples of more than one surface.
-fn mixed_surface(kept: vec4<f32>) -> bool {
-    return ((bitcast<u32>(kept.w) >> 24u) & KEPT_MIXED) != 0u;
-}
-
-// Whether a kept surface was on a moving object.
-fn moved_surface(kept: vec4<f32>) -> bool {
-    return ((bitcast<u32>(kept.w) >> 24u) & KEPT_MOVING) != 0u;
-}
-
-// Whether a kept surface is the one this pixel sees now: both empty, or a point on the same
-// plane, within three footprints across the view (the jitter moves it by up to one and a
-// half; more along a surface seen at a grazing angle), with a normal within ~25°, of the
-// same material tag, emitting if and only if it does (an emitter's rim on its wall is no
-// history of the wall): a moving object's pixels start again.
-fn same_surface(params: IterationParams, kept: vec4<f32>, position: vec4<f32>, normal: vec4<f32>, marks: u32) -> bool {
-    let packed = bitcast<u32>(kept.w);
-    let had = ((packed >> 24u) & KEPT) != 0u;
-    if !had || position.w == 0.0 {
-        return had == (position.w != 0.0);
-    }
-    let kept_normal = unpack4x8snorm(packed).xyz;
-    let d = position.xyz - kept.xyz;
-    let slack = 1e-4 * length(position.xyz);
-    let facing = abs(dot(normal.xyz, toward_eye(params, position.xyz)));
-    let across = 3.0 * normal.w / max(facing, 0.2);
-    let near = length(d) <= across + slack && abs(dot(d, normal.xyz)) <= normal.w + slack;
-    let tagged = ((packed >> 24u) & TAG_BITS) == (marks & TAG_BITS);
-    return near && tagged && dot(kept_normal, normal.xyz) > 0.9 && emitting(packed >> 24u) == emitting(marks);
-}
 
 // Perceptual roughness under which a metal's or glass's direct light is what it shows of the
 // lights and emitters: their small, bright images, which one jittered sample hits or misses.

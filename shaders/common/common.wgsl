@@ -230,7 +230,9 @@ struct IterationParams {
     // This iteration's sub-pixel jitter (pixels, x right and y down): its samples lie this far
     // before the pixels' centres in the unjittered image.
     jitter: vec2<f32>,
-    pad: vec2<f32>,
+    // Where local illumination shades each pixel past its G-buffer sample (pixels; 0: there):
+    // a frame whose camera moved rasterizes every iteration at one jitter (src/graph/prepare.rs).
+    shading_jitter: vec2<f32>,
     // Where last frame's camera was (w 1), or, orthographic, the direction toward it (w 0).
     previous_eye: vec4<f32>,
 }

@@ -7,7 +7,9 @@
 #define_import_path bevy_rppm::cubemap
 
 #import bevy_rppm::common::{CubemapParams, face_basis, level_offset, face_of, BIG_TRIANGLES, row_texel}
-#import bevy_rppm::scene::{triangle_at, opaque_at}
+#import bevy_rppm::scene::{triangle_at, opaque_at, normal_at, interpolated_normal}
+#import bevy_rppm::common::IterationParams
+#import bevy_rppm::camera::camera_ray_at
 
 @group(3) @binding(0) var<uniform> cubemap: CubemapParams;
 @group(3) @binding(1) var<storage, read> hierarchy: array<vec2<f32>>;
@@ -469,4 +471,22 @@ fn occluded(o: vec3<f32>, d: vec3<f32>, t_min: f32, t_max: f32, ignore: u32) -> 
     return trace_cubemap(o, d, t_min, t_max, ignore).triangle != NO_HIT;
 #endif
 #endif
+}
+
+// What the camera's ray through `at` (pixels of the iteration's image) meets, as a G-buffer
+// texel keeps it: [0] position (w ±(triangle + 1), negative seen from behind; 0: nothing),
+// [1] shading normal facing the ray (w the footprint, the world size of a pixel there).
+fn camera_hit(params: IterationParams, at: vec2<f32>) -> array<vec4<f32>, 2> {
+    let ray = camera_ray_at(params, at);
+    let hit = trace_ray(ray.origin, ray.direction, 0.0, FAR, NO_HIT);
+    if hit.triangle == NO_HIT {
+        return array<vec4<f32>, 2>(vec4<f32>(0.0), vec4<f32>(0.0, 0.0, 1.0, 0.0));
+    }
+    let t = triangle_at(hit.triangle);
+    let front = dot(cross(t.position_b - t.position_a, t.position_c - t.position_a), ray.direction) < 0.0;
+    let n = normal_at(hit.triangle, hit.uv, interpolated_normal(t, hit.uv));
+    let x = ray.origin + ray.direction * hit.t;
+    let footprint = params.pixel_spread * select(distance(x, params.camera_position.xyz), 1.0, params.orthographic != 0u);
+    let tag = f32(hit.triangle + 1u);
+    return array<vec4<f32>, 2>(vec4<f32>(x, select(-tag, tag, front)), vec4<f32>(select(-n, n, front), footprint));
 }

@@ -4,7 +4,7 @@
 // through the deep cubemap to the first non-specular surface, lights it the same way, and
 // leaves an importon there for indirect splatting.
 #import bevy_rppm::common::{Material, IterationParams, Importon, NO_IMPORTON, gather_radius}
-#import bevy_rppm::camera::{camera_ray, toward_eye}
+#import bevy_rppm::camera::toward_eye
 #import bevy_rppm::sampling::{random, pcg_hash, stratified_draws}
 #import bevy_rppm::scene::{triangle_at, gbuffer_material, gbuffer_triangle, resolve_surface, kernel_normal, material_at, as_seen_from, normal_at, interpolated_normal}
 #import bevy_rppm::lighting::{params, surface_light}
@@ -41,7 +41,11 @@
 #endif
 #endif
 #ifdef SPHERE_LIGHTS_SEEN
-#import bevy_rppm::lighting::sphere_lights_seen
+#import bevy_rppm::lighting::{sphere_lights_seen, spheres_in_pixel}
+#endif
+#ifdef SHADING_POINTS
+#import bevy_rppm::cubemap::camera_hit
+#import bevy_rppm::surface::{surface_marks, packed_surface, same_surface}
 #endif
 
 @group(2) @binding(0) var gbuffer_position: texture_2d<f32>;
@@ -394,17 +398,6 @@ fn see(pixel: vec2<u32>, lane: u32) {
     }
 }
 
-#ifdef SPHERE_LIGHTS_SEEN
-// The sphere lights that the camera's ray through this pixel (jittered as the G-buffer is)
-// sees before its surface: Bevy draws no light, but a light with a radius is a lamp's bulb,
-// which the references (and a camera) see.
-fn spheres_in_pixel(pixel: vec2<u32>, gp: vec4<f32>) -> vec3<f32> {
-    let ray = camera_ray(params, pixel);
-    let far = select(1.0e30, dot(gp.xyz - ray.origin, ray.direction), gp.w != 0.0);
-    return sphere_lights_seen(ray.origin, ray.direction, far);
-}
-#endif
-
 @compute @workgroup_size(8, 8, 1)
 fn main(@builtin(global_invocation_id) id: vec3<u32>, @builtin(local_invocation_index) lane: u32) {
     if params.seen_region != 0u {
@@ -430,8 +423,20 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>, @builtin(local_invocation_
 #ifdef TEXTURED
         surfaces[pixel] = resolve_surface(m, kernel_normal(gp, gn.xyz), gn.xyz);
 #endif
-        let wo = toward_eye(params, gp.xyz);
-        let first = Vertex(gp.xyz, gn.xyz, m, gp.w > 0.0, gbuffer_triangle(gp.w), wo);
+        // Shaded where this iteration's point of the pixel (`shading_jitter`) meets the same
+        // surface, else at the G-buffer's.
+        var at = array<vec4<f32>, 2>(gp, gn);
+        var lit = m;
+#ifdef SHADING_POINTS
+        if any(params.shading_jitter != vec2<f32>(0.0)) {
+            let hit = camera_hit(params, vec2<f32>(id.xy) + 0.5 + params.shading_jitter);
+            if same_surface(params, packed_surface(gp, gn.xyz, surface_marks(gp)), hit[0], hit[1], surface_marks(hit[0])) {
+                at = hit;
+                lit = gbuffer_material(hit[0], gn.w);
+            }
+        }
+#endif
+        let first = Vertex(at[0].xyz, at[1].xyz, lit, at[0].w > 0.0, gbuffer_triangle(at[0].w), toward_eye(params, at[0].xyz));
         var paths = 1u;
 #ifdef IMPORTONS
         let rough_glass = glass_share(m) > 0.0 && m.perceptual_roughness >= DELTA_ROUGHNESS;

@@ -12,6 +12,7 @@
 #import bevy_rppm::light_samples::{LightSample, no_light, punctual_sample}
 #ifdef SPHERE_LIGHTS_SEEN
 #import bevy_rppm::light_samples::sphere_met
+#import bevy_rppm::camera::camera_ray_at
 #endif
 #import bevy_rppm::scene::{shadow_views, lights, triangles, triangle_at, material_at, emitters, light_cdf, find_source, triangle_point, uniform_barycentrics, part_barycentrics}
 #ifdef TRACED_SHADOWS
@@ -125,6 +126,15 @@ fn sphere_lights_seen(x: vec3<f32>, d: vec3<f32>, t_max: f32) -> vec3<f32> {
         sum += sphere_met(lights[i], x, d, t_max).rgb;
     }
     return sum;
+}
+
+// The sphere lights that the camera's ray through this pixel (jittered as the G-buffer is,
+// and by `shading_jitter`) sees before its surface: Bevy draws no light, but a light with a
+// radius is a lamp's bulb, which the references (and a camera) see.
+fn spheres_in_pixel(pixel: vec2<u32>, gp: vec4<f32>) -> vec3<f32> {
+    let ray = camera_ray_at(params, vec2<f32>(pixel) + 0.5 + params.shading_jitter);
+    let far = select(1.0e30, dot(gp.xyz - ray.origin, ray.direction), gp.w != 0.0);
+    return sphere_lights_seen(ray.origin, ray.direction, far);
 }
 #endif
 

@@ -8,11 +8,13 @@
 mod clock;
 mod history;
 mod outliers;
+mod resolve;
 
 pub use clock::{Changes, HistoryClock, HistoryFlags};
 pub use history::History;
 pub(crate) use history::history_fits;
 pub use outliers::{OutlierPipelines, Outliers};
+pub use resolve::{ResolveKey, ResolvePipeline, Resolved};
 
 use bevy::prelude::*;
 use bevy::render::render_resource::binding_types::{
@@ -39,6 +41,7 @@ impl Plugin for AccumulatePlugin {
         if let Some(render_app) = app.get_sub_app_mut(RenderApp) {
             render_app
                 .init_resource::<SpecializedComputePipelines<AccumulatePipeline>>()
+                .init_resource::<SpecializedComputePipelines<ResolvePipeline>>()
                 .add_systems(RenderStartup, init_accumulate_pipeline);
         }
     }
@@ -57,6 +60,8 @@ pub struct AccumulatePipeline {
     shader: Handle<Shader>,
     /// The outlier passes run before it where camera paths go on.
     pub outliers: OutlierPipelines,
+    /// What a `Reuse` view shows after a camera move.
+    pub resolve: ResolvePipeline,
 }
 
 /// What a view's iteration adds up.
@@ -159,6 +164,7 @@ fn init_accumulate_pipeline(
         scene: layouts.scene.clone(),
         shader: shaders.accumulate.clone(),
         outliers: OutlierPipelines::new(&cache, &shaders, &layouts.scene),
+        resolve: ResolvePipeline::new(&layouts, shaders.resolve.clone()),
     });
 }
 
@@ -170,6 +176,8 @@ pub struct Estimate {
     pub history: Option<History>,
     /// Held where camera paths go on past the G-buffer.
     pub outliers: Option<Outliers>,
+    /// What the view shows and reads back, with `history`.
+    pub resolved: Option<Resolved>,
     group: Option<BindGroup>,
 }
 
@@ -194,8 +202,23 @@ impl Estimate {
             radiance,
             history: history.then(|| History::new(device, size, importons, demodulated)),
             outliers: importons.then(|| Outliers::new(device, size)),
+            resolved: history.then(|| Resolved::new(device, size)),
             group: None,
         }
+    }
+
+    /// Bytes held besides the estimate: history, what is shown, outliers.
+    pub fn memory(&self) -> Vec<(&'static str, u64)> {
+        let history = self.history.as_ref().map(|h| ("history", h.bytes()));
+        let shown = self.resolved.as_ref().map(|r| ("shown", r.shown.size()));
+        let outliers = self.outliers.as_ref().map(|o| ("outliers", o.bytes()));
+        [history, shown, outliers].into_iter().flatten().collect()
+    }
+
+    /// What the view shows and reads back: the estimate, or under `Reuse` its edges
+    /// resolved after a camera move.
+    pub fn shown(&self) -> &Buffer {
+        self.resolved.as_ref().map_or(&self.radiance, |r| &r.shown)
     }
 
     /// Binds this frame's sample, splats and G-buffer.
@@ -216,6 +239,10 @@ impl Estimate {
                 &self.radiance,
                 inputs.gbuffer,
             );
+        }
+        if let (Some(resolved), Some(h)) = (&mut self.resolved, &self.history) {
+            let buffers = [&self.radiance, &h.history];
+            resolved.bind(device, cache, &pipeline.resolve, inputs.gbuffer, buffers);
         }
         let entries = BindGroupEntries::sequential((
             inputs.params,

@@ -314,9 +314,13 @@ fn prepare_view(
         let iteration = base + slot;
         // Under `Reuse` the jitter goes on through a scene's motion: a pixel's history
         // averages positions across it (its edges anti-aliased), as a still estimate's
-        // iterations do. A frame whose camera moved starts the sequence again, as `Reset`
-        // does: history reprojected from where an edge was cannot tell its coverage.
-        let jitter = halton_jitter(if state.reprojects { slot } else { iteration });
+        // iterations do. A frame whose camera moved rasterizes all its iterations at one:
+        // history reprojected from where an edge was cannot tell its coverage, so each
+        // pixel's samples are of one surface, and the frame's edges are resolved from their
+        // subpixels (`crate::accumulate::Resolved`). Its iterations still shade each pixel at
+        // the sequence's points, moved within the pixel's triangle (a highlight is sampled
+        // across the pixel).
+        let jitter = halton_jitter(if state.reprojects { 0 } else { iteration });
         let mut params = camera_params(
             frame.view,
             frame.camera,
@@ -326,6 +330,9 @@ fn prepare_view(
             settings.seed,
             jitter,
         );
+        if state.reprojects {
+            params.shading_jitter = (jitter - halton_jitter(slot)).into();
+        }
         let (cap, flags) = state.clock.next(window);
         params.history_cap = cap;
         params.history_flags = flags.bits();

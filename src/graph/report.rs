@@ -152,7 +152,7 @@ pub(crate) fn report_views(
                 );
             }
         }
-        if waiting && let Some(bytes) = read_back(&device, &queue, &state.estimate.radiance) {
+        if waiting && let Some(bytes) = read_back(&device, &queue, state.estimate.shown()) {
             let pixels = bytemuck::cast_slice(&bytes).to_vec();
             let _ = sender.send(RenderMessage::Radiance(RadianceImage {
                 camera,

@@ -5,7 +5,7 @@ use bevy::prelude::*;
 use bevy::render::render_resource::*;
 
 use super::state::{RppmViewState, StageIds, StagePipelines, readiness};
-use crate::accumulate::{AccumulateKey, AccumulatePipeline};
+use crate::accumulate::{AccumulateKey, AccumulatePipeline, ResolveKey, ResolvePipeline};
 use crate::cubemap::CubemapPipelines;
 use crate::gbuffer::GBufferPipeline;
 use crate::importons::{EyePathKey, EyePathPipeline};
@@ -37,6 +37,7 @@ pub(crate) struct Pipelines<'w> {
         ResMut<'w, SpecializedComputePipelines<IndirectSplatPipeline>>,
     pub(super) accumulate: Res<'w, AccumulatePipeline>,
     pub(super) accumulate_variants: ResMut<'w, SpecializedComputePipelines<AccumulatePipeline>>,
+    pub(super) resolve_variants: ResMut<'w, SpecializedComputePipelines<ResolvePipeline>>,
     pub(super) output: Res<'w, OutputPipeline>,
     pub(super) output_variants: ResMut<'w, SpecializedRenderPipelines<OutputPipeline>>,
 }
@@ -112,6 +113,7 @@ pub(super) fn select_stages(
                     && sampled_lights,
                 emitters: traced_emitters,
                 emitter_rays: traced_emitters && scene.many_faced_emitters,
+                shading_points: state.key.history && state.traced_shadows,
             },
         ),
         trace: traced.then(|| {
@@ -164,6 +166,16 @@ pub(super) fn select_stages(
                 demodulated: state.key.history && state.key.textured,
             },
         ),
+        resolve: (state.key.history && state.cubemap.cubemap.is_some()).then(|| {
+            pipelines.resolve_variants.specialize(
+                cache,
+                &pipelines.accumulate.resolve,
+                ResolveKey {
+                    lookups,
+                    bvh: state.key.bvh,
+                },
+            )
+        }),
         outliers: state
             .importons
             .then_some(pipelines.accumulate.outliers.passes),

@@ -60,6 +60,8 @@ pub struct StageIds {
     pub splat: Option<CachedComputePipelineId>,
     pub indirect_splat: Option<CachedComputePipelineId>,
     pub accumulate: CachedComputePipelineId,
+    /// Edges resolved after a camera move, under `Reuse` with rays to trace.
+    pub resolve: Option<CachedComputePipelineId>,
     /// The outlier passes, where camera paths go on.
     pub outliers: Option<[CachedComputePipelineId; 2]>,
     pub output: Option<CachedRenderPipelineId>,
@@ -213,7 +215,7 @@ impl RppmViewState {
             cache,
             pipelines.output,
             params_binding(&params),
-            &estimate.radiance,
+            estimate.shown(),
         );
         let shadows = ShadowMaps::new(device, &scene.data, key.shadow_resolution, key.slots, false);
         shadows.write_light_views(queue, &scene.data);
@@ -410,12 +412,7 @@ impl RppmViewState {
             ("shadow_maps", self.shadows.bytes()),
             ("timestamps", 4096 * 8 * 2),
         ]);
-        if let Some(history) = &self.estimate.history {
-            memory.push(("history", history.bytes()));
-        }
-        if let Some(outliers) = &self.estimate.outliers {
-            memory.push(("outliers", outliers.bytes()));
-        }
+        memory.extend(self.estimate.memory());
         if let Some(cubemap) = &self.cubemap.cubemap {
             memory.extend(cubemap.memory());
         }

@@ -126,6 +126,10 @@ pub struct EyePathKey {
     /// well. The scene has an emitter of more than a quad (`has_many_faced_emitters`), and
     /// `emitters`.
     pub emitter_rays: bool,
+    /// A frame whose camera moved shades each pixel at its iterations' own points of the
+    /// pixel where they meet the G-buffer's surface (`SHADING_POINTS`, one more ray walk to
+    /// compile): `RppmHistory::Reuse` with traced shadows.
+    pub shading_points: bool,
 }
 
 impl SpecializedComputePipeline for EyePathPipeline {
@@ -171,6 +175,9 @@ impl SpecializedComputePipeline for EyePathPipeline {
         }
         if key.emitter_rays {
             shader_defs.push("EMITTER_RAYS".into());
+        }
+        if key.shading_points {
+            shader_defs.push("SHADING_POINTS".into());
         }
         if key.bvh {
             shader_defs.push("BVH".into());

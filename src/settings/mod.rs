@@ -53,17 +53,17 @@ pub enum RppmHistory {
     /// a moving light and a walking character). After any change each pixel keeps at most
     /// `iterations` iterations of history (an exponential window) for `iterations` more iterations.
     /// After a camera move the history is reprojected to where each pixel's surface was, and
-    /// dropped where the pixel sees another surface (disocclusion). Each reprojection blurs edges
-    /// and textures: a move keeps the light on a texture and shows each pixel's footprint's albedo
-    /// now, and keeps 3 samples of direct light where it is exact (up to 8 point, spot and
-    /// directional lights alone). After a change in the scene, indirect light is clamped to mean ±
-    /// σ of the neighbouring pixels' means since the change, so a caustic that moved does not
-    /// linger, and direct light starts again (shadows follow at once). A still scene converges as
-    /// with `Reset`. The window counts iterations, not frames: with several a frame
-    /// ([`IterationsPerFrame`]) it spans fewer frames. Holds 48 bytes a pixel (16 more where glass
+    /// dropped where the pixel sees another surface (disocclusion); the frame keeps one surface a
+    /// pixel and shows an edge's pixels from 8 rays through them, each taking the light of the
+    /// pixel that sees what it met. A move keeps the light on a texture and shows each pixel's
+    /// footprint's albedo now, and keeps 3 samples of direct light where it is exact (up to 8
+    /// point, spot and directional lights alone). After a change in the scene, indirect light is
+    /// clamped to mean ± σ of the neighbouring pixels' means since the change, so a caustic that
+    /// moved does not linger, and direct light starts again. A still scene converges as with
+    /// `Reset`. The window counts iterations, not frames: with several a frame
+    /// ([`IterationsPerFrame`]) it spans fewer frames. Holds 64 bytes a pixel (16 more where glass
     /// or mirrors show what is past them, 16 where textures vary albedo), and from the first change
-    /// on as much and 16 more: last frame's copies, for reprojection. Range of `iterations`
-    /// 1..=1024.
+    /// on 16 more and last frame's history, for reprojection. Range of `iterations` 1..=1024.
     Reuse { iterations: u32 },
 }
 

@@ -66,7 +66,11 @@ pub struct IterationParams {
     /// This iteration's sub-pixel jitter (pixels, x right and y down): its samples lie this
     /// far before the pixels' centres in the unjittered image.
     pub jitter: [f32; 2],
-    pub pad: [f32; 2],
+    /// Where local illumination shades each pixel past its G-buffer sample, in pixels (0:
+    /// there): a frame whose camera moved rasterizes every iteration at one jitter, so that
+    /// each pixel's samples are of one surface, and moves its shading point over that
+    /// surface's triangle instead.
+    pub shading_jitter: [f32; 2],
     /// Where last frame's camera was (w 1), or, orthographic, the direction toward it (w 0).
     pub previous_eye: [f32; 4],
 }

@@ -1,0 +1,148 @@
+//! Edges through a camera move (`RppmHistory::Reuse`): what the view shows and reads back is
+//! the estimate with each edge's pixels reconstructed from eight rays through their footprint
+//! (subpixel reconstruction, `shaders/accumulate/resolve.wgsl`). A frame whose camera moved
+//! rasterizes all its iterations at one jitter, so each pixel's history holds one surface
+//! and an edge's pixel one side; a still frame's jitter anti-aliases edges itself, and the
+//! estimate is shown as it is.
+
+use bevy::prelude::*;
+use bevy::render::render_resource::binding_types::{
+    storage_buffer_read_only_sized, storage_buffer_sized, texture_2d,
+};
+use bevy::render::render_resource::*;
+use bevy::render::renderer::RenderDevice;
+use bevy::shader::Shader;
+
+use crate::cubemap;
+use crate::gbuffer::GBuffer;
+use crate::importons::dispatch_per_pixel;
+use crate::scene::{Lookups, texture_defs};
+use crate::stats::timing::{Stage, StageTimer};
+use crate::view::{ViewLayouts, pixel_buffer};
+
+/// The pass, specialized by [`ResolveKey`].
+pub struct ResolvePipeline {
+    /// Group 2 (0 the scene's, 1 params, 3 tracing): 0 G-buffer position, 1 G-buffer normal,
+    /// 2 the estimate, 3 what is shown, 4 the history.
+    pub layout: BindGroupLayoutDescriptor,
+    view: ViewLayouts,
+    shader: Handle<Shader>,
+}
+
+/// What the rays through an edge's pixels need.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct ResolveKey {
+    /// The scene's material lookups (cut-outs the rays pass).
+    pub lookups: Lookups,
+    /// Rays through the hierarchy (`BVH`).
+    pub bvh: bool,
+}
+
+impl ResolvePipeline {
+    pub fn new(view: &ViewLayouts, shader: Handle<Shader>) -> Self {
+        let unfilterable = TextureSampleType::Float { filterable: false };
+        let layout = BindGroupLayoutDescriptor::new(
+            "rppm_resolve_layout",
+            &BindGroupLayoutEntries::sequential(
+                ShaderStages::COMPUTE,
+                (
+                    texture_2d(unfilterable),
+                    texture_2d(unfilterable),
+                    storage_buffer_read_only_sized(false, None),
+                    storage_buffer_sized(false, None),
+                    storage_buffer_read_only_sized(false, None),
+                ),
+            ),
+        );
+        Self {
+            layout,
+            view: view.clone(),
+            shader,
+        }
+    }
+}
+
+impl SpecializedComputePipeline for ResolvePipeline {
+    type Key = ResolveKey;
+
+    fn specialize(&self, key: ResolveKey) -> ComputePipelineDescriptor {
+        let mut shader_defs = texture_defs(key.lookups);
+        if key.bvh {
+            shader_defs.push("BVH".into());
+        }
+        ComputePipelineDescriptor {
+            label: Some("rppm_resolve".into()),
+            layout: vec![
+                self.view.scene.clone(),
+                self.view.params.clone(),
+                self.layout.clone(),
+                cubemap::trace_layout(),
+            ],
+            shader: self.shader.clone(),
+            shader_defs,
+            ..default()
+        }
+    }
+}
+
+/// What a `Reuse` view shows and reads back, and the pass's group.
+pub struct Resolved {
+    pub shown: Buffer,
+    group: Option<BindGroup>,
+}
+
+impl Resolved {
+    pub fn new(device: &RenderDevice, size: UVec2) -> Self {
+        let usage = BufferUsages::COPY_SRC | BufferUsages::COPY_DST;
+        Self {
+            shown: pixel_buffer(device, size, "rppm_shown", 16, usage),
+            group: None,
+        }
+    }
+
+    /// Binds this frame's G-buffer, the estimate and its history.
+    pub fn bind(
+        &mut self,
+        device: &RenderDevice,
+        cache: &PipelineCache,
+        pipeline: &ResolvePipeline,
+        gbuffer: &GBuffer,
+        [radiance, history]: [&Buffer; 2],
+    ) {
+        self.group = Some(device.create_bind_group(
+            "rppm_resolve_group",
+            &cache.get_bind_group_layout(&pipeline.layout),
+            &BindGroupEntries::sequential((
+                &gbuffer.position,
+                &gbuffer.normal,
+                radiance.as_entire_binding(),
+                self.shown.as_entire_binding(),
+                history.as_entire_binding(),
+            )),
+        ));
+    }
+
+    /// After a frame whose camera moved, the estimate with its edges reconstructed (where
+    /// `pass` and the view's tracing `groups` are there); else the estimate as it is.
+    pub fn encode(
+        &self,
+        encoder: &mut CommandEncoder,
+        pass: Option<(&ComputePipeline, [&BindGroup; 3])>,
+        radiance: &Buffer,
+        offset: u32,
+        size: UVec2,
+        timer: &mut StageTimer,
+    ) {
+        let (Some((pipeline, [scene, params, tracing])), Some(group)) = (pass, &self.group) else {
+            encoder.copy_buffer_to_buffer(radiance, 0, &self.shown, 0, self.shown.size());
+            return;
+        };
+        let mut pass = encoder.begin_compute_pass(&ComputePassDescriptor {
+            label: Some("rppm_resolve"),
+            timestamp_writes: timer.compute_pass(Stage::Accumulate),
+        });
+        pass.set_pipeline(pipeline);
+        pass.set_bind_group(3, tracing, &[]);
+        dispatch_per_pixel(&mut pass, [scene, params, group], offset, size);
+    }
+}

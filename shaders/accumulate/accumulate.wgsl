@@ -22,7 +22,7 @@
 #endif
 #ifdef HISTORY
 #import bevy_rppm::reproject::{previous_history, view_shown, lobe_iterations, shown_point, reproject, Shown, SHOWS_VIEW, SHOWS_BLURRED, SHOWS_GLOSS}
-#import bevy_rppm::surface::{surface_marks, emitting, packed_surface, mixed_surface, moved_surface, same_surface, KEPT, KEPT_EMITTING, KEPT_MOVING, KEPT_MIXED}
+#import bevy_rppm::surface::{neighbour, surface_marks, emitting, packed_surface, mixed_surface, moved_surface, same_surface, KEPT, KEPT_EMITTING, KEPT_MOVING, KEPT_MIXED}
 #endif
 
 @group(1) @binding(0) var<uniform> params: IterationParams;
@@ -61,12 +61,6 @@ fn shown_beyond(w: f32) -> f32 {
     return select(w, -1.0 - w, w < 0.0);
 }
 
-// Neighbour k (0..9, the pixel itself at 4) of `pixel` in its 3×3 block, inside the image.
-fn neighbour(pixel: vec2<u32>, k: i32) -> vec2<i32> {
-    let at = vec2<i32>(pixel) + vec2<i32>(k % 3 - 1, k / 3 - 1);
-    return clamp(at, vec2<i32>(0), vec2<i32>(params.size) - 1);
-}
-
 // Whether this pixel or one of its eight neighbours sees an emissive surface (EMITTERS: the
 // scene has one): light whose direct part is mostly its emission, which a change elsewhere
 // in the scene leaves alone.
@@ -74,7 +68,7 @@ fn emitter_nearby(pixel: vec2<u32>) -> bool {
     var found = false;
 #ifdef EMITTERS
     for (var k = 0; k < 9; k += 1) {
-        found = found || emitting(pixel_marks(neighbour(pixel, k)));
+        found = found || emitting(pixel_marks(neighbour(params.size, pixel, k)));
     }
 #endif
     return found;
@@ -84,7 +78,7 @@ fn emitter_nearby(pixel: vec2<u32>) -> bool {
 fn surface_nearby(kept: vec4<f32>, pixel: vec2<u32>) -> bool {
     var found = false;
     for (var k = 0; k < 9; k += 1) {
-        let p = neighbour(pixel, k);
+        let p = neighbour(params.size, pixel, k);
         let position = textureLoad(gbuffer_position, p, 0);
         let normal = textureLoad(gbuffer_normal, p, 0);
         found = found || same_surface(params, kept, position, normal, pixel_marks(p));

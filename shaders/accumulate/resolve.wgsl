@@ -10,16 +10,13 @@
 // nothing here is kept for the next frame.
 #import bevy_rppm::common::IterationParams
 #import bevy_rppm::cubemap::camera_hit
-#import bevy_rppm::surface::{surface_marks, packed_surface, same_surface, mixed_surface}
+#import bevy_rppm::surface::{neighbour, surface_marks, packed_surface, same_surface}
 
 @group(1) @binding(0) var<uniform> params: IterationParams;
 @group(2) @binding(0) var gbuffer_position: texture_2d<f32>;
 @group(2) @binding(1) var gbuffer_normal: texture_2d<f32>;
 @group(2) @binding(2) var<storage, read> radiance: array<vec4<f32>>;
 @group(2) @binding(3) var<storage, read_write> shown: array<vec4<f32>>;
-// The pixels' history, whose first block is the surface each saw (`mixed_surface`: samples of
-// more than one, where a frame's later iterations' jitter crossed an edge).
-@group(2) @binding(4) var<storage, read> history: array<vec4<f32>>;
 
 // Direct3D's standard 8× MSAA sample positions, in sixteenths of a pixel from its centre:
 // stratified in x and y alike.
@@ -27,12 +24,6 @@ const SUBPIXELS = array<vec2<f32>, 8>(
     vec2<f32>(1.0, -3.0), vec2<f32>(-1.0, 3.0), vec2<f32>(5.0, 1.0), vec2<f32>(-3.0, -5.0),
     vec2<f32>(-5.0, 5.0), vec2<f32>(-7.0, -1.0), vec2<f32>(3.0, 7.0), vec2<f32>(7.0, -7.0),
 );
-
-// Pixel k (0..9, the pixel itself at 4) of `pixel`'s 3 × 3 block, inside the image.
-fn block_pixel(pixel: vec2<u32>, k: i32) -> vec2<i32> {
-    let at = vec2<i32>(pixel) + vec2<i32>(k % 3 - 1, k / 3 - 1);
-    return clamp(at, vec2<i32>(0), vec2<i32>(params.size) - 1);
-}
 
 @compute @workgroup_size(8, 8, 1)
 fn main(@builtin(global_invocation_id) id: vec3<u32>) {
@@ -48,7 +39,7 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     var block: array<vec4<f32>, 9>;
     var edge = false;
     for (var k = 0; k < 9; k += 1) {
-        let p = block_pixel(id.xy, k);
+        let p = neighbour(params.size, id.xy, k);
         let q = textureLoad(gbuffer_position, p, 0);
         block[k] = packed_surface(q, textureLoad(gbuffer_normal, p, 0).xyz, surface_marks(q));
         edge = edge || !same_surface(params, block[k], position, normal, marks);
@@ -62,21 +53,18 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
         // The pixel's centre is `jitter` past its sample's, which the view's centre is.
         let m = camera_hit(params, vec2<f32>(id.xy) + 0.5 + params.jitter + SUBPIXELS[s] / 16.0);
         let met_marks = surface_marks(m[0]);
-        // The pixel itself where it sees that surface, else the nearest pixel whose estimate
-        // is of that surface alone, else the nearest that sees it (a history of both sides:
-        // a still frame's jitter crossed the edge).
+        // The pixel itself where it sees that surface, else the nearest pixel that sees it
+        // (each history is of one surface: the frame's iterations shared one jitter).
         var chosen = 4;
         var nearest = select(1.0e30, -1.0, same_surface(params, block[4], m[0], m[1], met_marks));
         for (var k = 0; k < 9; k += 1) {
-            let p = block_pixel(id.xy, k);
-            let mixed = mixed_surface(history[u32(p.y) * params.size.x + u32(p.x)]);
-            let d = distance(block[k].xyz, m[0].xyz) + select(0.0, 1.0e20, mixed);
+            let d = distance(block[k].xyz, m[0].xyz);
             if d < nearest && same_surface(params, block[k], m[0], m[1], met_marks) {
                 chosen = k;
                 nearest = d;
             }
         }
-        let p = block_pixel(id.xy, chosen);
+        let p = neighbour(params.size, id.xy, chosen);
         sum += radiance[u32(p.y) * params.size.x + u32(p.x)].rgb;
     }
     shown[index] = vec4<f32>(sum / 8.0, own.w);

@@ -73,3 +73,10 @@ fn same_surface(params: IterationParams, kept: vec4<f32>, position: vec4<f32>, n
     let tagged = ((packed >> 24u) & TAG_BITS) == (marks & TAG_BITS);
     return near && tagged && dot(kept_normal, normal.xyz) > 0.9 && emitting(packed >> 24u) == emitting(marks);
 }
+
+// Neighbour k (0..9, the pixel itself at 4) of `pixel` in its 3×3 block, inside an image of
+// `size`.
+fn neighbour(size: vec2<u32>, pixel: vec2<u32>, k: i32) -> vec2<i32> {
+    let at = vec2<i32>(pixel) + vec2<i32>(k % 3 - 1, k / 3 - 1);
+    return clamp(at, vec2<i32>(0), vec2<i32>(size) - 1);
+}

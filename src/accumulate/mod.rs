@@ -240,9 +240,9 @@ impl Estimate {
                 inputs.gbuffer,
             );
         }
-        if let (Some(resolved), Some(h)) = (&mut self.resolved, &self.history) {
-            let buffers = [&self.radiance, &h.history];
-            resolved.bind(device, cache, &pipeline.resolve, inputs.gbuffer, buffers);
+        if let Some(resolved) = &mut self.resolved {
+            let (gbuffer, radiance) = (inputs.gbuffer, &self.radiance);
+            resolved.bind(device, cache, &pipeline.resolve, gbuffer, radiance);
         }
         let entries = BindGroupEntries::sequential((
             inputs.params,

@@ -23,7 +23,7 @@ use crate::view::{ViewLayouts, pixel_buffer};
 /// The pass, specialized by [`ResolveKey`].
 pub struct ResolvePipeline {
     /// Group 2 (0 the scene's, 1 params, 3 tracing): 0 G-buffer position, 1 G-buffer normal,
-    /// 2 the estimate, 3 what is shown, 4 the history.
+    /// 2 the estimate, 3 what is shown.
     pub layout: BindGroupLayoutDescriptor,
     view: ViewLayouts,
     shader: Handle<Shader>,
@@ -50,7 +50,6 @@ impl ResolvePipeline {
                     texture_2d(unfilterable),
                     storage_buffer_read_only_sized(false, None),
                     storage_buffer_sized(false, None),
-                    storage_buffer_read_only_sized(false, None),
                 ),
             ),
         );
@@ -100,14 +99,14 @@ impl Resolved {
         }
     }
 
-    /// Binds this frame's G-buffer, the estimate and its history.
+    /// Binds this frame's G-buffer and the estimate.
     pub fn bind(
         &mut self,
         device: &RenderDevice,
         cache: &PipelineCache,
         pipeline: &ResolvePipeline,
         gbuffer: &GBuffer,
-        [radiance, history]: [&Buffer; 2],
+        radiance: &Buffer,
     ) {
         self.group = Some(device.create_bind_group(
             "rppm_resolve_group",
@@ -117,7 +116,6 @@ impl Resolved {
                 &gbuffer.normal,
                 radiance.as_entire_binding(),
                 self.shown.as_entire_binding(),
-                history.as_entire_binding(),
             )),
         ));
     }

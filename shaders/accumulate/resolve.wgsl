@@ -67,5 +67,6 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
         let p = neighbour(params.size, id.xy, chosen);
         sum += radiance[u32(p.y) * params.size.x + u32(p.x)].rgb;
     }
-    shown[index] = vec4<f32>(sum / 8.0, own.w);
+    // The still frames after a move: their jittered iterations anti-alias the pixel too.
+    shown[index] = vec4<f32>(mix(own.rgb, sum / 8.0, params.resolve_share), own.w);
 }

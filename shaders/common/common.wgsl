@@ -200,8 +200,7 @@ struct IterationParams {
     max_eye_depth: u32,
     // 1: each splat fragment survives with probability 1/2 and counts twice.
     splat_russian_roulette: u32,
-    // 1: direct light comes from photons (stored at their first hit) instead of the
-    // local stage; for checking photon flux.
+    // 1: direct light from photons (stored at their first hit), for checking photon flux.
     direct_photons: u32,
     // 1 (mode Indirect): leave out the light of first camera hits, which Bevy renders.
     indirect_only: u32,
@@ -224,15 +223,15 @@ struct IterationParams {
     photon_lanes: u32,
     // Power of all emissive triangles together (luminance W, as the CPU's emitter table).
     emitter_power: f32,
-    // 1 when photons leave a sun or the sky: local illumination counts how far the camera
-    // sees (`seen`), which their emission follows.
+    // 1 when photons leave a sun or the sky, whose emission follows how far the camera sees.
     seen_region: u32,
-    // This iteration's sub-pixel jitter (pixels, x right and y down): its samples lie this far
-    // before the pixels' centres in the unjittered image.
+    // This iteration's sub-pixel jitter (pixels, x right, y down) before the pixels' centres.
     jitter: vec2<f32>,
     // Where local illumination shades each pixel past its G-buffer sample (pixels; 0: there):
     // a frame whose camera moved rasterizes every iteration at one jitter (src/graph/prepare.rs).
     shading_jitter: vec2<f32>,
+    // The share of resolve.wgsl's edges in what the frame shows (0: the estimate as it is).
+    resolve_share: f32,
     // Where last frame's camera was (w 1), or, orthographic, the direction toward it (w 0).
     previous_eye: vec4<f32>,
 }

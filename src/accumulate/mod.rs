@@ -14,7 +14,7 @@ pub use clock::{Changes, HistoryClock, HistoryFlags};
 pub use history::History;
 pub(crate) use history::history_fits;
 pub use outliers::{OutlierPipelines, Outliers};
-pub use resolve::{ResolveKey, ResolvePipeline, Resolved};
+pub use resolve::{ResolveKey, ResolvePipeline, Resolved, resolve_share};
 
 use bevy::prelude::*;
 use bevy::render::render_resource::binding_types::{

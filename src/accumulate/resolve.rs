@@ -2,8 +2,9 @@
 //! the estimate with each edge's pixels reconstructed from eight rays through their footprint
 //! (subpixel reconstruction, `shaders/accumulate/resolve.wgsl`). A frame whose camera moved
 //! rasterizes all its iterations at one jitter, so each pixel's history holds one surface
-//! and an edge's pixel one side; a still frame's jitter anti-aliases edges itself, and the
-//! estimate is shown as it is.
+//! and an edge's pixel one side; the still frames after it show a falling share of the
+//! resolve as their jitter anti-aliases edges itself ([`resolve_share`]), then the estimate
+//! as it is.
 
 use bevy::prelude::*;
 use bevy::render::render_resource::binding_types::{
@@ -19,6 +20,17 @@ use crate::importons::dispatch_per_pixel;
 use crate::scene::{Lookups, texture_defs};
 use crate::stats::timing::{Stage, StageTimer};
 use crate::view::{ViewLayouts, pixel_buffer};
+
+/// The share of the resolved edges in what a frame shows, `since` iterations after the last
+/// frame whose camera moved, under a `window` of history: whole in that frame, falling as a
+/// still view's jittered iterations, which anti-alias edges themselves, take over the pixels'
+/// estimates (the one-jitter part's share is at most `window / (window + since)`); none once
+/// that is a half: the resolve of an estimate its jitter anti-aliased blurs it (measured).
+pub fn resolve_share(window: u32, since: u32) -> f32 {
+    let kept = window.max(1) as f32;
+    let share = kept / (kept + since as f32);
+    (2.0 * share - 1.0).max(0.0)
+}
 
 /// The pass, specialized by [`ResolveKey`].
 pub struct ResolvePipeline {
@@ -120,8 +132,8 @@ impl Resolved {
         ));
     }
 
-    /// After a frame whose camera moved, the estimate with its edges reconstructed (where
-    /// `pass` and the view's tracing `groups` are there); else the estimate as it is.
+    /// While the resolve has a share, the estimate with its edges reconstructed (where `pass`
+    /// and the view's tracing `groups` are there); else the estimate as it is.
     pub fn encode(
         &self,
         encoder: &mut CommandEncoder,
@@ -142,5 +154,21 @@ impl Resolved {
         pass.set_pipeline(pipeline);
         pass.set_bind_group(3, tracing, &[]);
         dispatch_per_pixel(&mut pass, [scene, params, group], offset, size);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::resolve_share;
+
+    #[test]
+    fn the_resolves_share_is_whole_after_a_move_and_falls_to_none() {
+        assert_eq!(resolve_share(8, 0), 1.0);
+        let shares: Vec<f32> = (0..=24).map(|n| resolve_share(8, n)).collect();
+        assert!(shares.windows(2).all(|w| w[1] <= w[0]));
+        assert!((resolve_share(8, 4) - 1.0 / 3.0).abs() < 1e-6);
+        assert_eq!(resolve_share(8, 8), 0.0);
+        assert_eq!(resolve_share(0, 0), 1.0);
+        assert_eq!(resolve_share(8, u32::MAX), 0.0);
     }
 }

@@ -133,7 +133,7 @@ pub(crate) fn rppm_node(
     if let Some(resolved) = &state.estimate.resolved {
         let pass = (stages.resolve.and_then(|id| cache.get_compute_pipeline(id)))
             .zip(state.cubemap.cubemap.as_ref())
-            .filter(|_| state.reprojects && state.debug_view == RppmDebugView::None)
+            .filter(|_| state.resolve_share > 0.0 && state.debug_view == RppmDebugView::None)
             .map(|(p, c)| (p, [&state.scene_group, &state.params_group, &c.trace_group]));
         let offset = (count.saturating_sub(1) as u64 * PARAMS_STRIDE) as u32;
         let radiance = &state.estimate.radiance;

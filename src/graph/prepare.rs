@@ -10,7 +10,7 @@ use bevy::render::view::{ExtractedView, ViewTarget};
 
 use super::stages::{Pipelines, select_stages};
 use super::state::{ResourceKey, RppmViewState, ViewTimer, stages_ready};
-use crate::accumulate::{Changes, HistoryFlags, history_fits};
+use crate::accumulate::{Changes, HistoryFlags, history_fits, resolve_share};
 use crate::cubemap::{self, BuildContext, CubemapConfig};
 use crate::importons::{extra_importons, importons_fit};
 use crate::output::output_key;
@@ -228,8 +228,12 @@ fn prepare_view(
     let largest = (key.size.x.max(key.size.y) as f32 / 4.0).max(0.25);
     let initial = (settings.initial_radius_pixels.min(largest) as f64).powi(2);
     // A new start, or a change under `Reuse` (its index is back at 0).
-    if state.clock.begin_frame(changes, window) || changes.moved || changes.scene {
+    let restarted = state.clock.begin_frame(changes, window);
+    if restarted || changes.moved || changes.scene {
         state.radius2 = initial;
+    }
+    if restarted {
+        state.since_move = None;
     }
     if let Some(target) = frame
         .rppm
@@ -309,6 +313,13 @@ fn prepare_view(
         state.keep_previous(device, &pipelines.cache, &pipelines.stages());
     }
     state.reprojects = count > 0 && first_flags.contains(HistoryFlags::REPROJECT);
+    state.since_move = match state.since_move {
+        _ if state.reprojects => Some(0),
+        since => since.map(|n| n.saturating_add(count)),
+    };
+    state.resolve_share = (state.since_move)
+        .zip(window)
+        .map_or(0.0, |(since, window)| resolve_share(window, since));
     state.clamps = false;
     for slot in 0..count.max(1) {
         let iteration = base + slot;
@@ -317,7 +328,8 @@ fn prepare_view(
         // iterations do. A frame whose camera moved rasterizes all its iterations at one:
         // history reprojected from where an edge was cannot tell its coverage, so each
         // pixel's samples are of one surface, and the frame's edges are resolved from their
-        // subpixels (`crate::accumulate::Resolved`). Its iterations still shade each pixel at
+        // subpixels (`crate::accumulate::Resolved`; the still frames after it show a falling
+        // share of that). Its iterations still shade each pixel at
         // the sequence's points where they meet the pixel's surface (a highlight is sampled
         // across the pixel: `shading_jitter`).
         let jitter = halton_jitter(if state.reprojects { 0 } else { iteration });
@@ -333,6 +345,7 @@ fn prepare_view(
         if state.reprojects {
             params.shading_jitter = (jitter - halton_jitter(slot)).into();
         }
+        params.resolve_share = state.resolve_share;
         let (cap, flags) = state.clock.next(window);
         params.history_cap = cap;
         params.history_flags = flags.bits();

@@ -87,6 +87,10 @@ pub struct RppmViewState {
     pub previous_clip_from_world: Mat4,
     /// This frame's first iteration reprojects last frame's history.
     pub reprojects: bool,
+    /// The share of resolved edges in what this frame shows (`accumulate::resolve_share`).
+    pub resolve_share: f32,
+    /// Iterations since the last frame whose camera moved, if any since the estimate started.
+    pub since_move: Option<u32>,
     /// Some iteration of this frame clamps history to its neighbourhoods, which read last
     /// iteration's copy of the pixels' means since the change (`HistoryFlags::clamps`).
     pub clamps: bool,
@@ -231,6 +235,8 @@ impl RppmViewState {
             scene_shape: scene.data.shape(),
             previous_clip_from_world: Mat4::IDENTITY,
             reprojects: false,
+            resolve_share: 0.0,
+            since_move: None,
             clamps: false,
             frame: (0, 0),
             radius2: 0.0,

@@ -68,9 +68,13 @@ pub struct IterationParams {
     pub jitter: [f32; 2],
     /// Where local illumination shades each pixel past its G-buffer sample, in pixels (0:
     /// there): a frame whose camera moved rasterizes every iteration at one jitter, so that
-    /// each pixel's samples are of one surface, and moves its shading point over that
-    /// surface's triangle instead.
+    /// each pixel's samples are of one surface, and moves its shading point over that surface
+    /// instead (the jitter sequence's points where they meet it).
     pub shading_jitter: [f32; 2],
+    /// The share of the resolved edges in what the frame shows
+    /// (`resolve_share` in src/accumulate/resolve.rs; 0: the estimate as it is).
+    pub resolve_share: f32,
+    pub pad: [u32; 3],
     /// Where last frame's camera was (w 1), or, orthographic, the direction toward it (w 0).
     pub previous_eye: [f32; 4],
 }

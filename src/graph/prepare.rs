@@ -329,9 +329,9 @@ fn prepare_view(
         // history reprojected from where an edge was cannot tell its coverage, so each
         // pixel's samples are of one surface, and the frame's edges are resolved from their
         // subpixels (`crate::accumulate::Resolved`; the still frames after it show a falling
-        // share of that). Its iterations still shade each pixel at
-        // the sequence's points where they meet the pixel's surface (a highlight is sampled
-        // across the pixel: `shading_jitter`).
+        // share of that). Its iterations still shade each pixel at the sequence's points
+        // where they meet the pixel's surface (a highlight is sampled across the pixel:
+        // `shading_jitter`).
         let jitter = halton_jitter(if state.reprojects { 0 } else { iteration });
         let mut params = camera_params(
             frame.view,

@@ -14,7 +14,8 @@ points DRJIT_LIBLLVM_PATH at it; otherwise it falls back to `scalar_rgb`, which 
 Material mapping (as the references in shared/scenes): metallic 0 and no transmission →
 Lambertian `diffuse` at roughness 1 or below 0.02 (Bevy's 4% specular layer is left out, see
 CONVENTIONS.md), else `bevy_plastic` (tools/bevy_layers.py: bevy_rppm's dielectric,
-that layer over an albedo-keeping diffuse lobe, per texel under a base colour texture); partial metallic → a `blendbsdf` of the two; metallic with
+that layer over an albedo-keeping diffuse lobe, per texel under a base colour texture; it leaves
+out bevy_rppm's dimming of the layer on dark surfaces from roughness 0.75, `matte_share`); partial metallic → a `blendbsdf` of the two; metallic with
 roughness < 0.02 → perfect `conductor`; metallic otherwise → `bevy_metal` (tools/bevy_metal.py:
 bevy_rppm's GGX with multiple scattering and Schlick's Fresnel; `--metal mitsuba` gives
 Mitsuba's single-scattering `roughconductor`, α = roughness², instead); transmission with roughness < 0.02 → `dielectric`, rougher → `roughdielectric` (GGX, α =

@@ -13,10 +13,44 @@ fn specular_f0(m: Material) -> vec3<f32> {
     return mix(tinted_f0(m), m.base_color.rgb, m.metallic);
 }
 
-// F0 of the surface's dielectric part, Bevy's: 0.16·(reflectance·specular_tint)².
+// F0 of the surface's dielectric part, Bevy's: 0.16·(reflectance·specular_tint)², dimmed on
+// dark rough surfaces (`matte_share`).
 fn tinted_f0(m: Material) -> vec3<f32> {
     let r = m.reflectance * m.specular_tint.rgb;
-    return min(0.16 * r * r, vec3<f32>(1.0));
+    let f0 = min(0.16 * r * r, vec3<f32>(1.0));
+    return f0 * matte_share(m, max(f0.x, max(f0.y, f0.z)));
+}
+
+// Roughness from which a dielectric turns towards the references' Lambert (CONVENTIONS.md).
+const MATTE_FROM: f32 = 0.75;
+// The most of a matte surface's darkest albedo channel its specular layer may reflect: the
+// layer's sheen, E(μ)/E_avg = 1.3 at cos θ = 0.2 at roughness 1, then keeps it within 5 % of
+// Lambert at that angle.
+const MATTE_SHARE: f32 = 0.15;
+
+// What keeps the specular layer of an opaque dielectric (peak F0 `f0`) within MATTE_SHARE of
+// its darkest albedo channel on average, the diffuse lobe reflecting the rest. Without it a
+// dark matte surface reflected the layer's 4 % whatever its colour (a tile of albedo 0.02
+// read 2×, walls of 0.12 11 % bright seen at a grazing angle). Full at roughness 1, none
+// below MATTE_FROM, where the layer is Bevy's own.
+fn matte_share(m: Material, f0: f32) -> f32 {
+    let t = saturate((m.perceptual_roughness - MATTE_FROM) / (1.0 - MATTE_FROM));
+    let albedo = m.base_color.rgb;
+    let most = MATTE_SHARE * min(albedo.x, min(albedo.y, albedo.z));
+    if t <= 0.0 || m.specular_transmission > 0.0 || f0 <= 0.0 {
+        return 1.0;
+    }
+    // `dielectric_energy` at F0 = f: f (1 − B) + F90 B, F90 = min(49.5 f, 1) (`specular_f90`),
+    // B (the table's F90 share) within 0.0006 of this line from MATTE_FROM up: no table read.
+    let b = 0.0028 + 0.0172 * (1.0 - m.perceptual_roughness);
+    if f0 * (1.0 - b) + min(49.5 * f0, 1.0) * b <= most {
+        return 1.0;
+    }
+    var f = (most - b) / (1.0 - b);
+    if f < 1.0 / 49.5 {
+        f = most / (1.0 + 48.5 * b);
+    }
+    return mix(1.0, max(f, 0.0) / f0, t);
 }
 
 // The dielectric F0's largest channel: what the diffuse lobe gives up to the specular layer

@@ -216,9 +216,10 @@ impl Estimate {
     }
 
     /// What the view shows and reads back: the estimate, or under `Reuse` its edges
-    /// resolved after a camera move.
-    pub fn shown(&self) -> &Buffer {
-        self.resolved.as_ref().map_or(&self.radiance, |r| &r.shown)
+    /// resolved after a camera move, in frames whose resolve ran (`resolved`).
+    pub fn shown(&self, resolved: bool) -> &Buffer {
+        let shown = self.resolved.as_ref().filter(|_| resolved);
+        shown.map_or(&self.radiance, |r| &r.shown)
     }
 
     /// Binds this frame's sample, splats and G-buffer.

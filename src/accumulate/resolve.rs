@@ -132,8 +132,8 @@ impl Resolved {
         ));
     }
 
-    /// While the resolve has a share, the estimate with its edges reconstructed (where `pass`
-    /// and the view's tracing `groups` are there); else the estimate as it is.
+    /// The estimate with its edges reconstructed, in a frame where the resolve has a share;
+    /// the estimate as it is until `pass` (and the view's tracing groups) are there.
     pub fn encode(
         &self,
         encoder: &mut CommandEncoder,

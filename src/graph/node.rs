@@ -130,10 +130,10 @@ pub(crate) fn rppm_node(
     if let Some(c) = &mut checkpoints {
         c.iterations(count);
     }
-    if let Some(resolved) = &state.estimate.resolved {
+    let resolving = state.resolve_share > 0.0;
+    if let Some(resolved) = state.estimate.resolved.as_ref().filter(|_| resolving) {
         let pass = (stages.resolve.and_then(|id| cache.get_compute_pipeline(id)))
             .zip(state.cubemap.cubemap.as_ref())
-            .filter(|_| state.resolve_share > 0.0 && state.debug_view == RppmDebugView::None)
             .map(|(p, c)| (p, [&state.scene_group, &state.params_group, &c.trace_group]));
         let offset = (count.saturating_sub(1) as u64 * PARAMS_STRIDE) as u32;
         let radiance = &state.estimate.radiance;
@@ -141,7 +141,8 @@ pub(crate) fn rppm_node(
     }
     let output = stages.output.and_then(|id| cache.get_render_pipeline(id));
     if let Some(output) = output {
-        crate::output::encode(encoder, output, &state.output_group, view_target, timer);
+        let group = state.output_group.pick(resolving);
+        crate::output::encode(encoder, output, group, view_target, timer);
     }
     timer.end_frame(encoder);
 }

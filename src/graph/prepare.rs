@@ -317,8 +317,10 @@ fn prepare_view(
         _ if state.reprojects => Some(0),
         since => since.map(|n| n.saturating_add(count)),
     };
+    // A debug view is shown as it is.
     state.resolve_share = (state.since_move)
         .zip(window)
+        .filter(|_| settings.debug_view == RppmDebugView::None)
         .map_or(0.0, |(since, window)| resolve_share(window, since));
     state.clamps = false;
     for slot in 0..count.max(1) {

@@ -152,7 +152,13 @@ pub(crate) fn report_views(
                 );
             }
         }
-        if waiting && let Some(bytes) = read_back(&device, &queue, state.estimate.shown()) {
+        if waiting
+            && let Some(bytes) = read_back(
+                &device,
+                &queue,
+                state.estimate.shown(state.resolve_share > 0.0),
+            )
+        {
             let pixels = bytemuck::cast_slice(&bytes).to_vec();
             let _ = sender.send(RenderMessage::Radiance(RadianceImage {
                 camera,

@@ -12,7 +12,7 @@ use crate::cubemap::ViewCubemap;
 use crate::gbuffer::GBuffer;
 use crate::importons::{EyePathPipeline, EyePaths};
 use crate::indirect_splat::{self, IndirectSplatPipeline};
-use crate::output::{self, OutputPipeline};
+use crate::output::{OutputGroups, OutputPipeline};
 use crate::photons::{PhotonController, PhotonPipeline, PhotonStore, StoreFit};
 use crate::scene::SceneBuffers;
 use crate::settings::{RppmDebugView, RppmMode};
@@ -137,7 +137,7 @@ pub struct RppmViewState {
     pub seen_region: Buffer,
     pub scene_group: BindGroup,
     pub params_group: BindGroup,
-    pub output_group: BindGroup,
+    pub output_group: OutputGroups,
     pub readback_pending: bool,
     /// Scene epoch the scene-dependent resources (shadow maps, bind groups) were made for.
     pub scene_epoch: u64,
@@ -214,12 +214,13 @@ impl RppmViewState {
                 seen_region.as_entire_binding(),
             )),
         );
-        let output_group = output::bind_group(
+        let output_group = OutputGroups::new(
             device,
             cache,
             pipelines.output,
             params_binding(&params),
-            estimate.shown(),
+            &estimate.radiance,
+            estimate.resolved.as_ref().map(|r| &r.shown),
         );
         let shadows = ShadowMaps::new(device, &scene.data, key.shadow_resolution, key.slots, false);
         shadows.write_light_views(queue, &scene.data);

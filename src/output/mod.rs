@@ -123,19 +123,44 @@ pub fn output_key(
     })
 }
 
-/// The group binding a view's params and estimate to the output pass.
-pub fn bind_group(
-    device: &RenderDevice,
-    cache: &PipelineCache,
-    pipeline: &OutputPipeline,
-    params: BufferBinding,
-    radiance: &Buffer,
-) -> BindGroup {
-    device.create_bind_group(
-        "rppm_output_group",
-        &cache.get_bind_group_layout(&pipeline.layout),
-        &BindGroupEntries::sequential((params, radiance.as_entire_binding())),
-    )
+/// The output pass's groups binding a view's params and what it shows: the estimate, and
+/// under `Reuse` its resolved edges (`shown`), drawn only in frames whose resolve ran; other
+/// frames draw the estimate itself, with no copy.
+pub struct OutputGroups {
+    estimate: BindGroup,
+    shown: Option<BindGroup>,
+}
+
+impl OutputGroups {
+    pub fn new(
+        device: &RenderDevice,
+        cache: &PipelineCache,
+        pipeline: &OutputPipeline,
+        params: BufferBinding,
+        radiance: &Buffer,
+        shown: Option<&Buffer>,
+    ) -> Self {
+        let layout = cache.get_bind_group_layout(&pipeline.layout);
+        let group = |b: &Buffer| {
+            device.create_bind_group(
+                "rppm_output_group",
+                &layout,
+                &BindGroupEntries::sequential((params.clone(), b.as_entire_binding())),
+            )
+        };
+        Self {
+            estimate: group(radiance),
+            shown: shown.map(group),
+        }
+    }
+
+    /// This frame's group: the resolved edges where the resolve ran (`resolved`).
+    pub fn pick(&self, resolved: bool) -> &BindGroup {
+        self.shown
+            .as_ref()
+            .filter(|_| resolved)
+            .unwrap_or(&self.estimate)
+    }
 }
 
 /// Draws the estimate into the view's main texture.

@@ -40,10 +40,11 @@ fn matte_share(m: Material, f0: f32) -> f32 {
     if t <= 0.0 || m.specular_transmission > 0.0 || f0 <= 0.0 {
         return 1.0;
     }
-    // `dielectric_energy` at F0 = f: f (1 − B) + F90 B, F90 = min(49.5 f, 1) (`specular_f90`),
-    // B (the table's F90 share) within 0.0006 of this line from MATTE_FROM up: no table read.
+    // `dielectric_energy` at F0 = f: f (1 − B) + F90 B, B (the table's F90 share) within 0.0006
+    // of this line from MATTE_FROM up: no table read. Its inverse below splits at F90 = 1,
+    // where `specular_f90`'s 49.5 f saturates.
     let b = 0.0028 + 0.0172 * (1.0 - m.perceptual_roughness);
-    if f0 * (1.0 - b) + min(49.5 * f0, 1.0) * b <= most {
+    if f0 * (1.0 - b) + specular_f90(vec3<f32>(f0)) * b <= most {
         return 1.0;
     }
     var f = (most - b) / (1.0 - b);

@@ -130,7 +130,7 @@ pub(crate) fn rppm_node(
     if let Some(c) = &mut checkpoints {
         c.iterations(count);
     }
-    let resolving = state.resolve_share > 0.0;
+    let resolving = state.resolves();
     if let Some(resolved) = state.estimate.resolved.as_ref().filter(|_| resolving) {
         let pass = (stages.resolve.and_then(|id| cache.get_compute_pipeline(id)))
             .zip(state.cubemap.cubemap.as_ref())

@@ -153,11 +153,7 @@ pub(crate) fn report_views(
             }
         }
         if waiting
-            && let Some(bytes) = read_back(
-                &device,
-                &queue,
-                state.estimate.shown(state.resolve_share > 0.0),
-            )
+            && let Some(bytes) = read_back(&device, &queue, state.estimate.shown(state.resolves()))
         {
             let pixels = bytemuck::cast_slice(&bytes).to_vec();
             let _ = sender.send(RenderMessage::Radiance(RadianceImage {

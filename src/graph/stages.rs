@@ -4,7 +4,7 @@
 use bevy::prelude::*;
 use bevy::render::render_resource::*;
 
-use super::state::{RppmViewState, StageIds, StagePipelines, readiness};
+use super::state::{RppmViewState, StageIds, StagePipelines};
 use crate::accumulate::{AccumulateKey, AccumulatePipeline, ResolveKey, ResolvePipeline};
 use crate::cubemap::CubemapPipelines;
 use crate::gbuffer::GBufferPipeline;
@@ -185,4 +185,47 @@ pub(super) fn select_stages(
                 .specialize(cache, &pipelines.output, key)
         }),
     }
+}
+
+/// Whether every pipeline is compiled; an error when one failed to build.
+pub(super) fn readiness<'a>(
+    states: impl IntoIterator<Item = &'a CachedPipelineState>,
+) -> Result<bool, String> {
+    let mut ready = true;
+    for state in states {
+        match state {
+            CachedPipelineState::Err(e) => {
+                return Err(format!("a bevy_rppm pipeline failed to build: {e}"));
+            }
+            CachedPipelineState::Ok(_) => {}
+            _ => ready = false,
+        }
+    }
+    Ok(ready)
+}
+
+/// Whether the stage variants this view selected are compiled.
+pub(super) fn stages_ready(state: &RppmViewState, cache: &PipelineCache) -> Result<bool, String> {
+    let Some(stages) = state.stages else {
+        return Ok(false);
+    };
+    let compute = [
+        Some(stages.eye_paths),
+        Some(stages.accumulate),
+        stages.trace,
+        stages.splat,
+        stages.indirect_splat,
+    ];
+    let sort = (stages.sort.into_iter().flatten())
+        .chain(stages.outliers.into_iter().flatten())
+        .map(Some);
+    let render = [cache.get_render_pipeline_state(stages.gbuffer)];
+    readiness(
+        compute
+            .into_iter()
+            .chain(sort)
+            .flatten()
+            .map(|id| cache.get_compute_pipeline_state(id))
+            .chain(render),
+    )
 }

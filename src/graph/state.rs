@@ -167,6 +167,11 @@ impl RppmViewState {
         (photons, self.iterations, store, self.key.photon_capacity)
     }
 
+    /// Whether this frame resolves edges, so shows `shown` rather than the estimate itself.
+    pub fn resolves(&self) -> bool {
+        self.resolve_share > 0.0
+    }
+
     /// Invocations that trace this frame's photons, each taking `photons_per_lane` in turn.
     pub fn photon_lanes(&self) -> u32 {
         self.photons.div_ceil(self.key.photons_per_lane)
@@ -454,47 +459,4 @@ fn photon_store(
         indirect_splat::bind_group(device, cache, pipelines.indirect_splat, store, eye_paths)
     });
     (store, group)
-}
-
-/// Whether every pipeline is compiled; an error when one failed to build.
-pub(super) fn readiness<'a>(
-    states: impl IntoIterator<Item = &'a CachedPipelineState>,
-) -> Result<bool, String> {
-    let mut ready = true;
-    for state in states {
-        match state {
-            CachedPipelineState::Err(e) => {
-                return Err(format!("a bevy_rppm pipeline failed to build: {e}"));
-            }
-            CachedPipelineState::Ok(_) => {}
-            _ => ready = false,
-        }
-    }
-    Ok(ready)
-}
-
-/// Whether the stage variants this view selected are compiled.
-pub(super) fn stages_ready(state: &RppmViewState, cache: &PipelineCache) -> Result<bool, String> {
-    let Some(stages) = state.stages else {
-        return Ok(false);
-    };
-    let compute = [
-        Some(stages.eye_paths),
-        Some(stages.accumulate),
-        stages.trace,
-        stages.splat,
-        stages.indirect_splat,
-    ];
-    let sort = (stages.sort.into_iter().flatten())
-        .chain(stages.outliers.into_iter().flatten())
-        .map(Some);
-    let render = [cache.get_render_pipeline_state(stages.gbuffer)];
-    readiness(
-        compute
-            .into_iter()
-            .chain(sort)
-            .flatten()
-            .map(|id| cache.get_compute_pipeline_state(id))
-            .chain(render),
-    )
 }

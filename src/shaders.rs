@@ -17,7 +17,7 @@ macro_rules! wgsl {
 #[derive(Resource, Clone)]
 pub struct RppmShaders {
     /// Import-only libraries (`bevy_rppm::sampling`, `common`, `camera`, `scene`, `microfacet`, `bsdf`, `mis`, `panes`, `cubemap`, `pane_rays`, `light_samples`, `lighting`,
-    /// `photon_map`, `eye_bounce`, `surface`, `reproject`),
+    /// `photon_map`, `eye_bounce`, `footprint`, `surface`, `reproject`),
     /// held so they stay loaded.
     _libraries: Vec<Handle<Shader>>,
     pub place: Handle<Shader>,
@@ -60,6 +60,7 @@ impl RppmShaders {
                 wgsl!(shaders, "shadows/lighting.wgsl"),
                 wgsl!(shaders, "photons/map.wgsl"),
                 wgsl!(shaders, "importons/bounce.wgsl"),
+                wgsl!(shaders, "importons/footprint.wgsl"),
                 wgsl!(shaders, "scene/surface.wgsl"),
                 wgsl!(shaders, "accumulate/reproject.wgsl"),
             ],

@@ -1,8 +1,7 @@
-// Local illumination: emission seen by the camera plus direct light from every light with
-// shadows from our shadow maps: this iteration's sample, before photons are added to it.
-// With IMPORTONS, a pixel that sees a specular surface (mirror, glass) follows the camera path
-// through the deep cubemap to the first non-specular surface, lights it the same way, and
-// leaves an importon there for indirect splatting.
+// Local illumination: emission seen by the camera plus direct light from every light, this
+// iteration's sample before photons are added. With IMPORTONS, a pixel that sees a specular
+// surface (mirror, glass) follows the camera path to the first non-specular surface, lights
+// it the same way, and leaves an importon there for indirect splatting.
 #import bevy_rppm::common::{Material, IterationParams, Importon, NO_IMPORTON, gather_radius}
 #import bevy_rppm::camera::toward_eye
 #import bevy_rppm::sampling::{random, pcg_hash, stratified_draws}
@@ -15,6 +14,7 @@
 #import bevy_rppm::bsdf::{glass_share, stores_photons}
 #import bevy_rppm::microfacet::fresnel_dielectric
 #import bevy_rppm::eye_bounce::{Bounce, delta_share, lobe_bounce, next_bounce}
+#import bevy_rppm::footprint::{Footprint, footprint_from_camera, footprint_transfer, footprint_bounce, footprint_width}
 #ifdef CLEARCOAT
 #import bevy_rppm::bsdf::{coat_traced, scatter_coat}
 #endif
@@ -64,19 +64,16 @@
 // Camera-path vertex from which Russian roulette may end a path.
 const EYE_ROULETTE_DEPTH: u32 = 3u;
 // Camera paths a pixel traces each iteration where it sees rough glass (frosted, storing no
-// photons): the light they bring varies the most of any pixel's, and a path costs less than
-// an iteration. 4 beat 1, 2 and 8 at equal time on the frosted scenes (README); smooth glass
-// and glossy metal lost by it.
+// photons): the light they bring varies the most of any pixel's, and a path costs less than an
+// iteration. 4 beat 1, 2 and 8 at equal time on the frosted scenes (README; not on smooth glass).
 const SPLIT_PATHS: u32 = 4u;
 // Of those paths, how many leave an importon: the second in a slot past the image's
 // (`EXTRA_IMPORTONS` in src/importons/mod.rs) where the buffer has room, else the first alone.
-// 2 beat 1 and 4 at equal time on `frosted_lantern` and `frosted_glass` (a gather costs more
-// than a path's local light).
+// 2 beat 1 and 4 at equal time on `frosted_lantern` and `frosted_glass` (a gather costs more).
 const SPLIT_IMPORTONS: u32 = 2u;
 
-// How far past the G-buffer point a path that went on met the first surface storing photons
-// (0: none): what glass or a mirror shows lies that far beyond along the camera ray, where a
-// camera move's reprojection looks for it (accumulate.wgsl).
+// How far past the G-buffer point a path that went on met the first surface storing photons (0:
+// none): where a camera move's reprojection looks for what glass or a mirror shows (accumulate).
 var<private> shown_beyond: f32;
 #endif
 
@@ -109,8 +106,8 @@ struct Vertex {
 // light at its end; with IMPORTONS a path that meets a surface storing no photons goes on
 // (emission and punctual lights at glossy vertices on the way) and leaves an importon at its
 // first vertex past the G-buffer that stores photons, in `slot` (none: NO_IMPORTON), weighed
-// by `share` of the pixel's importons. One loop for every vertex, so that the
-// lighting and the ray walk are compiled once.
+// by `share` of the pixel's importons, its gather as wide as the pixel's `Footprint` there.
+// One loop for every vertex, so that the lighting and the ray walk are compiled once.
 fn camera_path(first: Vertex, slot: u32, share: f32, rng: ptr<function, u32>) -> vec3<f32> {
     var v = first;
     var found = vec3<f32>(0.0);
@@ -118,6 +115,8 @@ fn camera_path(first: Vertex, slot: u32, share: f32, rng: ptr<function, u32>) ->
 #ifdef IMPORTONS
     var bounce = Bounce(vec3<f32>(0.0), vec3<f32>(1.0));
     var length = distance(params.camera_position.xyz, v.x);
+    let orthographic = params.orthographic != 0u;
+    var fp = Footprint(vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), true);
     let t_min = params.scene_sphere.w * 1e-6;
     // Whether the light this path meets next was sampled already (through a rough coat).
     var sampled = false;
@@ -176,6 +175,13 @@ fn camera_path(first: Vertex, slot: u32, share: f32, rng: ptr<function, u32>) ->
                 continue;
             }
 #endif
+            if fp.delta {
+                let at = triangle_at(v.triangle);
+                if depth == 2u {
+                    fp = footprint_transfer(footprint_from_camera(-v.wo, params.pixel_spread, orthographic), -v.wo, length, at);
+                }
+                fp = footprint_bounce(fp, at, v.x, v.n, v.front, -v.wo, d, select(v.m.ior, 1.0 / v.m.ior, v.front));
+            }
 #ifdef SPHERE_LIGHTS
             if drawn_density > 0.0 {
                 found += throughput * sphere_lights_met(v.x, d, select(hit.t, 1.0e30, hit.triangle == NO_HIT), drawn_density);
@@ -197,6 +203,7 @@ fn camera_path(first: Vertex, slot: u32, share: f32, rng: ptr<function, u32>) ->
             }
             let t = triangle_at(hit.triangle);
             length += hit.t;
+            fp = footprint_transfer(fp, d, hit.t, t);
             let geometric = cross(t.position_b - t.position_a, t.position_c - t.position_a);
             let front = dot(geometric, d) < 0.0;
             var interpolated = interpolated_normal(t, hit.uv);
@@ -232,7 +239,7 @@ fn camera_path(first: Vertex, slot: u32, share: f32, rng: ptr<function, u32>) ->
                 shown_beyond = length - distance(params.camera_position.xyz, first.x);
             }
             if stores_photons(v.m) && slot != NO_IMPORTON {
-                let footprint = params.pixel_spread * select(length, 1.0, params.orthographic != 0u);
+                let footprint = footprint_width(fp, d, params.pixel_spread * select(length, 1.0, orthographic));
                 let radius = gather_radius(params, params.splat_radius, footprint);
                 importons[slot] = Importon(v.x, v.triangle, interpolated, 0u, throughput * share, radius, v.wo, 0u);
                 atomicAdd(&importon_stats[1], 1u);

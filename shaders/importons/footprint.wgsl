@@ -50,9 +50,9 @@ fn footprint_transfer(f: Footprint, d: vec3<f32>, t: f32, tri: Triangle) -> Foot
     return out;
 }
 
-// How the shading normal n (unit, interpolated over `tri`, facing `sign`) turns along a step
-// dp within the triangle at point x.
-fn normal_step(tri: Triangle, x: vec3<f32>, dp: vec3<f32>, sign: f32) -> vec3<f32> {
+// How the shading normal (interpolated over `tri`, facing `sign`) turns at point x along the
+// steps px and py within the triangle: one barycentric setup for both.
+fn normal_steps(tri: Triangle, x: vec3<f32>, px: vec3<f32>, py: vec3<f32>, sign: f32) -> array<vec3<f32>, 2> {
     let e1 = tri.position_b - tri.position_a;
     let e2 = tri.position_c - tri.position_a;
     let g = cross(e1, e2);
@@ -60,11 +60,16 @@ fn normal_step(tri: Triangle, x: vec3<f32>, dp: vec3<f32>, sign: f32) -> vec3<f3
     let r = x - tri.position_a;
     let b = vec2<f32>(dot(cross(r, e2), g), dot(cross(e1, r), g)) * inv;
     let n = tri.normal_a * (1.0 - b.x - b.y) + tri.normal_b * b.x + tri.normal_c * b.y;
-    let db = vec2<f32>(dot(cross(dp, e2), g), dot(cross(e1, dp), g)) * inv;
-    let dn = (tri.normal_b - tri.normal_a) * db.x + (tri.normal_c - tri.normal_a) * db.y;
     let k = 1.0 / max(length(n), 1e-12);
     let unit = n * k;
-    return sign * (dn - unit * dot(unit, dn)) * k;
+    var steps: array<vec3<f32>, 2>;
+    let p = array<vec3<f32>, 2>(px, py);
+    for (var i = 0; i < 2; i += 1) {
+        let db = vec2<f32>(dot(cross(p[i], e2), g), dot(cross(e1, p[i]), g)) * inv;
+        let dn = (tri.normal_b - tri.normal_a) * db.x + (tri.normal_c - tri.normal_a) * db.y;
+        steps[i] = sign * (dn - unit * dot(unit, dn)) * k;
+    }
+    return steps;
 }
 
 // One differential's direction after the bounce from d to `out` at normal n (facing d's
@@ -93,9 +98,9 @@ fn footprint_bounce(f: Footprint, tri: Triangle, x: vec3<f32>, n: vec3<f32>, fro
         next.delta = false;
         return next;
     }
-    let sign = select(-1.0, 1.0, front);
-    next.dx = bend(d, f.dx, out, n, normal_step(tri, x, f.px, sign), eta, refracted);
-    next.dy = bend(d, f.dy, out, n, normal_step(tri, x, f.py, sign), eta, refracted);
+    let dn = normal_steps(tri, x, f.px, f.py, select(-1.0, 1.0, front));
+    next.dx = bend(d, f.dx, out, n, dn[0], eta, refracted);
+    next.dy = bend(d, f.dy, out, n, dn[1], eta, refracted);
     return next;
 }
 

@@ -8,8 +8,7 @@ use bevy::render::renderer::{RenderAdapterInfo, RenderDevice, RenderQueue};
 use bevy::render::texture::TextureCache;
 use bevy::render::view::{ExtractedView, ViewTarget};
 
-use super::stages::stages_ready;
-use super::stages::{Pipelines, select_stages};
+use super::stages::{Pipelines, select_stages, stages_ready};
 use super::state::{ResourceKey, RppmViewState, ViewTimer};
 use crate::accumulate::{Changes, HistoryFlags, history_fits, resolve_share};
 use crate::cubemap::{self, BuildContext, CubemapConfig};

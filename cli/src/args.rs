@@ -262,6 +262,9 @@ pub struct RenderArgs {
     /// Gather-kernel thickness along the normal, over its radius.
     #[arg(long, value_parser = finite_number)]
     pub flattening: Option<f32>,
+    /// Keep the global gather radius at every pixel (no kernel shrinks where it blurs).
+    #[arg(long)]
+    pub global_radius: bool,
     /// Splat photons on every n-th pixel (1, 2 or 4).
     #[arg(long)]
     pub subsampling: Option<u32>,
@@ -450,6 +453,7 @@ impl RenderArgs {
         s.initial_radius_pixels = self.radius.unwrap_or(s.initial_radius_pixels);
         s.alpha = self.alpha.unwrap_or(s.alpha);
         s.kernel_flattening = self.flattening.unwrap_or(s.kernel_flattening);
+        s.adaptive_kernel &= !self.global_radius;
         s.splat_russian_roulette |= self.splat_rr;
         s.profile_stages |= self.profile;
         s.seed = self.seed;

@@ -157,8 +157,7 @@ struct ShadowView {
     clip_from_world: mat4x4<f32>,
     // xyz: eye (perspective) or direction light travels (orthographic); w: 1 perspective, 0 ortho.
     origin: vec4<f32>,
-    // Unit axis the view looks along.
-    axis: vec4<f32>,
+    axis: vec4<f32>, // unit, the way the view looks
     near: f32,
     far: f32,
     // World-space size of one texel at unit distance (perspective) or absolute (ortho).
@@ -232,6 +231,9 @@ struct IterationParams {
     shading_jitter: vec2<f32>,
     // The share of resolve.wgsl's edges in what the frame shows (0: the estimate as it is).
     resolve_share: f32,
+    // 1: a radius sequence's first iteration; 1: kernels shrink where they blur (splat.wgsl).
+    radius_restart: u32,
+    adaptive_kernel: u32,
     // Where last frame's camera was (w 1), or, orthographic, the direction toward it (w 0).
     previous_eye: vec4<f32>,
 }

@@ -23,6 +23,49 @@
 // stand-in when the scene has none.
 @group(2) @binding(4) var<storage, read> surfaces: array<vec4<u32>>;
 @group(2) @binding(5) var splats: texture_storage_2d<rgba32float, write>;
+#ifndef SUBSAMPLED
+// Per pixel, what its kernels met since the radius sequence began (`kernel_scale`): the mean
+// density of photons over the disc and over its inner half (photons per square pixel), the
+// mean squared radius they were met at (pixels²), and how many iterations.
+@group(2) @binding(6) var<storage, read_write> kernel_stats: array<vec4<f32>>;
+#endif
+
+// The smallest share of the global radius a kernel takes.
+const LEAST_SCALE: f32 = 0.25;
+
+// This iteration's kernel radius, in global radii, from the pixel's `stats`
+// (PhotonMapping::adaptive_kernel). A disc's mean of a density f is f + r² ∇²f / 8, its inner
+// half's f + r² ∇²f / 32, so the disc's relative bias B is 4/3 of the inner density's
+// relative departure from the whole's, less three standard deviations of that departure's
+// noise; it grows as s². After n iterations of m photons a disc the estimate's relative
+// variance is 1 / (n m s²): B² s⁴ + 1 / (n m s²) is least at s⁶ = 1 / (2 n m B²).
+fn kernel_scale(stats: vec4<f32>) -> f32 {
+    if params.radius_restart != 0u || params.adaptive_kernel == 0u || stats.w < 2.0 || stats.x <= 0.0 {
+        return 1.0;
+    }
+    let r2 = params.splat_radius * params.splat_radius;
+    let inner = stats.y * 0.25 * stats.z * stats.w;
+    let departure = abs(1.0 - stats.y / stats.x) - 3.0 / sqrt(max(inner, 1.0));
+    let bias = 4.0 / 3.0 * departure * r2 / stats.z;
+    if bias <= 0.0 {
+        return 1.0;
+    }
+    let balance = 1.0 / (2.0 * (stats.w + 1.0) * stats.x * r2 * bias * bias);
+    return clamp(pow(balance, 1.0 / 6.0), LEAST_SCALE, 1.0);
+}
+
+// `stats` with this iteration's kernel of `radius` pixels, which held `photons.x` photons
+// over `share.x` of its disc, `photons.y` of them within half the radius (`share.y` of it).
+fn kernel_stats_after(stats: vec4<f32>, radius: f32, photons: vec2<f32>, share: vec2<f32>) -> vec4<f32> {
+    let kept = select(stats, vec4<f32>(0.0), params.radius_restart != 0u);
+    let r2 = radius * radius;
+    let sample = vec3<f32>(photons.x / (share.x * r2), 4.0 * photons.y / (share.y * r2), r2);
+    let n = kept.w + 1.0;
+    return vec4<f32>(kept.xyz + (sample - kept.xyz) / n, n);
+}
+
+// Photons a kernel held this iteration: all, and those within half its radius.
+var<private> held: vec2<f32>;
 
 // What one pixel's kernel needs of its G-buffer point.
 struct Kernel {
@@ -67,6 +110,8 @@ fn gather_run(k: Kernel, m: Material, out: Outgoing, shading: vec3<f32>, wo: vec
 #ifdef SUBSAMPLED
         sum += p.flux;
 #else
+        let offset = p.position - k.position;
+        held += vec2<f32>(1.0, select(0.0, 1.0, 4.0 * dot(offset, offset) < k.radius * k.radius));
         // The photons' density is irradiance on the kernel's plane; a normal map's bent
         // normal receives it by its own cosine instead (on either side: diffuse transmission).
         let incoming = unpack_normal(p.incoming);
@@ -204,15 +249,17 @@ fn plane_at(at: vec2<i32>, g: vec4<f32>, shading: vec3<f32>) -> vec3<f32> {
 // it holds are divided by that area, not the whole disc's (a disc that reaches past a
 // concave corner, or an object standing on the surface, or past a convex edge, holds none
 // there: the estimate read dark along every corner). Under glass or water that meets the
-// surface the disc is off it too, and so are its photons there (`gather_run`).
-fn disc_on_surface(k: Kernel) -> f32 {
+// surface the disc is off it too, and so are its photons there (`gather_run`). y: the share
+// of its inner half (the spiral's first quarter of points lies within half the radius).
+fn disc_on_surface(k: Kernel) -> vec2<f32> {
     let frame = basis_around(k.plane);
-    var on = 0.0;
+    var on = vec2<f32>(0.0);
     for (var i = 0u; i < DISC_POINTS; i += 1u) {
         let q = k.position + disc_point(frame, k.radius, i, DISC_POINTS);
-        on += select(0.0, 1.0, disc_view(k, q) == ON_SURFACE);
+        let seen = select(0.0, 1.0, disc_view(k, q) == ON_SURFACE);
+        on += vec2<f32>(seen, select(0.0, seen, i < DISC_POINTS / 4u));
     }
-    return disc_share(on, DISC_POINTS);
+    return vec2<f32>(disc_share(on.x, DISC_POINTS), disc_share(on.y, DISC_POINTS / 4u));
 }
 
 // The normals of two surfaces that meet at a crease are further apart than this (~25°).
@@ -247,6 +294,17 @@ fn creases_around(k_in: Kernel, pixel: vec2<i32>) -> Kernel {
     return k;
 }
 
+// A pixel that gathers nothing this iteration keeps its kernel's statistics, but for a new
+// radius sequence.
+fn skip_kernel(texel: vec2<i32>, index: u32) {
+    textureStore(splats, texel, vec4<f32>(0.0));
+#ifndef SUBSAMPLED
+    if params.radius_restart != 0u {
+        kernel_stats[index] = vec4<f32>(0.0);
+    }
+#endif
+}
+
 @compute @workgroup_size(8, 8, 1)
 fn gather(@builtin(global_invocation_id) id: vec3<u32>) {
     let texel = vec2<i32>(id.xy);
@@ -255,22 +313,27 @@ fn gather(@builtin(global_invocation_id) id: vec3<u32>) {
     }
 #ifdef SUBSAMPLED
     let pixel = subsample_representative(params, id.xy);
+    let scale = 1.0;
 #else
     let pixel = texel;
 #endif
+    let index = u32(pixel.y) * params.size.x + u32(pixel.x);
     let gp = textureLoad(gbuffer_position, pixel, 0);
     if gp.w == 0.0 {
-        textureStore(splats, texel, vec4<f32>(0.0));
+        skip_kernel(texel, index);
         return;
     }
+#ifndef SUBSAMPLED
+    let stats = kernel_stats[index];
+    let scale = kernel_scale(stats);
+#endif
     let gn = textureLoad(gbuffer_normal, pixel, 0);
-    let index = u32(pixel.y) * params.size.x + u32(pixel.x);
 #ifdef TEXTURED
     let plane = resolved_kernel_normal(surfaces[index], gn.xyz);
 #else
     let plane = kernel_normal(gp, gn.xyz);
 #endif
-    var k = Kernel(gp.xyz, gather_radius(params, params.splat_radius, gn.w), plane, index, array<vec4<f32>, 2>(), 0u, 0u, 0u);
+    var k = Kernel(gp.xyz, gather_radius(params, params.splat_radius * scale, gn.w), plane, index, array<vec4<f32>, 2>(), 0u, 0u, 0u);
 #ifdef TEXTURED
     let m = resolved_material(gp, surfaces[index]);
 #else
@@ -280,7 +343,7 @@ fn gather(@builtin(global_invocation_id) id: vec3<u32>) {
     // gathered there: their light comes by camera paths. (Water filling the view made the
     // splat walk 50 photons a pixel to find none.)
     if !stores_photons(m) {
-        textureStore(splats, texel, vec4<f32>(0.0));
+        skip_kernel(texel, index);
         return;
     }
     k = creases_around(k, pixel);
@@ -295,6 +358,10 @@ fn gather(@builtin(global_invocation_id) id: vec3<u32>) {
             sum += gather_run(k, m, out, gn.xyz, wo, gather_row_run(seen, face, y));
         }
     }
-    let density = splat_weight(params) / (PI * k.radius * k.radius * disc_on_surface(k));
+    let share = disc_on_surface(k);
+#ifndef SUBSAMPLED
+    kernel_stats[index] = kernel_stats_after(stats, params.splat_radius * scale, held, share);
+#endif
+    let density = splat_weight(params) / (PI * k.radius * k.radius * share.x);
     textureStore(splats, texel, vec4<f32>(sum * density, 0.0));
 }

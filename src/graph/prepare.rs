@@ -231,6 +231,7 @@ fn prepare_view(
     let restarted = state.clock.begin_frame(changes, window);
     if restarted || changes.moved || changes.scene {
         state.radius2 = initial;
+        state.radius_restart = true;
     }
     if restarted {
         state.since_move = None;
@@ -242,6 +243,7 @@ fn prepare_view(
     {
         state.fast_forward = Some(target);
         state.radius2 = radius2_after(initial, target, settings.alpha);
+        state.radius_restart = true;
         state.clock.fast_forward(target);
     }
     let estimate = matches!(
@@ -368,7 +370,9 @@ fn prepare_view(
         params.direct_photons = (settings.debug_view == RppmDebugView::DirectPhotons) as u32;
         params.indirect_only = (settings.mode == RppmMode::Indirect) as u32;
         params.kernel_flattening = settings.kernel_flattening;
+        params.adaptive_kernel = settings.adaptive_kernel as u32;
         params.indirect_subsampling = settings.indirect_subsampling;
+        params.radius_restart = (slot < count && std::mem::take(&mut state.radius_restart)) as u32;
         if slot < count {
             state.radius2 = next_radius2(state.radius2, state.clock.held, settings.alpha);
             state.clock.advance();

@@ -17,7 +17,7 @@ use crate::photons::{PhotonController, PhotonPipeline, PhotonStore, StoreFit};
 use crate::scene::SceneBuffers;
 use crate::settings::{RppmDebugView, RppmMode};
 use crate::shadows::ShadowMaps;
-use crate::splat::{SplatPipeline, SplatTarget};
+use crate::splat::{SplatInputs, SplatPipeline, SplatTarget, kernel_stats};
 use crate::stats::profile::WallProfile;
 use crate::stats::timing::StageTimer;
 use crate::view::params::{SEEN_REGION_BYTES, params_binding};
@@ -98,6 +98,9 @@ pub struct RppmViewState {
     pub frame: (u32, u32),
     /// Squared gather radius in pixels for the next iteration (Knaus–Zwicker sequence).
     pub radius2: f64,
+    /// The next iteration is the first of a radius sequence (its pixels' kernel statistics
+    /// start again).
+    pub radius_restart: bool,
     /// The last `RppmFastForward` applied.
     pub fast_forward: Option<u32>,
     /// Photons emitted per iteration this frame (0: no photon passes).
@@ -130,6 +133,7 @@ pub struct RppmViewState {
     pub eye_paths: EyePaths,
     pub store: Option<PhotonStore>,
     pub splats: SplatTarget,
+    pub kernel_stats: Buffer,
     pub indirect_group: Option<BindGroup>,
     pub estimate: Estimate,
     pub params: Buffer,
@@ -203,6 +207,7 @@ impl RppmViewState {
             key.textured,
         );
         let splats = SplatTarget::new(textures, device, size, key.subsampling);
+        let kernel_stats = kernel_stats(device, size, key.subsampling);
         let estimate = Estimate::new(device, size, key.history, key.importons, key.textured);
         let (store, indirect_group) = photon_store(key, device, cache, pipelines, &eye_paths);
         let seen_region = device.create_buffer(&BufferDescriptor {
@@ -246,6 +251,7 @@ impl RppmViewState {
             clamps: false,
             frame: (0, 0),
             radius2: 0.0,
+            radius_restart: true,
             fast_forward: None,
             photons: 0,
             photon_count: PhotonController::default(),
@@ -266,6 +272,7 @@ impl RppmViewState {
             eye_paths,
             store,
             splats,
+            kernel_stats,
             indirect_group,
             estimate,
             params,
@@ -342,9 +349,12 @@ impl RppmViewState {
                 device,
                 cache,
                 pipelines.splat,
-                store,
-                &self.gbuffer,
-                &self.eye_paths.surfaces,
+                SplatInputs {
+                    store,
+                    gbuffer: &self.gbuffer,
+                    surfaces: &self.eye_paths.surfaces,
+                    kernel_stats: &self.kernel_stats,
+                },
             );
         }
         self.estimate.bind(
@@ -412,6 +422,7 @@ impl RppmViewState {
         let pixels = self.key.size.x as u64 * self.key.size.y as u64;
         let mut memory: Vec<(&str, u64)> = self.eye_paths.memory().to_vec();
         memory.push(("splats", self.splats.bytes()));
+        memory.push(("kernel_stats", self.kernel_stats.size()));
         if let Some(store) = &self.store {
             memory.push(("photons", store.stored.size()));
             memory.push(("photon_tiles", store.tiles.size()));

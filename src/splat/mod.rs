@@ -10,7 +10,7 @@
 
 use bevy::prelude::*;
 use bevy::render::render_resource::binding_types::{
-    storage_buffer_read_only_sized, texture_2d, texture_storage_2d,
+    storage_buffer_read_only_sized, storage_buffer_sized, texture_2d, texture_storage_2d,
 };
 use bevy::render::render_resource::*;
 use bevy::render::renderer::RenderDevice;
@@ -44,7 +44,7 @@ const SPLAT_FORMAT: TextureFormat = TextureFormat::Rgba32Float;
 #[derive(Resource)]
 pub struct SplatPipeline {
     /// 0 the photon map, 1 its tiles' starts, 2 G-buffer position, 3 G-buffer normal,
-    /// 4 resolved surfaces, 5 the target.
+    /// 4 resolved surfaces, 5 the target, 6 the pixels' kernel statistics.
     pub layout: BindGroupLayoutDescriptor,
     base: ComputePipelineDescriptor,
 }
@@ -99,11 +99,30 @@ fn init_splat_pipeline(
                 texture_2d(unfilterable),
                 read(),
                 texture_storage_2d(SPLAT_FORMAT, StorageTextureAccess::WriteOnly),
+                storage_buffer_sized(false, None),
             ),
         ),
     );
     let base = tracing_pipeline("rppm_splat", &layouts, &layout, &shaders.splat);
     commands.insert_resource(SplatPipeline { layout, base });
+}
+
+/// What each pixel's kernels met since its radius sequence began (`kernel_stats` in
+/// `shaders/splat/splat.wgsl`): 16 bytes a pixel, or one texel's worth where photons are
+/// gathered subsampled, which keeps the global radius. Kept through frames.
+pub fn kernel_stats(device: &RenderDevice, size: UVec2, subsampling: u32) -> Buffer {
+    let size = if subsampling == 1 { size } else { UVec2::ONE };
+    crate::view::pixel_buffer(device, size, "rppm_kernel_stats", 16, BufferUsages::empty())
+}
+
+/// What a splat target's group binds besides the target.
+pub struct SplatInputs<'a> {
+    pub store: &'a PhotonStore,
+    pub gbuffer: &'a GBuffer,
+    /// Each pixel's textures, looked up by local illumination.
+    pub surfaces: &'a Buffer,
+    /// [`kernel_stats`].
+    pub kernel_stats: &'a Buffer,
 }
 
 /// One camera's splat target for this frame (from Bevy's `TextureCache`), and the group that
@@ -146,20 +165,19 @@ impl SplatTarget {
         device: &RenderDevice,
         cache: &PipelineCache,
         pipeline: &SplatPipeline,
-        store: &PhotonStore,
-        gbuffer: &GBuffer,
-        surfaces: &Buffer,
+        inputs: SplatInputs,
     ) {
         self.group = Some(device.create_bind_group(
             "rppm_splat_group",
             &cache.get_bind_group_layout(&pipeline.layout),
             &BindGroupEntries::sequential((
-                store.map.photons.as_entire_binding(),
-                store.map.tile_starts.as_entire_binding(),
-                &gbuffer.position,
-                &gbuffer.normal,
-                surfaces.as_entire_binding(),
+                inputs.store.map.photons.as_entire_binding(),
+                inputs.store.map.tile_starts.as_entire_binding(),
+                &inputs.gbuffer.position,
+                &inputs.gbuffer.normal,
+                inputs.surfaces.as_entire_binding(),
                 &self.view,
+                inputs.kernel_stats.as_entire_binding(),
             )),
         ));
     }

@@ -74,7 +74,12 @@ pub struct IterationParams {
     /// The share of the resolved edges in what the frame shows
     /// (`resolve_share` in src/accumulate/resolve.rs; 0: the estimate as it is).
     pub resolve_share: f32,
-    pub pad: [u32; 3],
+    /// 1 on the first iteration of a Knaus–Zwicker radius sequence: the pixels' kernel
+    /// statistics (`shaders/splat/splat.wgsl`) start again.
+    pub radius_restart: u32,
+    /// `PhotonMapping::adaptive_kernel`.
+    pub adaptive_kernel: u32,
+    pub pad: u32,
     /// Where last frame's camera was (w 1), or, orthographic, the direction toward it (w 0).
     pub previous_eye: [f32; 4],
 }

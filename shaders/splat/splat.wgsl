@@ -28,7 +28,6 @@
 // density of photons over the disc and over its inner half (photons per square pixel), the
 // mean squared radius they were met at (pixels²), and how many iterations.
 @group(2) @binding(6) var<storage, read_write> kernel_stats: array<vec4<f32>>;
-#endif
 
 // The smallest share of the global radius a kernel takes.
 const LEAST_SCALE: f32 = 0.25;
@@ -66,6 +65,7 @@ fn kernel_stats_after(stats: vec4<f32>, radius: f32, photons: vec2<f32>, share: 
 
 // Photons a kernel held this iteration: all, and those within half its radius.
 var<private> held: vec2<f32>;
+#endif
 
 // What one pixel's kernel needs of its G-buffer point.
 struct Kernel {

@@ -299,7 +299,7 @@ fn creases_around(k_in: Kernel, pixel: vec2<i32>) -> Kernel {
 fn skip_kernel(texel: vec2<i32>, index: u32) {
     textureStore(splats, texel, vec4<f32>(0.0));
 #ifndef SUBSAMPLED
-    if params.radius_restart != 0u {
+    if params.radius_restart != 0u && params.adaptive_kernel != 0u {
         kernel_stats[index] = vec4<f32>(0.0);
     }
 #endif
@@ -324,7 +324,12 @@ fn gather(@builtin(global_invocation_id) id: vec3<u32>) {
         return;
     }
 #ifndef SUBSAMPLED
-    let stats = kernel_stats[index];
+    // Without adaptive kernels the statistics are one texel (src/splat/mod.rs).
+    let adaptive = params.adaptive_kernel != 0u;
+    var stats = vec4<f32>(0.0);
+    if adaptive {
+        stats = kernel_stats[index];
+    }
     let scale = kernel_scale(stats);
 #endif
     let gn = textureLoad(gbuffer_normal, pixel, 0);
@@ -360,7 +365,9 @@ fn gather(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     let share = disc_on_surface(k);
 #ifndef SUBSAMPLED
-    kernel_stats[index] = kernel_stats_after(stats, params.splat_radius * scale, held, share);
+    if adaptive {
+        kernel_stats[index] = kernel_stats_after(stats, params.splat_radius * scale, held, share);
+    }
 #endif
     let density = splat_weight(params) / (PI * k.radius * k.radius * share.x);
     textureStore(splats, texel, vec4<f32>(sum * density, 0.0));

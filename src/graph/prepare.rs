@@ -124,6 +124,7 @@ pub(crate) fn prepare_views(
             bvh: settings.tracer.uses_bvh() && cubemap::bvh::fits(&device, triangles),
             textured,
             photons_per_lane: crate::photons::photons_per_lane(software),
+            adaptive_kernel: settings.adaptive_kernel,
         };
         let fresh = |pipelines: &Pipelines, textures: &mut TextureCache| {
             RppmViewState::new(

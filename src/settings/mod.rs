@@ -43,7 +43,8 @@ pub struct PhotonMapping {
     /// Each pixel's photon kernel shrinks below the global radius where its bias outweighs
     /// its noise: where the photons' density curves (a caustic's rim), read from how its
     /// inner half's density departs from the whole disc's, down to a quarter of the global
-    /// radius. `false` keeps the global radius everywhere. Default `true`.
+    /// radius. `false` keeps the global radius everywhere and holds no per-pixel statistics
+    /// (16 bytes a pixel); changing it restarts the estimate. Default `true`.
     pub adaptive_kernel: bool,
     /// Edge length in pixels of each face of the camera-centred deep cubemap.
     /// Range 16..=4096, default 256.

@@ -108,10 +108,11 @@ fn init_splat_pipeline(
 }
 
 /// What each pixel's kernels met since its radius sequence began (`kernel_stats` in
-/// `shaders/splat/splat.wgsl`): 16 bytes a pixel, or one texel's worth where photons are
-/// gathered subsampled, which keeps the global radius. Kept through frames.
-pub fn kernel_stats(device: &RenderDevice, size: UVec2, subsampling: u32) -> Buffer {
-    let size = if subsampling == 1 { size } else { UVec2::ONE };
+/// `shaders/splat/splat.wgsl`): 16 bytes a pixel where kernels adapt (`kept`), else one
+/// texel's worth (without `PhotonMapping::adaptive_kernel`, or where photons are gathered
+/// subsampled, which keeps the global radius). Kept through frames.
+pub fn kernel_stats(device: &RenderDevice, size: UVec2, kept: bool) -> Buffer {
+    let size = if kept { size } else { UVec2::ONE };
     crate::view::pixel_buffer(device, size, "rppm_kernel_stats", 16, BufferUsages::empty())
 }
 

@@ -23,7 +23,7 @@
 // stand-in when the scene has none.
 @group(2) @binding(4) var<storage, read> surfaces: array<vec4<u32>>;
 @group(2) @binding(5) var splats: texture_storage_2d<rgba32float, write>;
-#ifndef SUBSAMPLED
+#ifdef ADAPTIVE_KERNEL
 // Per pixel, what its kernels met since the radius sequence began (`kernel_scale`): the mean
 // density of photons over the disc and over its inner half (photons per square pixel), the
 // mean squared radius they were met at (pixels²), and how many iterations.
@@ -39,7 +39,7 @@ const LEAST_SCALE: f32 = 0.25;
 // noise; it grows as s². After n iterations of m photons a disc the estimate's relative
 // variance is 1 / (n m s²): B² s⁴ + 1 / (n m s²) is least at s⁶ = 1 / (2 n m B²).
 fn kernel_scale(stats: vec4<f32>) -> f32 {
-    if params.radius_restart != 0u || params.adaptive_kernel == 0u || stats.w < 2.0 || stats.x <= 0.0 {
+    if params.radius_restart != 0u || stats.w < 2.0 || stats.x <= 0.0 {
         return 1.0;
     }
     let r2 = params.splat_radius * params.splat_radius;
@@ -110,8 +110,10 @@ fn gather_run(k: Kernel, m: Material, out: Outgoing, shading: vec3<f32>, wo: vec
 #ifdef SUBSAMPLED
         sum += p.flux;
 #else
+#ifdef ADAPTIVE_KERNEL
         let offset = p.position - k.position;
         held += vec2<f32>(1.0, select(0.0, 1.0, 4.0 * dot(offset, offset) < k.radius * k.radius));
+#endif
         // The photons' density is irradiance on the kernel's plane; a normal map's bent
         // normal receives it by its own cosine instead (on either side: diffuse transmission).
         let incoming = unpack_normal(p.incoming);
@@ -298,8 +300,8 @@ fn creases_around(k_in: Kernel, pixel: vec2<i32>) -> Kernel {
 // radius sequence.
 fn skip_kernel(texel: vec2<i32>, index: u32) {
     textureStore(splats, texel, vec4<f32>(0.0));
-#ifndef SUBSAMPLED
-    if params.radius_restart != 0u && params.adaptive_kernel != 0u {
+#ifdef ADAPTIVE_KERNEL
+    if params.radius_restart != 0u {
         kernel_stats[index] = vec4<f32>(0.0);
     }
 #endif
@@ -313,7 +315,6 @@ fn gather(@builtin(global_invocation_id) id: vec3<u32>) {
     }
 #ifdef SUBSAMPLED
     let pixel = subsample_representative(params, id.xy);
-    let scale = 1.0;
 #else
     let pixel = texel;
 #endif
@@ -323,14 +324,11 @@ fn gather(@builtin(global_invocation_id) id: vec3<u32>) {
         skip_kernel(texel, index);
         return;
     }
-#ifndef SUBSAMPLED
-    // Without adaptive kernels the statistics are one texel (src/splat/mod.rs).
-    let adaptive = params.adaptive_kernel != 0u;
-    var stats = vec4<f32>(0.0);
-    if adaptive {
-        stats = kernel_stats[index];
-    }
+#ifdef ADAPTIVE_KERNEL
+    let stats = kernel_stats[index];
     let scale = kernel_scale(stats);
+#else
+    let scale = 1.0;
 #endif
     let gn = textureLoad(gbuffer_normal, pixel, 0);
 #ifdef TEXTURED
@@ -364,10 +362,8 @@ fn gather(@builtin(global_invocation_id) id: vec3<u32>) {
         }
     }
     let share = disc_on_surface(k);
-#ifndef SUBSAMPLED
-    if adaptive {
-        kernel_stats[index] = kernel_stats_after(stats, params.splat_radius * scale, held, share);
-    }
+#ifdef ADAPTIVE_KERNEL
+    kernel_stats[index] = kernel_stats_after(stats, params.splat_radius * scale, held, share);
 #endif
     let density = splat_weight(params) / (PI * k.radius * k.radius * share.x);
     textureStore(splats, texel, vec4<f32>(sum * density, 0.0));

@@ -124,7 +124,7 @@ pub(crate) fn prepare_views(
             bvh: settings.tracer.uses_bvh() && cubemap::bvh::fits(&device, triangles),
             textured,
             photons_per_lane: crate::photons::photons_per_lane(software),
-            adaptive_kernel: settings.adaptive_kernel,
+            adaptive_kernel: settings.adaptive_kernel && settings.indirect_subsampling == 1,
         };
         let fresh = |pipelines: &Pipelines, textures: &mut TextureCache| {
             RppmViewState::new(
@@ -371,7 +371,6 @@ fn prepare_view(
         params.direct_photons = (settings.debug_view == RppmDebugView::DirectPhotons) as u32;
         params.indirect_only = (settings.mode == RppmMode::Indirect) as u32;
         params.kernel_flattening = settings.kernel_flattening;
-        params.adaptive_kernel = settings.adaptive_kernel as u32;
         params.indirect_subsampling = settings.indirect_subsampling;
         params.radius_restart = (slot < count && std::mem::take(&mut state.radius_restart)) as u32;
         if slot < count {

@@ -137,6 +137,7 @@ pub(super) fn select_stages(
                     lookups,
                     layers,
                     glass: scene.paths.intersects(ScatterPaths::GLASS),
+                    adaptive_kernel: state.key.adaptive_kernel,
                 },
             )
         }),

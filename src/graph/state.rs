@@ -47,7 +47,8 @@ pub struct ResourceKey {
     pub textured: bool,
     /// Photons each tracing invocation takes in turn ([`crate::photons::photons_per_lane`]).
     pub photons_per_lane: u32,
-    /// Each pixel's kernel adapts (`PhotonMapping::adaptive_kernel`): its statistics are held.
+    /// Each pixel's kernel adapts (`PhotonMapping::adaptive_kernel`, photons gathered at every
+    /// pixel): its statistics are held.
     pub adaptive_kernel: bool,
 }
 
@@ -209,7 +210,7 @@ impl RppmViewState {
             key.textured,
         );
         let splats = SplatTarget::new(textures, device, size, key.subsampling);
-        let kernel_stats = kernel_stats(device, size, key.adaptive_kernel && key.subsampling == 1);
+        let kernel_stats = kernel_stats(device, size, key.adaptive_kernel);
         let estimate = Estimate::new(device, size, key.history, key.importons, key.textured);
         let (store, indirect_group) = photon_store(key, device, cache, pipelines, &eye_paths);
         let seen_region = device.create_buffer(&BufferDescriptor {

@@ -60,6 +60,9 @@ pub struct SplatKey {
     pub layers: ScatterPaths,
     /// The scene has glass or water, under which a disc's photons are left out (`GLASS`).
     pub glass: bool,
+    /// Each pixel's kernel shrinks where it blurs (`ADAPTIVE_KERNEL`:
+    /// `PhotonMapping::adaptive_kernel`, photons gathered at every pixel).
+    pub adaptive_kernel: bool,
 }
 
 impl SpecializedComputePipeline for SplatPipeline {
@@ -72,6 +75,9 @@ impl SpecializedComputePipeline for SplatPipeline {
         }
         if key.glass {
             shader_defs.push("GLASS".into());
+        }
+        if key.adaptive_kernel {
+            shader_defs.push("ADAPTIVE_KERNEL".into());
         }
         ComputePipelineDescriptor {
             shader_defs,
@@ -108,9 +114,9 @@ fn init_splat_pipeline(
 }
 
 /// What each pixel's kernels met since its radius sequence began (`kernel_stats` in
-/// `shaders/splat/splat.wgsl`): 16 bytes a pixel where kernels adapt (`kept`), else one
-/// texel's worth (without `PhotonMapping::adaptive_kernel`, or where photons are gathered
-/// subsampled, which keeps the global radius). Kept through frames.
+/// `shaders/splat/splat.wgsl`): 16 bytes a pixel where kernels adapt (`kept`: the view's
+/// `ResourceKey::adaptive_kernel`), else one texel for the layout's binding. Kept through
+/// frames.
 pub fn kernel_stats(device: &RenderDevice, size: UVec2, kept: bool) -> Buffer {
     let size = if kept { size } else { UVec2::ONE };
     crate::view::pixel_buffer(device, size, "rppm_kernel_stats", 16, BufferUsages::empty())

@@ -77,9 +77,7 @@ pub struct IterationParams {
     /// 1 on the first iteration of a Knaus–Zwicker radius sequence: the pixels' kernel
     /// statistics (`shaders/splat/splat.wgsl`) start again.
     pub radius_restart: u32,
-    /// `PhotonMapping::adaptive_kernel`.
-    pub adaptive_kernel: u32,
-    pub pad: u32,
+    pub pad: [u32; 2],
     /// Where last frame's camera was (w 1), or, orthographic, the direction toward it (w 0).
     pub previous_eye: [f32; 4],
 }

@@ -9,7 +9,7 @@
 #import bevy_rppm::scene::{triangle_at, barycentrics, material_at}
 #import bevy_rppm::bsdf::{bsdf_from, bsdf_toward, glass_share, translucency}
 #import bevy_rppm::cubemap::{cubemap, trace_ray, NO_HIT}
-#import bevy_rppm::photon_map::{photons, face_gather, gather_row_run, next_in_kernel, disc_point, disc_share}
+#import bevy_rppm::photon_map::{photons, face_gather, gather_row_run, next_in_kernel, disc_point, disc_share, kernel_scale, kernel_stats_after}
 
 @group(1) @binding(0) var<uniform> params: IterationParams;
 
@@ -17,6 +17,15 @@
 @group(2) @binding(2) var<storage, read> importons: array<Importon>;
 // Per pixel, the photons its importon gathered (rgb).
 @group(2) @binding(3) var<storage, read_write> importon_radiance: array<vec4<f32>>;
+#ifdef ADAPTIVE_KERNEL
+// Per pixel, what its own importon's kernels met since the radius sequence began
+// (`kernel_scale`; cleared when the sequence restarts, src/graph/node.rs), in pixels of the
+// importon's footprint.
+@group(2) @binding(4) var<storage, read_write> kernel_stats: array<vec4<f32>>;
+
+// Photons a kernel held this iteration: all, and those within half its radius.
+var<private> held: vec2<f32>;
+#endif
 
 // The photons of run `run` of the map that importon `imp` (of `pixel`, on material `m`, `out`
 // its bsdf_from) gathers, but those past glass that meets its surface (`disc`).
@@ -30,6 +39,10 @@ fn gather_run(imp: Importon, m: Material, out: Outgoing, pixel: u32, run: vec2<u
         if past_glass(disc, p.position) {
             continue;
         }
+#ifdef ADAPTIVE_KERNEL
+        let offset = p.position - imp.position;
+        held += vec2<f32>(1.0, select(0.0, 1.0, 4.0 * dot(offset, offset) < imp.radius * imp.radius));
+#endif
         sum += bsdf_toward(m, out, imp.normal, imp.outgoing, unpack_normal(p.incoming)) * p.flux;
     }
     return sum;
@@ -74,6 +87,8 @@ fn cut_plane(t: u32, hit: vec3<f32>, centre: vec3<f32>) -> vec4<f32> {
 // water that meets the surface within it (the centre on their positive side).
 struct Disc {
     share: f32,
+    // The share of its inner half (radius r/2) on surface.
+    inner: f32,
     cut_count: u32,
     cuts: array<vec4<f32>, CUTS>,
 }
@@ -99,7 +114,7 @@ fn disc_of(imp: Importon) -> Disc {
     let frame = basis_around(imp.normal);
     let r = imp.radius;
     let origin = imp.position + imp.normal * (0.5 * params.kernel_flattening * r);
-    var disc = Disc(1.0, 0u, array<vec4<f32>, CUTS>(vec4<f32>(0.0), vec4<f32>(0.0)));
+    var disc = Disc(1.0, 1.0, 0u, array<vec4<f32>, CUTS>(vec4<f32>(0.0), vec4<f32>(0.0)));
     // How far along each point's direction the plane is open (an opaque surface's distance).
     var open: array<f32, DISC_POINTS>;
     for (var i = 0u; i < DISC_POINTS; i += 1u) {
@@ -128,30 +143,36 @@ fn disc_of(imp: Importon) -> Disc {
 #endif
         open[i] = hit.t;
     }
-    var on = 0.0;
+    // The first quarter of a disc's points lie within half its radius.
+    var on = vec2<f32>(0.0);
     for (var i = 0u; i < DISC_POINTS; i += 1u) {
         let q = disc_point(frame, r, i, DISC_POINTS);
-        on += select(0.0, 1.0, length(q) <= open[i]);
+        let seen = select(0.0, 1.0, length(q) <= open[i]);
+        on += vec2<f32>(seen, select(0.0, seen, i < DISC_POINTS / 4u));
     }
-    disc.share = disc_share(on, DISC_POINTS);
+    disc.share = disc_share(on.x, DISC_POINTS);
+    disc.inner = disc_share(on.y, DISC_POINTS / 4u);
 #ifdef GLASS
     if disc.cut_count > 0u {
         // A cut is a plane: its share is counted on finer points, each open as far as the
         // traced direction nearest its own.
-        on = 0.0;
+        on = vec2<f32>(0.0);
         for (var j = 0u; j < CUT_POINTS; j += 1u) {
             let q = disc_point(frame, r, j, CUT_POINTS);
             let k = nearest_direction(j);
-            on += select(0.0, 1.0, length(q) <= open[k] && !past_glass(disc, imp.position + q));
+            let seen = select(0.0, 1.0, length(q) <= open[k] && !past_glass(disc, imp.position + q));
+            on += vec2<f32>(seen, select(0.0, seen, j < CUT_POINTS / 4u));
         }
-        disc.share = disc_share(on, CUT_POINTS);
+        disc.share = disc_share(on.x, CUT_POINTS);
+        disc.inner = disc_share(on.y, CUT_POINTS / 4u);
     }
 #endif
     return disc;
 }
 
 // The light importon `imp` (of `pixel`) brings: the photons in its disc, over the disc's
-// area on surface.
+// area on surface (`disc_shares` keeps its disc's, for the kernel's statistics).
+var<private> disc_shares: vec2<f32>;
 fn gathered(imp: Importon, pixel: u32) -> vec3<f32> {
     let m = material_at(imp.triangle, barycentrics(triangle_at(imp.triangle), imp.position), 0.0);
     let out = bsdf_from(m, imp.normal, imp.outgoing);
@@ -165,6 +186,7 @@ fn gathered(imp: Importon, pixel: u32) -> vec3<f32> {
             sum += gather_run(imp, m, out, pixel, gather_row_run(seen, face, y), disc);
         }
     }
+    disc_shares = vec2<f32>(disc.share, disc.inner);
     let r = imp.radius;
     let area = PI * r * r * disc.share;
     return imp.throughput * sum * (splat_weight(params) / area);
@@ -182,6 +204,14 @@ fn gather(@builtin(global_invocation_id) id: vec3<u32>) {
         return;
     }
     var sum = vec3<f32>(0.0);
+#ifdef ADAPTIVE_KERNEL
+    // The pixel's kernels shrink where they blur (a caustic's rim seen in a mirror, a floor
+    // under glass beside the light around it), by what its own importon's met.
+    let stats = kernel_stats[pixel];
+    let scale = kernel_scale(params, stats);
+#else
+    let scale = 1.0;
+#endif
     // One call of the gather (its copies cost compile time on a CPU rasteriser).
     for (var k = 0u; k <= own.extras; k += 1u) {
         var imp = own;
@@ -189,7 +219,13 @@ fn gather(@builtin(global_invocation_id) id: vec3<u32>) {
             imp = importons[own.first_extra + k - 1u];
         }
         if imp.triangle != NO_IMPORTON {
+            imp.radius *= scale;
             sum += gathered(imp, pixel);
+#ifdef ADAPTIVE_KERNEL
+            if k == 0u {
+                kernel_stats[pixel] = kernel_stats_after(params, stats, params.splat_radius * scale, held, disc_shares);
+            }
+#endif
         }
     }
     importon_radiance[pixel] = vec4<f32>(sum, 0.0);

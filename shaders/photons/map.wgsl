@@ -210,3 +210,41 @@ fn next_in_kernel(at: u32, end: u32, params: IterationParams, centre: vec3<f32>,
     }
     return end;
 }
+
+// Adaptive kernels (PhotonMapping::adaptive_kernel), for both splats: per pixel, what its
+// kernels met since the radius sequence began, as `vec4(mean density over the disc, over its
+// inner half (photons per square pixel), mean squared radius met at (pixels²), iterations)`.
+
+// The smallest share of the global radius a kernel takes.
+const LEAST_SCALE: f32 = 0.25;
+
+// This iteration's kernel radius, in global radii, from the pixel's `stats`
+// (PhotonMapping::adaptive_kernel). A disc's mean of a density f is f + r² ∇²f / 8, its inner
+// half's f + r² ∇²f / 32, so the disc's relative bias B is 4/3 of the inner density's
+// relative departure from the whole's, less three standard deviations of that departure's
+// noise; it grows as s². After n iterations of m photons a disc the estimate's relative
+// variance is 1 / (n m s²): B² s⁴ + 1 / (n m s²) is least at s⁶ = 1 / (2 n m B²).
+fn kernel_scale(params: IterationParams, stats: vec4<f32>) -> f32 {
+    if params.radius_restart != 0u || stats.w < 2.0 || stats.x <= 0.0 {
+        return 1.0;
+    }
+    let r2 = params.splat_radius * params.splat_radius;
+    let inner = stats.y * 0.25 * stats.z * stats.w;
+    let departure = abs(1.0 - stats.y / stats.x) - 3.0 / sqrt(max(inner, 1.0));
+    let bias = 4.0 / 3.0 * departure * r2 / stats.z;
+    if bias <= 0.0 {
+        return 1.0;
+    }
+    let balance = 1.0 / (2.0 * (stats.w + 1.0) * stats.x * r2 * bias * bias);
+    return clamp(pow(balance, 1.0 / 6.0), LEAST_SCALE, 1.0);
+}
+
+// `stats` with this iteration's kernel of `radius` pixels, which held `photons.x` photons
+// over `share.x` of its disc, `photons.y` of them within half the radius (`share.y` of it).
+fn kernel_stats_after(params: IterationParams, stats: vec4<f32>, radius: f32, photons: vec2<f32>, share: vec2<f32>) -> vec4<f32> {
+    let kept = select(stats, vec4<f32>(0.0), params.radius_restart != 0u);
+    let r2 = radius * radius;
+    let sample = vec3<f32>(photons.x / (share.x * r2), 4.0 * photons.y / (share.y * r2), r2);
+    let n = kept.w + 1.0;
+    return vec4<f32>(kept.xyz + (sample - kept.xyz) / n, n);
+}

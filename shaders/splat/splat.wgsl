@@ -12,7 +12,7 @@
 #import bevy_rppm::scene::{gbuffer_material, resolved_material, resolved_kernel_normal, kernel_normal}
 #import bevy_rppm::bsdf::{bsdf_from, bsdf_gathered, bent_cosine, glass_share, translucency, stores_photons}
 #import bevy_rppm::cubemap::cubemap
-#import bevy_rppm::photon_map::{photons, face_gather, gather_row_run, next_in_kernel, disc_point, disc_share}
+#import bevy_rppm::photon_map::{photons, face_gather, gather_row_run, next_in_kernel, disc_point, disc_share, kernel_scale, kernel_stats_after}
 
 @group(1) @binding(0) var<uniform> params: IterationParams;
 
@@ -24,44 +24,8 @@
 @group(2) @binding(4) var<storage, read> surfaces: array<vec4<u32>>;
 @group(2) @binding(5) var splats: texture_storage_2d<rgba32float, write>;
 #ifdef ADAPTIVE_KERNEL
-// Per pixel, what its kernels met since the radius sequence began (`kernel_scale`): the mean
-// density of photons over the disc and over its inner half (photons per square pixel), the
-// mean squared radius they were met at (pixels²), and how many iterations.
+// Per pixel, what its kernels met since the radius sequence began (`kernel_scale`).
 @group(2) @binding(6) var<storage, read_write> kernel_stats: array<vec4<f32>>;
-
-// The smallest share of the global radius a kernel takes.
-const LEAST_SCALE: f32 = 0.25;
-
-// This iteration's kernel radius, in global radii, from the pixel's `stats`
-// (PhotonMapping::adaptive_kernel). A disc's mean of a density f is f + r² ∇²f / 8, its inner
-// half's f + r² ∇²f / 32, so the disc's relative bias B is 4/3 of the inner density's
-// relative departure from the whole's, less three standard deviations of that departure's
-// noise; it grows as s². After n iterations of m photons a disc the estimate's relative
-// variance is 1 / (n m s²): B² s⁴ + 1 / (n m s²) is least at s⁶ = 1 / (2 n m B²).
-fn kernel_scale(stats: vec4<f32>) -> f32 {
-    if params.radius_restart != 0u || stats.w < 2.0 || stats.x <= 0.0 {
-        return 1.0;
-    }
-    let r2 = params.splat_radius * params.splat_radius;
-    let inner = stats.y * 0.25 * stats.z * stats.w;
-    let departure = abs(1.0 - stats.y / stats.x) - 3.0 / sqrt(max(inner, 1.0));
-    let bias = 4.0 / 3.0 * departure * r2 / stats.z;
-    if bias <= 0.0 {
-        return 1.0;
-    }
-    let balance = 1.0 / (2.0 * (stats.w + 1.0) * stats.x * r2 * bias * bias);
-    return clamp(pow(balance, 1.0 / 6.0), LEAST_SCALE, 1.0);
-}
-
-// `stats` with this iteration's kernel of `radius` pixels, which held `photons.x` photons
-// over `share.x` of its disc, `photons.y` of them within half the radius (`share.y` of it).
-fn kernel_stats_after(stats: vec4<f32>, radius: f32, photons: vec2<f32>, share: vec2<f32>) -> vec4<f32> {
-    let kept = select(stats, vec4<f32>(0.0), params.radius_restart != 0u);
-    let r2 = radius * radius;
-    let sample = vec3<f32>(photons.x / (share.x * r2), 4.0 * photons.y / (share.y * r2), r2);
-    let n = kept.w + 1.0;
-    return vec4<f32>(kept.xyz + (sample - kept.xyz) / n, n);
-}
 
 // Photons a kernel held this iteration: all, and those within half its radius.
 var<private> held: vec2<f32>;
@@ -326,7 +290,7 @@ fn gather(@builtin(global_invocation_id) id: vec3<u32>) {
     }
 #ifdef ADAPTIVE_KERNEL
     let stats = kernel_stats[index];
-    let scale = kernel_scale(stats);
+    let scale = kernel_scale(params, stats);
 #else
     let scale = 1.0;
 #endif
@@ -363,7 +327,7 @@ fn gather(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     let share = disc_on_surface(k);
 #ifdef ADAPTIVE_KERNEL
-    kernel_stats[index] = kernel_stats_after(stats, params.splat_radius * scale, held, share);
+    kernel_stats[index] = kernel_stats_after(params, stats, params.splat_radius * scale, held, share);
 #endif
     let density = splat_weight(params) / (PI * k.radius * k.radius * share.x);
     textureStore(splats, texel, vec4<f32>(sum * density, 0.0));

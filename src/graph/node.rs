@@ -88,6 +88,9 @@ pub(crate) fn rppm_node(
     if state.reprojects {
         state.estimate.encode_keep_previous(encoder);
     }
+    if state.kernels_restart {
+        encoder.clear_buffer(&state.importon_kernel_stats, 0, None);
+    }
     for slot in 0..count {
         let offset = (slot as u64 * PARAMS_STRIDE) as u32;
         if matches!(

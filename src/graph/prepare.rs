@@ -326,6 +326,7 @@ fn prepare_view(
         .filter(|_| settings.debug_view == RppmDebugView::None)
         .map_or(0.0, |(since, window)| resolve_share(window, since));
     state.clamps = false;
+    state.kernels_restart = false;
     for slot in 0..count.max(1) {
         let iteration = base + slot;
         // Under `Reuse` the jitter goes on through a scene's motion: a pixel's history
@@ -372,7 +373,9 @@ fn prepare_view(
         params.indirect_only = (settings.mode == RppmMode::Indirect) as u32;
         params.kernel_flattening = settings.kernel_flattening;
         params.indirect_subsampling = settings.indirect_subsampling;
-        params.radius_restart = (slot < count && std::mem::take(&mut state.radius_restart)) as u32;
+        let restart = slot < count && std::mem::take(&mut state.radius_restart);
+        params.radius_restart = restart as u32;
+        state.kernels_restart |= restart;
         if slot < count {
             state.radius2 = next_radius2(state.radius2, state.clock.held, settings.alpha);
             state.clock.advance();

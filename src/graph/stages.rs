@@ -150,6 +150,7 @@ pub(super) fn select_stages(
                     layers,
                     bvh: state.key.bvh,
                     glass: scene.paths.intersects(ScatterPaths::GLASS),
+                    adaptive_kernel: state.key.adaptive_kernel,
                 },
             )
         }),

@@ -47,8 +47,8 @@ pub struct ResourceKey {
     pub textured: bool,
     /// Photons each tracing invocation takes in turn ([`crate::photons::photons_per_lane`]).
     pub photons_per_lane: u32,
-    /// Each pixel's kernel adapts (`PhotonMapping::adaptive_kernel`, photons gathered at every
-    /// pixel): its statistics are held.
+    /// Each pixel's kernels adapt (`PhotonMapping::adaptive_kernel`, photons gathered at every
+    /// pixel): their statistics are held, its importon's too where importons are made.
     pub adaptive_kernel: bool,
 }
 
@@ -104,6 +104,9 @@ pub struct RppmViewState {
     /// The next iteration is the first of a radius sequence (its pixels' kernel statistics
     /// start again).
     pub radius_restart: bool,
+    /// This frame's first iteration begins a radius sequence: the importons' kernel
+    /// statistics are cleared before it (no indirect splat runs where none is made).
+    pub kernels_restart: bool,
     /// The last `RppmFastForward` applied.
     pub fast_forward: Option<u32>,
     /// Photons emitted per iteration this frame (0: no photon passes).
@@ -137,6 +140,7 @@ pub struct RppmViewState {
     pub store: Option<PhotonStore>,
     pub splats: SplatTarget,
     pub kernel_stats: Buffer,
+    pub importon_kernel_stats: Buffer,
     pub indirect_group: Option<BindGroup>,
     pub estimate: Estimate,
     pub params: Buffer,
@@ -210,9 +214,18 @@ impl RppmViewState {
             key.textured,
         );
         let splats = SplatTarget::new(textures, device, size, key.subsampling);
-        let kernel_stats = kernel_stats(device, size, key.adaptive_kernel);
+        let kept = key.adaptive_kernel && key.importons;
+        let importon_kernel_stats = kernel_stats(device, size, kept, "rppm_importon_kernel_stats");
+        let kernel_stats = kernel_stats(device, size, key.adaptive_kernel, "rppm_kernel_stats");
         let estimate = Estimate::new(device, size, key.history, key.importons, key.textured);
-        let (store, indirect_group) = photon_store(key, device, cache, pipelines, &eye_paths);
+        let (store, indirect_group) = photon_store(
+            key,
+            device,
+            cache,
+            pipelines,
+            &eye_paths,
+            &importon_kernel_stats,
+        );
         let seen_region = device.create_buffer(&BufferDescriptor {
             label: Some("rppm_seen_region"),
             size: SEEN_REGION_BYTES,
@@ -255,6 +268,7 @@ impl RppmViewState {
             frame: (0, 0),
             radius2: 0.0,
             radius_restart: true,
+            kernels_restart: false,
             fast_forward: None,
             photons: 0,
             photon_count: PhotonController::default(),
@@ -276,6 +290,7 @@ impl RppmViewState {
             store,
             splats,
             kernel_stats,
+            importon_kernel_stats,
             indirect_group,
             estimate,
             params,
@@ -415,8 +430,9 @@ impl RppmViewState {
         pipelines: &StagePipelines,
     ) {
         self.key.photon_capacity = capacity;
+        let stats = &self.importon_kernel_stats;
         (self.store, self.indirect_group) =
-            photon_store(self.key, device, cache, pipelines, &self.eye_paths);
+            photon_store(self.key, device, cache, pipelines, &self.eye_paths, stats);
         self.bind_targets(device, cache, pipelines);
     }
 
@@ -426,6 +442,7 @@ impl RppmViewState {
         let mut memory: Vec<(&str, u64)> = self.eye_paths.memory().to_vec();
         memory.push(("splats", self.splats.bytes()));
         memory.push(("kernel_stats", self.kernel_stats.size()));
+        memory.push(("importon_kernel_stats", self.importon_kernel_stats.size()));
         if let Some(store) = &self.store {
             memory.push(("photons", store.stored.size()));
             memory.push(("photon_tiles", store.tiles.size()));
@@ -459,6 +476,7 @@ fn photon_store(
     cache: &PipelineCache,
     pipelines: &StagePipelines,
     eye_paths: &EyePaths,
+    kernel_stats: &Buffer,
 ) -> (Option<PhotonStore>, Option<BindGroup>) {
     let store = (key.photon_capacity > 0).then(|| {
         PhotonStore::new(
@@ -470,7 +488,8 @@ fn photon_store(
         )
     });
     let group = store.as_ref().filter(|_| key.importons).map(|store| {
-        indirect_splat::bind_group(device, cache, pipelines.indirect_splat, store, eye_paths)
+        let pipeline = pipelines.indirect_splat;
+        indirect_splat::bind_group(device, cache, pipeline, store, eye_paths, kernel_stats)
     });
     (store, group)
 }

@@ -37,7 +37,7 @@ impl Plugin for IndirectSplatPlugin {
 #[derive(Resource)]
 pub struct IndirectSplatPipeline {
     /// 0 the photon map, 1 its tiles' starts, 2 importons, 3 gathered radiance per
-    /// importon.
+    /// importon, 4 the importons' kernel statistics.
     pub layout: BindGroupLayoutDescriptor,
     descriptor: ComputePipelineDescriptor,
 }
@@ -53,6 +53,9 @@ pub struct IndirectSplatKey {
     pub bvh: bool,
     /// The scene has glass or water, past which a disc's photons are left out (`GLASS`).
     pub glass: bool,
+    /// Each pixel's importon kernels shrink where they blur (`ADAPTIVE_KERNEL`, as the direct
+    /// splat's: `ResourceKey::adaptive_kernel`).
+    pub adaptive_kernel: bool,
 }
 
 impl SpecializedComputePipeline for IndirectSplatPipeline {
@@ -67,6 +70,9 @@ impl SpecializedComputePipeline for IndirectSplatPipeline {
                 }
                 if key.glass {
                     defs.push("GLASS".into());
+                }
+                if key.adaptive_kernel {
+                    defs.push("ADAPTIVE_KERNEL".into());
                 }
                 defs
             },
@@ -87,7 +93,7 @@ fn init_indirect_splat_pipeline(
         "rppm_indirect_splat_layout",
         &BindGroupLayoutEntries::sequential(
             ShaderStages::COMPUTE,
-            (read(), read(), read(), write()),
+            (read(), read(), read(), write(), write()),
         ),
     );
     let descriptor = tracing_pipeline(
@@ -99,13 +105,15 @@ fn init_indirect_splat_pipeline(
     commands.insert_resource(IndirectSplatPipeline { layout, descriptor });
 }
 
-/// The group binding one camera's photons to its importons.
+/// The group binding one camera's photons to its importons; `kernel_stats` is a
+/// [`crate::splat::kernel_stats`] buffer of the view's size where kernels adapt.
 pub fn bind_group(
     device: &RenderDevice,
     cache: &PipelineCache,
     pipeline: &IndirectSplatPipeline,
     store: &PhotonStore,
     eye_paths: &EyePaths,
+    kernel_stats: &Buffer,
 ) -> BindGroup {
     device.create_bind_group(
         "rppm_indirect_splat_group",
@@ -115,6 +123,7 @@ pub fn bind_group(
             store.map.tile_starts.as_entire_binding(),
             eye_paths.importons.as_entire_binding(),
             eye_paths.radiance.as_entire_binding(),
+            kernel_stats.as_entire_binding(),
         )),
     )
 }

@@ -40,11 +40,13 @@ pub struct PhotonMapping {
     /// Initial gather radius, in pixels of the camera view. Range 0.25..=256 and at most a
     /// quarter of the view's larger side, default 4.
     pub initial_radius_pixels: f32,
-    /// Each pixel's photon kernel shrinks below the global radius where its bias outweighs
-    /// its noise: where the photons' density curves (a caustic's rim), read from how its
-    /// inner half's density departs from the whole disc's, down to a quarter of the global
-    /// radius. `false` keeps the global radius everywhere and holds no per-pixel statistics
-    /// (16 bytes a pixel); changing it restarts the estimate. Default `true`.
+    /// Each pixel's photon kernels shrink below the global radius where their bias outweighs
+    /// their noise: where the photons' density curves (a caustic's rim, seen directly or by
+    /// a camera path through glass or a mirror), read from how a kernel's inner half's
+    /// density departs from the whole disc's, down to a quarter of the global radius. `false`
+    /// keeps the global radius everywhere and holds no per-pixel statistics (16 bytes a
+    /// pixel, and as many again where camera paths go on); changing it restarts the
+    /// estimate. Default `true`.
     pub adaptive_kernel: bool,
     /// Edge length in pixels of each face of the camera-centred deep cubemap.
     /// Range 16..=4096, default 256.

@@ -116,10 +116,10 @@ fn init_splat_pipeline(
 /// What each pixel's kernels met since its radius sequence began (`kernel_stats` in
 /// `shaders/splat/splat.wgsl`): 16 bytes a pixel where kernels adapt (`kept`: the view's
 /// `ResourceKey::adaptive_kernel`), else one texel for the layout's binding. Kept through
-/// frames.
-pub fn kernel_stats(device: &RenderDevice, size: UVec2, kept: bool) -> Buffer {
+/// frames; the importons' (`label`) are cleared where a radius sequence restarts.
+pub fn kernel_stats(device: &RenderDevice, size: UVec2, kept: bool, label: &'static str) -> Buffer {
     let size = if kept { size } else { UVec2::ONE };
-    crate::view::pixel_buffer(device, size, "rppm_kernel_stats", 16, BufferUsages::empty())
+    crate::view::pixel_buffer(device, size, label, 16, BufferUsages::COPY_DST)
 }
 
 /// What a splat target's group binds besides the target.

@@ -86,20 +86,7 @@ fn a_caustics_rim_stays_sharp_where_its_kernels_shrink() {
     let room = Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/suite/random");
     let reference = read_exr(&room.join("r48_05.ref.exr")).unwrap();
     let error = |adaptive_kernel| {
-        use bevy_rppm_cli::headless::{Budget, RenderRequest, render_gltf};
-        let request = RenderRequest {
-            scene: room.join("r48_05.gltf"),
-            width: 128,
-            height: 128,
-            budget: Budget::Iterations(24),
-            settings: PhotonMapping {
-                photons_per_iteration: PhotonCount::Fixed(131_072),
-                adaptive_kernel,
-                ..default()
-            },
-        };
-        let image = render_gltf(&request, |_| {}).unwrap().image;
-        assert_eq!(bad_pixels(&image), 0);
+        let image = render_kernels(&room.join("r48_05.gltf"), 24, 131_072, adaptive_kernel);
         bevy_rppm_cli::image_io::relmse(&image, &reference).unwrap()
     };
     let (adaptive, global) = (error(true), error(false));
@@ -135,20 +122,12 @@ fn a_caustic_seen_through_glass_stays_sharp_where_importon_kernels_shrink() {
         bevy_rppm_cli::image_io::relmse(&crop(image), &crop(&reference)).unwrap()
     };
     let errors = |adaptive_kernel| {
-        use bevy_rppm_cli::headless::{Budget, RenderRequest, render_gltf};
-        let request = RenderRequest {
-            scene: suite.join("mirror_caustic.gltf"),
-            width: 128,
-            height: 128,
-            budget: Budget::Iterations(32),
-            settings: PhotonMapping {
-                photons_per_iteration: PhotonCount::Fixed(65_536),
-                adaptive_kernel,
-                ..default()
-            },
-        };
-        let image = render_gltf(&request, |_| {}).unwrap().image;
-        assert_eq!(bad_pixels(&image), 0);
+        let image = render_kernels(
+            &suite.join("mirror_caustic.gltf"),
+            32,
+            65_536,
+            adaptive_kernel,
+        );
         let whole = bevy_rppm_cli::image_io::relmse(&image, &reference).unwrap();
         (foot(&image), whole)
     };
@@ -158,6 +137,26 @@ fn a_caustic_seen_through_glass_stays_sharp_where_importon_kernels_shrink() {
         adaptive.0 < 0.5 * global.0 && adaptive.1 < global.1,
         "the ball's foot and the image: {adaptive:.4?} adaptive, {global:.4?} global"
     );
+}
+
+/// `scene` at 128², `iterations` of `photons`, with or without adaptive kernels; every pixel
+/// finite.
+fn render_kernels(scene: &Path, iterations: u32, photons: u32, adaptive_kernel: bool) -> RgbImage {
+    use bevy_rppm_cli::headless::{Budget, RenderRequest, render_gltf};
+    let request = RenderRequest {
+        scene: scene.to_path_buf(),
+        width: 128,
+        height: 128,
+        budget: Budget::Iterations(iterations),
+        settings: PhotonMapping {
+            photons_per_iteration: PhotonCount::Fixed(photons),
+            adaptive_kernel,
+            ..default()
+        },
+    };
+    let image = render_gltf(&request, |_| {}).unwrap().image;
+    assert_eq!(bad_pixels(&image), 0);
+    image
 }
 
 /// A room kept in `assets/suite/random/` against its reference, at 64² and 16 iterations.

@@ -9,7 +9,7 @@
 #import bevy_rppm::scene::{triangle_at, barycentrics, material_at}
 #import bevy_rppm::bsdf::{bsdf_from, bsdf_toward, glass_share, translucency}
 #import bevy_rppm::cubemap::{cubemap, trace_ray, NO_HIT}
-#import bevy_rppm::photon_map::{photons, face_gather, gather_row_run, next_in_kernel, disc_point, disc_share, kernel_scale, kernel_stats_after}
+#import bevy_rppm::photon_map::{photons, face_gather, gather_row_run, next_in_kernel, disc_point, kernel_scale, kernel_stats_after, kernel_count, disc_count, disc_shares}
 
 @group(1) @binding(0) var<uniform> params: IterationParams;
 
@@ -23,8 +23,10 @@
 // importon's footprint.
 @group(2) @binding(4) var<storage, read_write> kernel_stats: array<vec4<f32>>;
 
-// Photons a kernel held this iteration: all, and those within half its radius.
+// Photons a kernel held this iteration: all, and those within half its radius; the shares
+// of its disc on surface (`Disc::shares`).
 var<private> held: vec2<f32>;
+var<private> gathered_shares: vec2<f32>;
 #endif
 
 // The photons of run `run` of the map that importon `imp` (of `pixel`, on material `m`, `out`
@@ -40,8 +42,7 @@ fn gather_run(imp: Importon, m: Material, out: Outgoing, pixel: u32, run: vec2<u
             continue;
         }
 #ifdef ADAPTIVE_KERNEL
-        let offset = p.position - imp.position;
-        held += vec2<f32>(1.0, select(0.0, 1.0, 4.0 * dot(offset, offset) < imp.radius * imp.radius));
+        held += kernel_count(p.position - imp.position, imp.radius);
 #endif
         sum += bsdf_toward(m, out, imp.normal, imp.outgoing, unpack_normal(p.incoming)) * p.flux;
     }
@@ -86,9 +87,8 @@ fn cut_plane(t: u32, hit: vec3<f32>, centre: vec3<f32>) -> vec4<f32> {
 // An importon's disc: the share of it that lies on surface, and the planes of the glass or
 // water that meets the surface within it (the centre on their positive side).
 struct Disc {
-    share: f32,
-    // The share of its inner half (radius r/2) on surface.
-    inner: f32,
+    // The shares of the disc and of its inner half (`disc_shares`).
+    shares: vec2<f32>,
     cut_count: u32,
     cuts: array<vec4<f32>, CUTS>,
 }
@@ -114,7 +114,7 @@ fn disc_of(imp: Importon) -> Disc {
     let frame = basis_around(imp.normal);
     let r = imp.radius;
     let origin = imp.position + imp.normal * (0.5 * params.kernel_flattening * r);
-    var disc = Disc(1.0, 1.0, 0u, array<vec4<f32>, CUTS>(vec4<f32>(0.0), vec4<f32>(0.0)));
+    var disc = Disc(vec2<f32>(1.0), 0u, array<vec4<f32>, CUTS>(vec4<f32>(0.0), vec4<f32>(0.0)));
     // How far along each point's direction the plane is open (an opaque surface's distance).
     var open: array<f32, DISC_POINTS>;
     for (var i = 0u; i < DISC_POINTS; i += 1u) {
@@ -143,15 +143,11 @@ fn disc_of(imp: Importon) -> Disc {
 #endif
         open[i] = hit.t;
     }
-    // The first quarter of a disc's points lie within half its radius.
     var on = vec2<f32>(0.0);
     for (var i = 0u; i < DISC_POINTS; i += 1u) {
-        let q = disc_point(frame, r, i, DISC_POINTS);
-        let seen = select(0.0, 1.0, length(q) <= open[i]);
-        on += vec2<f32>(seen, select(0.0, seen, i < DISC_POINTS / 4u));
+        on += disc_count(length(disc_point(frame, r, i, DISC_POINTS)) <= open[i], i, DISC_POINTS);
     }
-    disc.share = disc_share(on.x, DISC_POINTS);
-    disc.inner = disc_share(on.y, DISC_POINTS / 4u);
+    disc.shares = disc_shares(on, DISC_POINTS);
 #ifdef GLASS
     if disc.cut_count > 0u {
         // A cut is a plane: its share is counted on finer points, each open as far as the
@@ -160,19 +156,16 @@ fn disc_of(imp: Importon) -> Disc {
         for (var j = 0u; j < CUT_POINTS; j += 1u) {
             let q = disc_point(frame, r, j, CUT_POINTS);
             let k = nearest_direction(j);
-            let seen = select(0.0, 1.0, length(q) <= open[k] && !past_glass(disc, imp.position + q));
-            on += vec2<f32>(seen, select(0.0, seen, j < CUT_POINTS / 4u));
+            on += disc_count(length(q) <= open[k] && !past_glass(disc, imp.position + q), j, CUT_POINTS);
         }
-        disc.share = disc_share(on.x, CUT_POINTS);
-        disc.inner = disc_share(on.y, CUT_POINTS / 4u);
+        disc.shares = disc_shares(on, CUT_POINTS);
     }
 #endif
     return disc;
 }
 
 // The light importon `imp` (of `pixel`) brings: the photons in its disc, over the disc's
-// area on surface (`disc_shares` keeps its disc's, for the kernel's statistics).
-var<private> disc_shares: vec2<f32>;
+// area on surface.
 fn gathered(imp: Importon, pixel: u32) -> vec3<f32> {
     let m = material_at(imp.triangle, barycentrics(triangle_at(imp.triangle), imp.position), 0.0);
     let out = bsdf_from(m, imp.normal, imp.outgoing);
@@ -186,9 +179,11 @@ fn gathered(imp: Importon, pixel: u32) -> vec3<f32> {
             sum += gather_run(imp, m, out, pixel, gather_row_run(seen, face, y), disc);
         }
     }
-    disc_shares = vec2<f32>(disc.share, disc.inner);
+#ifdef ADAPTIVE_KERNEL
+    gathered_shares = disc.shares;
+#endif
     let r = imp.radius;
-    let area = PI * r * r * disc.share;
+    let area = PI * r * r * disc.shares.x;
     return imp.throughput * sum * (splat_weight(params) / area);
 }
 
@@ -223,7 +218,7 @@ fn gather(@builtin(global_invocation_id) id: vec3<u32>) {
             sum += gathered(imp, pixel);
 #ifdef ADAPTIVE_KERNEL
             if k == 0u {
-                kernel_stats[pixel] = kernel_stats_after(params, stats, params.splat_radius * scale, held, disc_shares);
+                kernel_stats[pixel] = kernel_stats_after(params, stats, params.splat_radius * scale, held, gathered_shares);
             }
 #endif
         }

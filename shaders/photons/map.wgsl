@@ -215,6 +215,25 @@ fn next_in_kernel(at: u32, end: u32, params: IterationParams, centre: vec3<f32>,
 // kernels met since the radius sequence began, as `vec4(mean density over the disc, over its
 // inner half (photons per square pixel), mean squared radius met at (pixels²), iterations)`.
 
+// A photon `offset` from the centre of a kernel of radius `r`, counted for its statistics:
+// (1, 1 where within half the radius).
+fn kernel_count(offset: vec3<f32>, r: f32) -> vec2<f32> {
+    return vec2<f32>(1.0, select(0.0, 1.0, 4.0 * dot(offset, offset) < r * r));
+}
+
+// Point `i` of a disc's `count` (`disc_point`), `seen` on surface or not, counted for its
+// shares: (all, within half the radius, where the first quarter of the points lie).
+fn disc_count(seen: bool, i: u32, count: u32) -> vec2<f32> {
+    let on = select(0.0, 1.0, seen);
+    return vec2<f32>(on, select(0.0, on, i < count / 4u));
+}
+
+// The shares of a disc and of its inner half on surface, from `disc_count`'s sum `on` over
+// `count` points.
+fn disc_shares(on: vec2<f32>, count: u32) -> vec2<f32> {
+    return vec2<f32>(disc_share(on.x, count), disc_share(on.y, count / 4u));
+}
+
 // The smallest share of the global radius a kernel takes.
 const LEAST_SCALE: f32 = 0.25;
 

@@ -12,7 +12,7 @@
 #import bevy_rppm::scene::{gbuffer_material, resolved_material, resolved_kernel_normal, kernel_normal}
 #import bevy_rppm::bsdf::{bsdf_from, bsdf_gathered, bent_cosine, glass_share, translucency, stores_photons}
 #import bevy_rppm::cubemap::cubemap
-#import bevy_rppm::photon_map::{photons, face_gather, gather_row_run, next_in_kernel, disc_point, disc_share, kernel_scale, kernel_stats_after}
+#import bevy_rppm::photon_map::{photons, face_gather, gather_row_run, next_in_kernel, disc_point, kernel_scale, kernel_stats_after, kernel_count, disc_count, disc_shares}
 
 @group(1) @binding(0) var<uniform> params: IterationParams;
 
@@ -75,8 +75,7 @@ fn gather_run(k: Kernel, m: Material, out: Outgoing, shading: vec3<f32>, wo: vec
         sum += p.flux;
 #else
 #ifdef ADAPTIVE_KERNEL
-        let offset = p.position - k.position;
-        held += vec2<f32>(1.0, select(0.0, 1.0, 4.0 * dot(offset, offset) < k.radius * k.radius));
+        held += kernel_count(p.position - k.position, k.radius);
 #endif
         // The photons' density is irradiance on the kernel's plane; a normal map's bent
         // normal receives it by its own cosine instead (on either side: diffuse transmission).
@@ -216,16 +215,15 @@ fn plane_at(at: vec2<i32>, g: vec4<f32>, shading: vec3<f32>) -> vec3<f32> {
 // concave corner, or an object standing on the surface, or past a convex edge, holds none
 // there: the estimate read dark along every corner). Under glass or water that meets the
 // surface the disc is off it too, and so are its photons there (`gather_run`). y: the share
-// of its inner half (the spiral's first quarter of points lies within half the radius).
+// of its inner half (`disc_count`).
 fn disc_on_surface(k: Kernel) -> vec2<f32> {
     let frame = basis_around(k.plane);
     var on = vec2<f32>(0.0);
     for (var i = 0u; i < DISC_POINTS; i += 1u) {
         let q = k.position + disc_point(frame, k.radius, i, DISC_POINTS);
-        let seen = select(0.0, 1.0, disc_view(k, q) == ON_SURFACE);
-        on += vec2<f32>(seen, select(0.0, seen, i < DISC_POINTS / 4u));
+        on += disc_count(disc_view(k, q) == ON_SURFACE, i, DISC_POINTS);
     }
-    return vec2<f32>(disc_share(on.x, DISC_POINTS), disc_share(on.y, DISC_POINTS / 4u));
+    return disc_shares(on, DISC_POINTS);
 }
 
 // The normals of two surfaces that meet at a crease are further apart than this (~25°).

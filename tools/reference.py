@@ -414,6 +414,12 @@ def pick_variant(wanted):
         found = sorted(glob.glob("/usr/lib/*/libLLVM-19.so") + glob.glob("/usr/lib/llvm-19/lib/libLLVM*.so*"))
         if found:
             os.environ["DRJIT_LIBLLVM_PATH"] = found[0]
+        else:
+            # drjit would load the system's older LLVM (Debian 12's 15), which aborts the
+            # process at its first kernel ("Cannot select fminimum") instead of failing here.
+            print("reference.py: no libLLVM-19 (apt-get install libllvm19); using scalar_rgb", file=sys.stderr)
+            mi.set_variant("scalar_rgb")
+            return "scalar_rgb"
     try:
         mi.set_variant(wanted)
         return wanted

@@ -410,23 +410,23 @@ def build_scene(path, width, height, tmp, max_depth=16):
 def pick_variant(wanted):
     import mitsuba as mi
 
+    def fallback(why):
+        print(f"reference.py: {wanted} unavailable ({why}); using scalar_rgb", file=sys.stderr)
+        mi.set_variant("scalar_rgb")
+        return "scalar_rgb"
+
     if wanted.startswith("llvm") and "DRJIT_LIBLLVM_PATH" not in os.environ:
         found = sorted(glob.glob("/usr/lib/*/libLLVM-19.so") + glob.glob("/usr/lib/llvm-19/lib/libLLVM*.so*"))
-        if found:
-            os.environ["DRJIT_LIBLLVM_PATH"] = found[0]
-        else:
+        if not found:
             # drjit would load the system's older LLVM (Debian 12's 15), which aborts the
             # process at its first kernel ("Cannot select fminimum") instead of failing here.
-            print("reference.py: no libLLVM-19 (apt-get install libllvm19); using scalar_rgb", file=sys.stderr)
-            mi.set_variant("scalar_rgb")
-            return "scalar_rgb"
+            return fallback("no libLLVM-19: apt-get install libllvm19")
+        os.environ["DRJIT_LIBLLVM_PATH"] = found[0]
     try:
         mi.set_variant(wanted)
         return wanted
-    except Exception as e:  # drjit rejects the system LLVM: fall back, slower but exact
-        print(f"reference.py: {wanted} unavailable ({e}); using scalar_rgb", file=sys.stderr)
-        mi.set_variant("scalar_rgb")
-        return "scalar_rgb"
+    except Exception as e:  # drjit rejects the LLVM it found: fall back, slower but exact
+        return fallback(e)
 
 
 def main():

@@ -2,10 +2,11 @@
 // gathered) far above what its pixel's neighbourhood and its surface read so far (a small
 // bright light met through rough glass: 10³ where the pixel reads 1) keeps BOUND·√k times
 // that level (k: the pixel's iterations) and spreads the rest over the pixels of its surface
-// around it (within 4 pixels, or as far as keeps each of them within its own bound, up to 16),
-// in proportion to their own estimates. The image keeps its energy and the rare light lands
+// around it (within 4 pixels, or as far as keeps each of them within its own bound, up to 16;
+// over every surface around where its own is too thin), in proportion to their estimates. The image keeps its energy and the rare light lands
 // near where it falls on average; as the bound grows with k, ever fewer samples are spread.
-// What the camera sees of an emitter or a sphere light is never spread.
+// What the camera sees of an emitter or a sphere light is never spread. The first iteration,
+// which has no estimate, weighs its samples against their neighbours' (`level`).
 #import bevy_rppm::common::{IterationParams, luminance}
 #import bevy_rppm::scene::{front_emitting, gbuffer_triangle, triangles}
 
@@ -32,34 +33,53 @@ fn path_sample(index: u32) -> vec3<f32> {
     return samples[index].rgb + importon_radiance[index].rgb;
 }
 
-// A pixel's estimate so far (luminance).
-fn level(index: u32) -> f32 {
-    return luminance(radiance[index].rgb);
+// A pixel's estimate so far (luminance). The first iteration has none: the least sample
+// among the pixel and its eight neighbours stands in, which a rare path's sample (or two
+// side by side) does not lift, so what is spread goes where the light is, not to them.
+// `bound` keeps it in `importon_radiance`'s w for `spread`, whose writes would change it.
+fn level(pixel: vec2<i32>) -> f32 {
+    if params.iteration != 0u {
+        return luminance(radiance[pixel_index(pixel)].rgb);
+    }
+    let w = window(pixel, 1);
+    var least = 3.4e38;
+    for (var row = w.lo.y; row <= w.hi.y; row += 1) {
+        for (var column = w.lo.x; column <= w.hi.x; column += 1) {
+            least = min(least, luminance(path_sample(pixel_index(vec2<i32>(column, row)))));
+        }
+    }
+    return least;
 }
 
 // How much of what pixel a spreads pixel b (`offset` from it) takes, before b's level: 0
 // unless they see one surface (normals within ~25°, each point within a few footprints of
-// the other's tangent plane), falling off to 0 at `radius` + 1 so that no square shows.
-// Symmetric, so what one gives the other takes.
-fn kinship(a: vec4<f32>, a_normal: vec4<f32>, b: vec4<f32>, b_normal: vec4<f32>, offset: vec2<i32>, radius: i32) -> f32 {
+// the other's tangent plane; any surface where `any_surface`), falling off to 0 at `radius`
+// + 1 so that no square shows. Symmetric, so what one gives the other takes.
+fn kinship(a: vec4<f32>, a_normal: vec4<f32>, b: vec4<f32>, b_normal: vec4<f32>, offset: vec2<i32>, radius: i32, any_surface: bool) -> f32 {
     let d = b.xyz - a.xyz;
     let steps2 = f32(dot(offset, offset));
     let slack = (1.0 + sqrt(steps2)) * max(a_normal.w, b_normal.w);
     let off_plane = max(abs(dot(d, a_normal.xyz)), abs(dot(d, b_normal.xyz)));
-    let same = b.w != 0.0 && dot(a_normal.xyz, b_normal.xyz) > 0.9 && off_plane <= slack;
+    let same = b.w != 0.0 && (any_surface || (dot(a_normal.xyz, b_normal.xyz) > 0.9 && off_plane <= slack));
     let falloff = 1.0 - steps2 / f32((radius + 1) * (radius + 1));
     return select(0.0, falloff, same && falloff > 0.0);
 }
 
 // The highest estimate among a pixel and its eight neighbours: a feature smaller than a
 // pixel (a light's highlight on a metal ball) is hit by some jittered samples and not others,
-// a spread that is its own (nothing of it is spread).
+// a spread that is its own (nothing of it is spread). In the first iteration, the highest
+// of the neighbours' samples (the pixel's own is the one weighed).
 fn nearby_level(pixel: vec2<i32>) -> f32 {
     let w = window(pixel, 1);
     var highest = 0.0;
     for (var row = w.lo.y; row <= w.hi.y; row += 1) {
         for (var column = w.lo.x; column <= w.hi.x; column += 1) {
-            highest = max(highest, level(pixel_index(vec2<i32>(column, row))));
+            let q = vec2<i32>(column, row);
+            if params.iteration != 0u {
+                highest = max(highest, level(q));
+            } else if any(q != pixel) {
+                highest = max(highest, luminance(path_sample(pixel_index(q))));
+            }
         }
     }
     return highest;
@@ -90,11 +110,14 @@ fn bound(@builtin(global_invocation_id) id: vec3<u32>) {
     let pixel = vec2<i32>(id.xy);
     let index = pixel_index(pixel);
     excess[index] = vec4<f32>(0.0);
-    // Only a still estimate bounds a sample: before the first iteration there is none, and
-    // while a change settles (`Reuse`'s capped history) it is of the light before, against
-    // which what the change lit would read as outliers.
+    if params.iteration == 0u {
+        importon_radiance[index].w = level(pixel);
+    }
+    // Only a still estimate bounds a sample (the first iteration's by its neighbours'
+    // samples, as one more): while a change settles (`Reuse`'s capped history) it is of the
+    // light before, against which what the change lit would read as outliers.
     let at = textureLoad(gbuffer_position, pixel, 0);
-    if at.w == 0.0 || params.iteration == 0u || params.history_cap != 0xffffffffu {
+    if at.w == 0.0 || params.history_cap != 0xffffffffu {
         return;
     }
     // An emitter's face or a sphere light seen by the camera is where it is, however few
@@ -102,7 +125,7 @@ fn bound(@builtin(global_invocation_id) id: vec3<u32>) {
     if front_emitting(triangles[gbuffer_triangle(at.w)].material, at.w) || samples[index].w < 0.0 {
         return;
     }
-    let count = radiance[index].w;
+    let count = select(radiance[index].w, 1.0, params.iteration == 0u);
     let sample = path_sample(index);
     let l = luminance(sample);
     let scale = BOUND * sqrt(count);
@@ -113,7 +136,7 @@ fn bound(@builtin(global_invocation_id) id: vec3<u32>) {
         return;
     }
     let n = textureLoad(gbuffer_normal, pixel, 0);
-    var sums = surface_sums(pixel, at, n, RADIUS);
+    var sums = surface_sums(pixel, at, n, RADIUS, false);
     let limit = scale * max(own, sums.x / sums.y);
     if !(l > limit) || !(sums.x > 0.0) {
         return;
@@ -125,24 +148,38 @@ fn bound(@builtin(global_invocation_id) id: vec3<u32>) {
     let wanted = (l - limit) / scale;
     if wanted > sums.x {
         radius = min(i32(ceil(f32(RADIUS) * sqrt(wanted / sums.x))), MOST_RADIUS);
-        sums = surface_sums(pixel, at, n, radius);
+        sums = surface_sums(pixel, at, n, radius, false);
+    }
+    // A surface too thin to take it within twice its bound (a pane's edge seen edge-on: a
+    // strip a pixel wide, where the spread gave most of it back to the pixel itself) shares
+    // it with every surface around, sized as above from what they read.
+    var any_surface = false;
+    if wanted > 2.0 * sums.x {
+        any_surface = true;
+        sums = surface_sums(pixel, at, n, RADIUS, true);
+        radius = RADIUS;
+        if wanted > sums.x {
+            radius = min(i32(ceil(f32(RADIUS) * sqrt(wanted / sums.x))), MOST_RADIUS);
+            sums = surface_sums(pixel, at, n, radius, true);
+        }
     }
     // w: the radius, and (twice its fraction, under 1 so that it never rounds up to the next
-    // radius) the share of the sample the pixel keeps.
-    excess[index] = vec4<f32>(sample * ((1.0 - limit / l) / sums.x), f32(radius) + 0.5 * (limit / l));
+    // radius) the share of the sample the pixel keeps; negative where any surface takes it.
+    let w = f32(radius) + 0.5 * (limit / l);
+    excess[index] = vec4<f32>(sample * ((1.0 - limit / l) / sums.x), select(w, -w, any_surface));
 }
 
 // The levels of the pixels of this pixel's surface within `radius`, weighed by their
 // kinship, and (y) the kinships' sum.
-fn surface_sums(pixel: vec2<i32>, at: vec4<f32>, n: vec4<f32>, radius: i32) -> vec2<f32> {
+fn surface_sums(pixel: vec2<i32>, at: vec4<f32>, n: vec4<f32>, radius: i32, any_surface: bool) -> vec2<f32> {
     let w = window(pixel, radius);
     var sums = vec2<f32>(0.0);
     for (var row = w.lo.y; row <= w.hi.y; row += 1) {
         for (var column = w.lo.x; column <= w.hi.x; column += 1) {
             let q = vec2<i32>(column, row);
-            let k = kinship(at, n, textureLoad(gbuffer_position, q, 0), textureLoad(gbuffer_normal, q, 0), q - pixel, radius);
+            let k = kinship(at, n, textureLoad(gbuffer_position, q, 0), textureLoad(gbuffer_normal, q, 0), q - pixel, radius, any_surface);
             if k > 0.0 {
-                sums += vec2<f32>(k * level(pixel_index(q)), k);
+                sums += vec2<f32>(k * level(q), k);
             }
         }
     }
@@ -175,7 +212,7 @@ fn spread(
             let share = excess[pixel_index(q)];
             // Pixels from this workgroup's square (0 inside it).
             let apart = max(max(lo - q, q - (lo + 7)), vec2<i32>(0));
-            let radius = i32(share.w);
+            let radius = i32(abs(share.w));
             if share.w != 0.0 && max(apart.x, apart.y) <= radius {
                 atomicMax(&reach, radius);
             }
@@ -191,7 +228,10 @@ fn spread(
     if at.w == 0.0 {
         return;
     }
-    let own = level(index);
+    var own = importon_radiance[index].w;
+    if params.iteration != 0u {
+        own = level(pixel);
+    }
     let n = textureLoad(gbuffer_normal, pixel, 0);
     let w = window(pixel, radius);
     let given = excess[index];
@@ -201,14 +241,14 @@ fn spread(
             let q = vec2<i32>(column, row);
             let share = excess[pixel_index(q)];
             if share.w != 0.0 {
-                let k = kinship(at, n, textureLoad(gbuffer_position, q, 0), textureLoad(gbuffer_normal, q, 0), q - pixel, i32(share.w));
+                let k = kinship(at, n, textureLoad(gbuffer_position, q, 0), textureLoad(gbuffer_normal, q, 0), q - pixel, i32(abs(share.w)), share.w < 0.0);
                 got += share.rgb * (k * own);
             }
         }
     }
     if given.w != 0.0 {
         // What it spreads scales both parts of its sample alike.
-        let kept = 2.0 * fract(given.w);
+        let kept = 2.0 * fract(abs(given.w));
         samples[index] = vec4<f32>(samples[index].rgb * kept, samples[index].w);
         importon_radiance[index] = vec4<f32>(importon_radiance[index].rgb * kept, importon_radiance[index].w);
     }

@@ -3,7 +3,8 @@
 //! spreads the rest over its surface's pixels around it (`shaders/accumulate/outliers.wgsl`).
 //! Run where camera paths go on past the G-buffer, whose rare paths to a small bright light
 //! (through rough glass, by a Fresnel reflection) are single samples of 10³ in pixels that
-//! read 1: the image keeps its energy, and the light lands where it falls on average.
+//! read 1: the image keeps its energy, and the light lands where it falls on average. The
+//! first iteration, with no estimate yet, weighs each sample against its neighbours'.
 
 use bevy::prelude::*;
 use bevy::render::render_resource::binding_types::{

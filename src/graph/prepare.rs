@@ -231,7 +231,10 @@ fn prepare_view(
     // A new start, or a change under `Reuse` (its index is back at 0).
     let restarted = state.clock.begin_frame(changes, window);
     if restarted || changes.moved || changes.scene {
-        state.radius2 = initial;
+        // Under `Reuse` a change keeps up to `window` iterations of each pixel's history, so
+        // the radius goes on from theirs instead of blurring every frame of a moving scene.
+        state.radius_age = if restarted { 0 } else { window.unwrap_or(0) };
+        state.radius2 = radius2_after(initial, state.radius_age, settings.alpha);
         state.radius_restart = true;
     }
     if restarted {
@@ -244,6 +247,7 @@ fn prepare_view(
     {
         state.fast_forward = Some(target);
         state.radius2 = radius2_after(initial, target, settings.alpha);
+        state.radius_age = 0;
         state.radius_restart = true;
         state.clock.fast_forward(target);
     }
@@ -377,7 +381,8 @@ fn prepare_view(
         params.radius_restart = restart as u32;
         state.kernels_restart |= restart;
         if slot < count {
-            state.radius2 = next_radius2(state.radius2, state.clock.held, settings.alpha);
+            let age = state.clock.held + state.radius_age;
+            state.radius2 = next_radius2(state.radius2, age, settings.alpha);
             state.clock.advance();
         }
         queue.write_buffer(

@@ -3,8 +3,9 @@
 // bright light met through rough glass: 10³ where the pixel reads 1) keeps BOUND·√k times
 // that level (k: the pixel's iterations) and spreads the rest over the pixels of its surface
 // around it (within 4 pixels, or as far as keeps each of them within its own bound, up to 16;
-// over every surface around where its own is too thin), in proportion to their estimates. The image keeps its energy and the rare light lands
-// near where it falls on average; as the bound grows with k, ever fewer samples are spread.
+// over every surface around where its own is too thin), in proportion to their estimates.
+// The image keeps its energy and the rare light lands near where it falls on average; as the
+// bound grows with k, ever fewer samples are spread.
 // What the camera sees of an emitter or a sphere light is never spread. The first iteration,
 // which has no estimate, weighs its samples against their neighbours' (`level`).
 #import bevy_rppm::common::{IterationParams, luminance}
@@ -141,32 +142,36 @@ fn bound(@builtin(global_invocation_id) id: vec3<u32>) {
     if !(l > limit) || !(sums.x > 0.0) {
         return;
     }
-    // Spread over RADIUS, the pixels would take (l - limit) in proportion to levels summing
-    // to sums.x: past their own bound where that is above l / scale. A window's sum grows
-    // with its area, so a radius √ that ratio larger keeps them within it.
-    var radius = RADIUS;
     let wanted = (l - limit) / scale;
-    if wanted > sums.x {
-        radius = min(i32(ceil(f32(RADIUS) * sqrt(wanted / sums.x))), MOST_RADIUS);
-        sums = surface_sums(pixel, at, n, radius, false);
-    }
+    var over = widened(pixel, at, n, wanted, sums, false);
     // A surface too thin to take it within twice its bound (a pane's edge seen edge-on: a
     // strip a pixel wide, where the spread gave most of it back to the pixel itself) shares
-    // it with every surface around, sized as above from what they read.
-    var any_surface = false;
-    if wanted > 2.0 * sums.x {
-        any_surface = true;
-        sums = surface_sums(pixel, at, n, RADIUS, true);
-        radius = RADIUS;
-        if wanted > sums.x {
-            radius = min(i32(ceil(f32(RADIUS) * sqrt(wanted / sums.x))), MOST_RADIUS);
-            sums = surface_sums(pixel, at, n, radius, true);
-        }
+    // it with every surface around, sized the same way from what they read.
+    let any_surface = wanted > 2.0 * over.sums.x;
+    if any_surface {
+        over = widened(pixel, at, n, wanted, surface_sums(pixel, at, n, RADIUS, true), true);
     }
     // w: the radius, and (twice its fraction, under 1 so that it never rounds up to the next
     // radius) the share of the sample the pixel keeps; negative where any surface takes it.
-    let w = f32(radius) + 0.5 * (limit / l);
-    excess[index] = vec4<f32>(sample * ((1.0 - limit / l) / sums.x), select(w, -w, any_surface));
+    let w = f32(over.radius) + 0.5 * (limit / l);
+    excess[index] = vec4<f32>(sample * ((1.0 - limit / l) / over.sums.x), select(w, -w, any_surface));
+}
+
+struct Spread {
+    radius: i32,
+    sums: vec2<f32>,
+}
+
+// The window `wanted` is spread over, from the `surface_sums` over RADIUS (`at_radius`):
+// there, the pixels would take it in proportion to levels summing to at_radius.x, past
+// their own bound where that is above wanted. A window's sum grows with its area, so a
+// radius √ that ratio larger keeps them within it (up to MOST_RADIUS).
+fn widened(pixel: vec2<i32>, at: vec4<f32>, n: vec4<f32>, wanted: f32, at_radius: vec2<f32>, any_surface: bool) -> Spread {
+    if !(wanted > at_radius.x) {
+        return Spread(RADIUS, at_radius);
+    }
+    let radius = min(i32(ceil(f32(RADIUS) * sqrt(wanted / at_radius.x))), MOST_RADIUS);
+    return Spread(radius, surface_sums(pixel, at, n, radius, any_surface));
 }
 
 // The levels of the pixels of this pixel's surface within `radius`, weighed by their

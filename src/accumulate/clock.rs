@@ -50,10 +50,12 @@ pub struct HistoryClock {
     /// Iterations since the estimate last started again (seeds and jitter never repeat
     /// within it; the stats' count).
     pub iteration: u32,
-    /// The index of the Knaus–Zwicker radius: `iteration` until a change under `Reuse`, then 0
-    /// again (a moving scene's pixels hold a window of iterations at most, and each frame's
-    /// new sample is gathered as `Reset` gathers it).
+    /// Iterations run since the estimate started, or since the last change under `Reuse`
+    /// (then 0 again): what `max_iterations` counts.
     pub held: u32,
+    /// The history a change under `Reuse` kept (its window; 0 after a restart): the radius
+    /// goes on from those iterations' instead of blurring every frame of a moving scene.
+    kept: u32,
     /// Iterations left in which a change settles: each pixel's history is capped to the
     /// window.
     settling: u32,
@@ -77,6 +79,7 @@ impl HistoryClock {
             None if changed => self.restart(),
             Some(window) if changed && self.iteration > 0 => {
                 self.held = 0;
+                self.kept = window;
                 // Old light fades (a scene change), and a reprojected history does not blur
                 // without end (a camera move).
                 self.settling = window;
@@ -102,6 +105,12 @@ impl HistoryClock {
     pub fn fast_forward(&mut self, n: u32) {
         self.iteration = n;
         self.held = n;
+        self.kept = 0;
+    }
+
+    /// The index of the Knaus–Zwicker radius of the next iteration.
+    pub fn radius_index(&self) -> u32 {
+        self.held + self.kept
     }
 
     /// The history cap and flags of the next iteration.
@@ -177,6 +186,7 @@ mod tests {
         run(&mut clock, 20);
         assert!(!clock.begin_frame(SCENE, Some(8)));
         assert_eq!((clock.iteration, clock.held), (20, 0));
+        assert_eq!(clock.radius_index(), 8);
         assert_eq!(
             clock.next(Some(8)),
             (
@@ -190,6 +200,7 @@ mod tests {
         // Settled: the estimate grows again as a still scene's does.
         assert_eq!(clock.next(Some(8)), (u32::MAX, HistoryFlags::empty()));
         assert_eq!((clock.iteration, clock.held), (28, 8));
+        assert_eq!(clock.radius_index(), 16);
     }
 
     #[test]

@@ -228,13 +228,12 @@ fn prepare_view(
     // A radius past a quarter of the image blurs it all and makes every splat cover it.
     let largest = (key.size.x.max(key.size.y) as f32 / 4.0).max(0.25);
     let initial = (settings.initial_radius_pixels.min(largest) as f64).powi(2);
-    // A new start, or a change under `Reuse` (its index is back at 0).
+    // A new start, or a change under `Reuse` (its held count is back at 0).
     let restarted = state.clock.begin_frame(changes, window);
     if restarted || changes.moved || changes.scene {
-        // Under `Reuse` a change keeps up to `window` iterations of each pixel's history, so
-        // the radius goes on from theirs instead of blurring every frame of a moving scene.
-        state.radius_age = if restarted { 0 } else { window.unwrap_or(0) };
-        state.radius2 = radius2_after(initial, state.radius_age, settings.alpha);
+        // Under `Reuse` a change keeps a window of each pixel's history, whose radius it
+        // goes on from (`HistoryClock::radius_index`).
+        state.radius2 = radius2_after(initial, state.clock.radius_index(), settings.alpha);
         state.radius_restart = true;
     }
     if restarted {
@@ -247,7 +246,6 @@ fn prepare_view(
     {
         state.fast_forward = Some(target);
         state.radius2 = radius2_after(initial, target, settings.alpha);
-        state.radius_age = 0;
         state.radius_restart = true;
         state.clock.fast_forward(target);
     }
@@ -381,8 +379,8 @@ fn prepare_view(
         params.radius_restart = restart as u32;
         state.kernels_restart |= restart;
         if slot < count {
-            let age = state.clock.held + state.radius_age;
-            state.radius2 = next_radius2(state.radius2, age, settings.alpha);
+            let index = state.clock.radius_index();
+            state.radius2 = next_radius2(state.radius2, index, settings.alpha);
             state.clock.advance();
         }
         queue.write_buffer(

@@ -101,9 +101,6 @@ pub struct RppmViewState {
     pub frame: (u32, u32),
     /// Squared gather radius in pixels for the next iteration (Knaus–Zwicker sequence).
     pub radius2: f64,
-    /// Iterations the radius sequence began as if held: under `Reuse`, the window a change
-    /// keeps of each pixel's history (its radius is theirs), 0 after a restart.
-    pub radius_age: u32,
     /// The next iteration is the first of a radius sequence (its pixels' kernel statistics
     /// start again).
     pub radius_restart: bool,
@@ -270,7 +267,6 @@ impl RppmViewState {
             clamps: false,
             frame: (0, 0),
             radius2: 0.0,
-            radius_age: 0,
             radius_restart: true,
             kernels_restart: false,
             fast_forward: None,

@@ -54,8 +54,8 @@ pub struct ReadmeDoctests;
 pub use ppm::{next_radius2, radius2_after};
 pub use scene::{RppmScene, RppmSky, SceneData};
 pub use settings::{
-    IterationsPerFrame, PhotonCount, PhotonMapping, RppmDebugView, RppmFastForward, RppmHistory,
-    RppmMode, RppmPreset, RppmReadback, RppmTracer, ViewEpoch,
+    InitialRadius, IterationsPerFrame, PhotonCount, PhotonMapping, RppmDebugView, RppmFastForward,
+    RppmHistory, RppmMode, RppmPreset, RppmReadback, RppmTracer, ViewEpoch,
 };
 pub use stats::{RadianceImage, RppmRadiance, RppmStats, ViewStats};
 

@@ -4,7 +4,8 @@
 use std::path::{Path, PathBuf};
 
 use bevy_rppm::{
-    IterationsPerFrame, PhotonCount, PhotonMapping, RppmDebugView, RppmPreset, RppmTracer,
+    InitialRadius, IterationsPerFrame, PhotonCount, PhotonMapping, RppmDebugView, RppmPreset,
+    RppmTracer,
 };
 use bevy_rppm_cli::headless::{Budget, RenderRequest};
 use clap::{Args, Parser, Subcommand, ValueEnum};
@@ -157,6 +158,10 @@ pub struct MotionArgs {
     /// `Reuse`'s history window (iterations).
     #[arg(long, default_value_t = 8, value_parser = clap::value_parser!(u32).range(1..=1024))]
     pub window: u32,
+    /// Initial gather radius in pixels (default: the settings' own, which follows the view's
+    /// size and the photon count).
+    #[arg(long, value_parser = positive_number)]
+    pub radius: Option<f32>,
     /// The runs' random numbers (`PhotonMapping::seed`; the references draw the next seed's).
     #[arg(long, default_value_t = 0)]
     pub seed: u32,
@@ -244,7 +249,8 @@ pub struct RenderArgs {
     /// Bounces a camera path may take (1: the G-buffer only).
     #[arg(long)]
     pub eye_depth: Option<u32>,
-    /// Initial gather radius in pixels.
+    /// Initial gather radius in pixels (default: 6 in a 256² view of 262 144 photons,
+    /// following the view's size and the photon count: `InitialRadius::PhotonShare`).
     #[arg(long, value_parser = positive_number)]
     pub radius: Option<f32>,
     /// Knaus–Zwicker α.
@@ -450,7 +456,9 @@ impl RenderArgs {
         set(&mut s.bins, self.bins);
         set(&mut s.cubemap_tile_size, self.tile);
         set(&mut s.indirect_subsampling, self.subsampling);
-        s.initial_radius_pixels = self.radius.unwrap_or(s.initial_radius_pixels);
+        if let Some(pixels) = self.radius {
+            s.initial_radius = InitialRadius::Pixels(pixels);
+        }
         s.alpha = self.alpha.unwrap_or(s.alpha);
         s.kernel_flattening = self.flattening.unwrap_or(s.kernel_flattening);
         s.adaptive_kernel &= !self.global_radius;

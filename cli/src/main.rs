@@ -8,7 +8,7 @@ use std::process::ExitCode;
 
 use anyhow::{Context, Result, bail};
 use bevy_rppm::cubemap::CubemapConfig;
-use bevy_rppm::{IterationsPerFrame, PhotonCount, PhotonMapping, ViewStats};
+use bevy_rppm::{InitialRadius, IterationsPerFrame, PhotonCount, PhotonMapping, ViewStats};
 use bevy_rppm_cli::animation;
 use bevy_rppm_cli::bench::{print_table, sweep_configs};
 use bevy_rppm_cli::headless::{
@@ -447,6 +447,9 @@ fn motion(args: &MotionArgs) -> Result<()> {
             photons_per_iteration: PhotonCount::Fixed(args.photons),
             iterations_per_frame: IterationsPerFrame::Fixed(args.iterations_per_frame),
             seed: args.seed,
+            initial_radius: args
+                .radius
+                .map_or(InitialRadius::default(), InitialRadius::Pixels),
             ..PhotonMapping::default()
         },
         window: args.window,

@@ -212,7 +212,8 @@ fn next_in_kernel(at: u32, end: u32, params: IterationParams, centre: vec3<f32>,
 }
 
 // Adaptive kernels (PhotonMapping::adaptive_kernel), for both splats: per pixel, what its
-// kernels met since the radius sequence began, as `vec4(mean density over the disc, over its
+// kernels met since the radius sequence began (under `Reuse`, within the history window
+// while a change settles), as `vec4(mean density over the disc, over its
 // inner half (photons per square pixel), mean squared radius met at (pixels²), iterations)`.
 
 // A photon `offset` from the centre of a kernel of radius `r`, counted for its statistics:
@@ -248,13 +249,14 @@ fn kernel_scale(params: IterationParams, stats: vec4<f32>) -> f32 {
         return 1.0;
     }
     let r2 = params.splat_radius * params.splat_radius;
-    let inner = stats.y * 0.25 * stats.z * stats.w;
+    let n = min(stats.w, f32(params.history_cap));
+    let inner = stats.y * 0.25 * stats.z * n;
     let departure = abs(1.0 - stats.y / stats.x) - 3.0 / sqrt(max(inner, 1.0));
     let bias = 4.0 / 3.0 * departure * r2 / stats.z;
     if bias <= 0.0 {
         return 1.0;
     }
-    let balance = 1.0 / (2.0 * (stats.w + 1.0) * stats.x * r2 * bias * bias);
+    let balance = 1.0 / (2.0 * (n + 1.0) * stats.x * r2 * bias * bias);
     return clamp(pow(balance, 1.0 / 6.0), LEAST_SCALE, 1.0);
 }
 
@@ -264,6 +266,8 @@ fn kernel_stats_after(params: IterationParams, stats: vec4<f32>, radius: f32, ph
     let kept = select(stats, vec4<f32>(0.0), params.radius_restart != 0u);
     let r2 = radius * radius;
     let sample = vec3<f32>(photons.x / (share.x * r2), 4.0 * photons.y / (share.y * r2), r2);
-    let n = kept.w + 1.0;
+    // Under `Reuse` a settling change keeps the last `history_cap` iterations, as the
+    // estimate does.
+    let n = min(kept.w, f32(params.history_cap)) + 1.0;
     return vec4<f32>(kept.xyz + (sample - kept.xyz) / n, n);
 }

@@ -5,9 +5,11 @@ use bevy::prelude::*;
 
 mod counts;
 mod modes;
+mod radius;
 
 pub use counts::{IterationsPerFrame, PhotonCount};
 pub use modes::{RppmDebugView, RppmHistory, RppmMode, RppmTracer};
+pub use radius::InitialRadius;
 
 /// Rasterisation-based progressive photon mapping on a 3D camera.
 ///
@@ -37,9 +39,11 @@ pub struct PhotonMapping {
     pub max_eye_depth: u32,
     /// Knaus–Zwicker radius reduction, r²ᵢ₊₁ = r²ᵢ (i+α)/(i+1). Range (0, 1], default 0.7.
     pub alpha: f32,
-    /// Initial gather radius, in pixels of the camera view. Range 0.25..=256 and at most a
-    /// quarter of the view's larger side, default 4.
-    pub initial_radius_pixels: f32,
+    /// Initial gather radius, in pixels of the camera view: default
+    /// [`InitialRadius::PhotonShare`] of 6 pixels (6 in a 256² view of 262 144 photons an
+    /// iteration, following the view's size and the photon count). At most a quarter of the
+    /// view's larger side.
+    pub initial_radius: InitialRadius,
     /// Each pixel's photon kernels shrink below the global radius where their bias outweighs
     /// their noise: where the photons' density curves (a caustic's rim, seen directly or by
     /// a camera path through glass or a mirror), read from how a kernel's inner half's
@@ -116,7 +120,7 @@ impl Default for PhotonMapping {
             max_photon_depth: 16,
             max_eye_depth: 16,
             alpha: 0.7,
-            initial_radius_pixels: 4.0,
+            initial_radius: InitialRadius::default(),
             adaptive_kernel: true,
             cubemap_resolution: 256,
             cubemap_tile_size: 1,
@@ -197,10 +201,10 @@ impl PhotonMapping {
         clamp_u32(&mut out.max_eye_depth, 1, 64, "max_eye_depth", &mut notes);
         clamp_f32(&mut out.alpha, 1e-4, 1.0, "alpha", &mut notes);
         clamp_f32(
-            &mut out.initial_radius_pixels,
+            out.initial_radius.value_mut(),
             0.25,
             256.0,
-            "initial_radius_pixels",
+            "initial_radius",
             &mut notes,
         );
         clamp_u32(

@@ -49,7 +49,7 @@ fn photons_carry_the_same_direct_light_as_the_local_stage() {
     let photons = render_box(
         PhotonMapping {
             photons_per_iteration: PhotonCount::Fixed(65_536),
-            initial_radius_pixels: 1.0,
+            initial_radius: InitialRadius::Pixels(1.0),
             debug_view: bevy_rppm::RppmDebugView::DirectPhotons,
             ..default()
         },

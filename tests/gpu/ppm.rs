@@ -39,7 +39,7 @@ fn error_falls_faster_than_the_square_root_of_iterations() {
     // (the shipped reference also differs by Bevy's 4% specular layer, a floor near 0.003).
     let settings = PhotonMapping {
         photons_per_iteration: PhotonCount::Fixed(1024),
-        initial_radius_pixels: 2.0,
+        initial_radius: InitialRadius::Pixels(2.0),
         ..default()
     };
     let points: Vec<(f64, f64)> = [4u32, 16, 64]
@@ -78,8 +78,9 @@ fn radius_and_mean_stay_finite_fast_forwarded_to_1e8_iterations() {
             until_iterations(&mut app, camera, target + 2);
             let stats = app.world().resource::<RppmStats>().views[&camera].clone();
             let radius = stats.splat_radius_pixels;
-            // The default radius, within a quarter of the 24-pixel view.
-            let initial = settings.initial_radius_pixels.min(6.0) as f64;
+            // The default radius of the 24-pixel view.
+            let photons = settings.photons_per_iteration.max();
+            let initial = settings.initial_radius.pixels(UVec2::splat(24), photons) as f64;
             let expected =
                 bevy_rppm::radius2_after(initial * initial, stats.iteration, alpha).sqrt();
             eprintln!(

@@ -129,14 +129,14 @@ fn extreme_settings_render_finite_images() {
         (
             "radius 0.25 px",
             PhotonMapping {
-                initial_radius_pixels: 0.25,
+                initial_radius: InitialRadius::Pixels(0.25),
                 ..base.clone()
             },
         ),
         (
             "radius 256 px",
             PhotonMapping {
-                initial_radius_pixels: 256.0,
+                initial_radius: InitialRadius::Pixels(256.0),
                 ..base.clone()
             },
         ),

@@ -16,7 +16,7 @@ fn sky_scene(albedo: f32, size: u32) -> (App, Entity) {
         photons_per_iteration: PhotonCount::Fixed(65_536),
         // 1/8 m at 32²: the gather disc of a floor point by the cube stays mostly on the
         // floor (a wider one reaches under the cube, where no photon lands, and darkens it).
-        initial_radius_pixels: 1.0,
+        initial_radius: InitialRadius::Pixels(1.0),
         ..default()
     };
     let (camera, plane) = plane_scene(&mut app, (), size, settings);

@@ -56,7 +56,7 @@ fn reference(name: &str) -> RgbImage {
 fn suite_energy_is_right_after_four_iterations() {
     let settings = PhotonMapping {
         photons_per_iteration: PhotonCount::Fixed(65_536),
-        initial_radius_pixels: 1.0,
+        initial_radius: InitialRadius::Pixels(1.0),
         ..default()
     };
     let mut failures = Vec::new();
@@ -166,7 +166,7 @@ fn a_metallic_roughness_texture_takes_direct_light_as_bevy_does() {
 fn with_and_without(scene: &str, extension: &str) -> (f64, f64, f64) {
     let settings = PhotonMapping {
         photons_per_iteration: PhotonCount::Fixed(65_536),
-        initial_radius_pixels: 1.0,
+        initial_radius: InitialRadius::Pixels(1.0),
         ..default()
     };
     let reference = reference(&format!("suite/{scene}.ref.exr"));
@@ -253,7 +253,7 @@ fn measured(
 fn assert_close_after(scene: &str, iterations: u32, bound: f64, energy_bound: f64) {
     let settings = PhotonMapping {
         photons_per_iteration: PhotonCount::Fixed(65_536),
-        initial_radius_pixels: 1.0,
+        initial_radius: InitialRadius::Pixels(1.0),
         ..default()
     };
     let what = format!("after {iterations} iterations");
@@ -322,7 +322,7 @@ fn a_lamp_behind_frosted_glass_glows_through_it() {
 fn corners_edges_and_rims_are_not_dark() {
     let settings = PhotonMapping {
         photons_per_iteration: PhotonCount::Fixed(65_536),
-        initial_radius_pixels: 4.0,
+        initial_radius: InitialRadius::Pixels(4.0),
         ..default()
     };
     let (error, energy, _) = measured("cornell_matte", settings, 16, "with discs of 4 pixels");
@@ -456,7 +456,7 @@ fn the_first_iteration_spreads_its_rare_paths_too() {
 fn photons_under_glass_that_meets_a_surface_stay_apart() {
     let settings = PhotonMapping {
         photons_per_iteration: PhotonCount::Fixed(65_536),
-        initial_radius_pixels: 4.0,
+        initial_radius: InitialRadius::Pixels(4.0),
         ..default()
     };
     for (scene, bound) in [("water_pool", 0.0138), ("glass_slab", 0.0038)] {

@@ -7,7 +7,9 @@ pub use bevy::asset::RenderAssetUsages;
 pub use bevy::camera::ScalingMode;
 pub use bevy::mesh::{Indices, PrimitiveTopology};
 pub use bevy::prelude::*;
-pub use bevy_rppm::{PhotonCount, PhotonMapping, RppmRadiance, RppmReadback, RppmScene, RppmStats};
+pub use bevy_rppm::{
+    InitialRadius, PhotonCount, PhotonMapping, RppmRadiance, RppmReadback, RppmScene, RppmStats,
+};
 pub use bevy_rppm_cli::headless::{check_gpu_adapter, headless_app, offscreen_target};
 pub use bevy_rppm_cli::image_io::{RgbImage, bad_pixels, read_exr};
 

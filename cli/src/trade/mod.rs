@@ -7,7 +7,7 @@ pub mod plot;
 use std::path::{Path, PathBuf};
 
 use bevy_rppm::stats::timing::Stage;
-use bevy_rppm::{PhotonCount, PhotonMapping, RppmMode, ViewStats};
+use bevy_rppm::{InitialRadius, PhotonCount, PhotonMapping, RppmMode, ViewStats};
 
 use crate::headless::{Budget, RenderRequest, render_gltf};
 use crate::image_io::{RgbImage, relmse};
@@ -49,7 +49,7 @@ pub fn knobs(base: &PhotonMapping) -> Vec<Knob> {
         sweep(base, "tile", &[1u32, 2, 4], |s, v| s.cubemap_tile_size = v),
         sweep(base, "alpha", &[0.5f32, 0.7, 0.9], |s, v| s.alpha = v),
         sweep(base, "radius", &[2.0f32, 4.0, 8.0], |s, v| {
-            s.initial_radius_pixels = v
+            s.initial_radius = InitialRadius::Pixels(v)
         }),
         sweep(base, "splat_rr", &[false, true], |s, v| {
             s.splat_russian_roulette = v

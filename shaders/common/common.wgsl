@@ -231,7 +231,8 @@ struct IterationParams {
     shading_jitter: vec2<f32>,
     // The share of resolve.wgsl's edges in what the frame shows (0: the estimate as it is).
     resolve_share: f32,
-    // 1: a radius sequence's first iteration (splat.wgsl's kernel statistics start again).
+    // 1: a radius sequence's first iteration after a restart or a camera move (the kernel
+    // statistics start again).
     radius_restart: u32,
     // Where last frame's camera was (w 1), or, orthographic, the direction toward it (w 0).
     previous_eye: vec4<f32>,

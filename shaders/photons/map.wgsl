@@ -235,6 +235,12 @@ fn disc_shares(on: vec2<f32>, count: u32) -> vec2<f32> {
     return vec2<f32>(disc_share(on.x, count), disc_share(on.y, count / 4u));
 }
 
+// The iterations of `w` a pixel's statistics count: under `Reuse` a settling change keeps the
+// last `history_cap`, as the estimate does.
+fn kernel_iterations(params: IterationParams, w: f32) -> f32 {
+    return min(w, f32(params.history_cap));
+}
+
 // The smallest share of the global radius a kernel takes.
 const LEAST_SCALE: f32 = 0.25;
 
@@ -249,7 +255,7 @@ fn kernel_scale(params: IterationParams, stats: vec4<f32>) -> f32 {
         return 1.0;
     }
     let r2 = params.splat_radius * params.splat_radius;
-    let n = min(stats.w, f32(params.history_cap));
+    let n = kernel_iterations(params, stats.w);
     let inner = stats.y * 0.25 * stats.z * n;
     let departure = abs(1.0 - stats.y / stats.x) - 3.0 / sqrt(max(inner, 1.0));
     let bias = 4.0 / 3.0 * departure * r2 / stats.z;
@@ -266,8 +272,6 @@ fn kernel_stats_after(params: IterationParams, stats: vec4<f32>, radius: f32, ph
     let kept = select(stats, vec4<f32>(0.0), params.radius_restart != 0u);
     let r2 = radius * radius;
     let sample = vec3<f32>(photons.x / (share.x * r2), 4.0 * photons.y / (share.y * r2), r2);
-    // Under `Reuse` a settling change keeps the last `history_cap` iterations, as the
-    // estimate does.
-    let n = min(kept.w, f32(params.history_cap)) + 1.0;
+    let n = kernel_iterations(params, kept.w) + 1.0;
     return vec4<f32>(kept.xyz + (sample - kept.xyz) / n, n);
 }

@@ -225,10 +225,13 @@ fn prepare_view(
     };
     state.view_epoch = frame.rppm.view_epoch;
     state.view_moves = frame.rppm.view_moves;
-    // The most photons the setting allows: `Auto` starts at fewer, and a radius that followed
-    // it blurred the first iterations (`cornell_glass` at 72 iterations 0.00104 → 0.00162).
-    let photons = settings.photons_per_iteration.max();
-    let initial = (settings.initial_radius.pixels(key.size, photons) as f64).powi(2);
+    // For the most photons the setting allows: `Auto` starts at fewer, and a radius that
+    // followed it blurred the first iterations (`cornell_glass` at 72 iterations 0.00104 →
+    // 0.00162).
+    let initial = || {
+        let photons = settings.photons_per_iteration.max();
+        (settings.initial_radius.pixels(key.size, photons) as f64).powi(2)
+    };
     // A new start, or a change under `Reuse` (its held count is back at 0).
     let restarted = state.clock.begin_frame(changes, window);
     if restarted || changes.moved || changes.scene {
@@ -236,7 +239,7 @@ fn prepare_view(
         // goes on from (`HistoryClock::radius_index`), and a scene change the pixels'
         // kernel statistics within that window (they are of the same surfaces; a camera
         // move's are of others).
-        state.radius2 = radius2_after(initial, state.clock.radius_index(), settings.alpha);
+        state.radius2 = radius2_after(initial(), state.clock.radius_index(), settings.alpha);
         state.radius_restart |= restarted || changes.moved;
     }
     if restarted {
@@ -248,7 +251,7 @@ fn prepare_view(
         .filter(|&f| state.fast_forward != Some(f))
     {
         state.fast_forward = Some(target);
-        state.radius2 = radius2_after(initial, target, settings.alpha);
+        state.radius2 = radius2_after(initial(), target, settings.alpha);
         state.radius_restart = true;
         state.clock.fast_forward(target);
     }

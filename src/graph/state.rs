@@ -101,8 +101,8 @@ pub struct RppmViewState {
     pub frame: (u32, u32),
     /// Squared gather radius in pixels for the next iteration (Knaus–Zwicker sequence).
     pub radius2: f64,
-    /// The next iteration is the first of a radius sequence (its pixels' kernel statistics
-    /// start again).
+    /// The next iteration is the first of a radius sequence after a restart or a camera move
+    /// (its pixels' kernel statistics start again).
     pub radius_restart: bool,
     /// This frame's first iteration begins a radius sequence: the importons' kernel
     /// statistics are cleared before it (no indirect splat runs where none is made).

@@ -74,8 +74,9 @@ pub struct IterationParams {
     /// The share of the resolved edges in what the frame shows
     /// (`resolve_share` in src/accumulate/resolve.rs; 0: the estimate as it is).
     pub resolve_share: f32,
-    /// 1 on the first iteration of a Knaus–Zwicker radius sequence: the pixels' kernel
-    /// statistics (`shaders/splat/splat.wgsl`) start again.
+    /// 1 on the first iteration of a Knaus–Zwicker radius sequence after a restart or a
+    /// camera move: the pixels' kernel statistics (`shaders/photons/map.wgsl`) start again (a
+    /// scene change under `Reuse` keeps them within `history_cap`).
     pub radius_restart: u32,
     pub pad: [u32; 2],
     /// Where last frame's camera was (w 1), or, orthographic, the direction toward it (w 0).

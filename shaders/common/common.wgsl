@@ -226,15 +226,15 @@ struct IterationParams {
     seen_region: u32,
     // This iteration's sub-pixel jitter (pixels, x right, y down) before the pixels' centres.
     jitter: vec2<f32>,
-    // Where local illumination shades each pixel past its G-buffer sample (pixels; 0: there):
-    // a frame whose camera moved rasterizes every iteration at one jitter (src/graph/prepare.rs).
+    // Where local illumination shades each pixel past its G-buffer sample (pixels; 0: there).
     shading_jitter: vec2<f32>,
     // The share of resolve.wgsl's edges in what the frame shows (0: the estimate as it is).
     resolve_share: f32,
-    // 1: a radius sequence's first iteration after a restart or a camera move (the kernel
-    // statistics start again).
+    // 1: a radius sequence's first iteration after a restart or a camera move (kernel stats).
     radius_restart: u32,
-    // Where last frame's camera was (w 1), or, orthographic, the direction toward it (w 0).
+    // The share of the radius caustic photons are gathered over (photon_map::photon_caustic).
+    caustic_scale: f32,
+    // Where last frame's camera was (w 1), or, orthographic, the way toward it (w 0).
     previous_eye: vec4<f32>,
 }
 
@@ -267,7 +267,7 @@ fn row_texel(i: u32) -> vec2<u32> {
 // llvmpipe loads a storage buffer lane by lane.
 struct Photon {
     position: vec3<f32>,
-    // Direction towards where the photon came from (pack_normal).
+    // Direction towards where the photon came from (pack_normal; bit 0: `photon_caustic`).
     incoming: u32,
     // Flux the photon carries (W), linear RGB.
     flux: vec3<f32>,

@@ -9,7 +9,7 @@
 #import bevy_rppm::scene::{triangle_at, barycentrics, material_at}
 #import bevy_rppm::bsdf::{bsdf_from, bsdf_toward, glass_share, translucency}
 #import bevy_rppm::cubemap::{cubemap, trace_ray, NO_HIT}
-#import bevy_rppm::photon_map::{photons, face_gather, gather_row_run, next_in_kernel, disc_point, kernel_scale, kernel_stats_after, kernel_count, disc_count, disc_shares}
+#import bevy_rppm::photon_map::{photons, photon_caustic, face_gather, gather_row_run, next_in_kernel, disc_point, kernel_scale, kernel_stats_after, kernel_count, disc_count, disc_share, disc_shares}
 
 @group(1) @binding(0) var<uniform> params: IterationParams;
 
@@ -28,12 +28,17 @@
 var<private> held: vec2<f32>;
 var<private> gathered_shares: vec2<f32>;
 #endif
+// The caustic photons a kernel gathered (`photon_caustic`), within `caustic_scale` of its
+// radius, where that is under 1 (`gather_run`'s sum holds the others then).
+var<private> caustics: vec3<f32>;
 
 // The photons of run `run` of the map that importon `imp` (of `pixel`, on material `m`, `out`
 // its bsdf_from) gathers, but those past glass that meets its surface (`disc`).
 fn gather_run(imp: Importon, m: Material, out: Outgoing, pixel: u32, run: vec2<u32>, disc: Disc) -> vec3<f32> {
     var sum = vec3<f32>(0.0);
     let both_sides = translucency(m) > 0.0;
+    let narrow = params.caustic_scale < 1.0;
+    let caustic_r = imp.radius * params.caustic_scale;
     var i = next_in_kernel(run.x, run.y, params, imp.position, imp.normal, imp.radius, pixel, both_sides);
     while i < run.y {
         let p = photons[i];
@@ -44,7 +49,16 @@ fn gather_run(imp: Importon, m: Material, out: Outgoing, pixel: u32, run: vec2<u
 #ifdef ADAPTIVE_KERNEL
         held += kernel_count(p.position - imp.position, imp.radius);
 #endif
-        sum += bsdf_toward(m, out, imp.normal, imp.outgoing, unpack_normal(p.incoming)) * p.flux;
+        let caustic = narrow && photon_caustic(p);
+        if caustic && distance(p.position, imp.position) > caustic_r {
+            continue;
+        }
+        let light = bsdf_toward(m, out, imp.normal, imp.outgoing, unpack_normal(p.incoming)) * p.flux;
+        if caustic {
+            caustics += light;
+        } else {
+            sum += light;
+        }
     }
     return sum;
 }
@@ -89,6 +103,8 @@ fn cut_plane(t: u32, hit: vec3<f32>, centre: vec3<f32>) -> vec4<f32> {
 struct Disc {
     // The shares of the disc and of its inner half (`disc_shares`).
     shares: vec2<f32>,
+    // The share of the caustic photons' disc (`caustic_scale` of the radius).
+    caustic_share: f32,
     cut_count: u32,
     cuts: array<vec4<f32>, CUTS>,
 }
@@ -114,7 +130,7 @@ fn disc_of(imp: Importon) -> Disc {
     let frame = basis_around(imp.normal);
     let r = imp.radius;
     let origin = imp.position + imp.normal * (0.5 * params.kernel_flattening * r);
-    var disc = Disc(vec2<f32>(1.0), 0u, array<vec4<f32>, CUTS>(vec4<f32>(0.0), vec4<f32>(0.0)));
+    var disc = Disc(vec2<f32>(1.0), 1.0, 0u, array<vec4<f32>, CUTS>(vec4<f32>(0.0), vec4<f32>(0.0)));
     // How far along each point's direction the plane is open (an opaque surface's distance).
     var open: array<f32, DISC_POINTS>;
     for (var i = 0u; i < DISC_POINTS; i += 1u) {
@@ -144,21 +160,31 @@ fn disc_of(imp: Importon) -> Disc {
         open[i] = hit.t;
     }
     var on = vec2<f32>(0.0);
+    // The caustic disc's points lie along the same directions, nearer (`caustic_scale`).
+    let scale = params.caustic_scale;
+    var caustic_on = 0.0;
     for (var i = 0u; i < DISC_POINTS; i += 1u) {
-        on += disc_count(length(disc_point(frame, r, i, DISC_POINTS)) <= open[i], i, DISC_POINTS);
+        let rho = length(disc_point(frame, r, i, DISC_POINTS));
+        on += disc_count(rho <= open[i], i, DISC_POINTS);
+        caustic_on += select(0.0, 1.0, rho * scale <= open[i]);
     }
     disc.shares = disc_shares(on, DISC_POINTS);
+    disc.caustic_share = disc_share(caustic_on, DISC_POINTS);
 #ifdef GLASS
     if disc.cut_count > 0u {
         // A cut is a plane: its share is counted on finer points, each open as far as the
         // traced direction nearest its own.
         on = vec2<f32>(0.0);
+        caustic_on = 0.0;
         for (var j = 0u; j < CUT_POINTS; j += 1u) {
             let q = disc_point(frame, r, j, CUT_POINTS);
             let k = nearest_direction(j);
             on += disc_count(length(q) <= open[k] && !past_glass(disc, imp.position + q), j, CUT_POINTS);
+            let near = q * scale;
+            caustic_on += select(0.0, 1.0, length(near) <= open[k] && !past_glass(disc, imp.position + near));
         }
         disc.shares = disc_shares(on, CUT_POINTS);
+        disc.caustic_share = disc_share(caustic_on, CUT_POINTS);
     }
 #endif
     return disc;
@@ -171,6 +197,7 @@ fn gathered(imp: Importon, pixel: u32) -> vec3<f32> {
     let out = bsdf_from(m, imp.normal, imp.outgoing);
     let disc = disc_of(imp);
     var sum = vec3<f32>(0.0);
+    caustics = vec3<f32>(0.0);
     let faces = faces_reached(cubemap, imp.position, imp.radius);
     for (var i = 0u; i < faces.y; i += 1u) {
         let face = (faces.x + i) % 6u;
@@ -184,7 +211,13 @@ fn gathered(imp: Importon, pixel: u32) -> vec3<f32> {
 #endif
     let r = imp.radius;
     let area = PI * r * r * disc.shares.x;
-    return imp.throughput * sum * (splat_weight(params) / area);
+    var light = imp.throughput * sum * (splat_weight(params) / area);
+    if params.caustic_scale < 1.0 {
+        // The caustic photons over their own disc's area on surface.
+        let narrow = r * params.caustic_scale;
+        light += imp.throughput * caustics * (splat_weight(params) / (PI * narrow * narrow * disc.caustic_share));
+    }
+    return light;
 }
 
 // A pixel's importon and those its other camera paths left (`Importon::extras`).

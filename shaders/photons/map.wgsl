@@ -169,6 +169,13 @@ fn gather_row_run(seen: FaceGather, face: u32, y: i32) -> vec2<u32> {
     return row_run(face, y, x0, x1);
 }
 
+// Whether a stored photon is caustic: it met only surfaces that store none (mirrors, glass,
+// smooth metal) since its source, and is gathered over `caustic_scale` of the radius
+// (InitialRadius::caustic_scale).
+fn photon_caustic(p: Photon) -> bool {
+    return (p.incoming & 1u) != 0u;
+}
+
 // Whether photon `photon` is inside the gather kernel of `pixel` (centre, plane normal,
 // radius r): within r of the centre, near its plane and facing the same way (either way on
 // a surface that lets diffuse light through, `both_sides`), and kept by the splat's

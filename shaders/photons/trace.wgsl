@@ -210,12 +210,15 @@ fn emit(rng: ptr<function, u32>) -> Ray {
     return ray;
 }
 
-fn store(x: vec3<f32>, ray: Ray, n: vec3<f32>) {
+// A photon at x, caustic or not (`photon_caustic`: the lowest bit of its incoming direction,
+// a 32 767th of one of its coordinates).
+fn store(x: vec3<f32>, ray: Ray, n: vec3<f32>, caustic: bool) {
     let slot = atomicAdd(&photon_count[1], 1u);
     if slot < params.photon_capacity {
         let tile = cubemap_tile(cubemap, x).index;
         photon_tiles[slot] = vec2<u32>(tile, atomicAdd(&tile_counts[tile], 1u));
-        photons[slot] = Photon(x, pack_normal(-ray.direction), ray.flux, pack_normal(n));
+        let incoming = (pack_normal(-ray.direction) & ~1u) | select(0u, 1u, caustic);
+        photons[slot] = Photon(x, incoming, ray.flux, pack_normal(n));
     }
 }
 
@@ -273,6 +276,8 @@ fn trace(@builtin(global_invocation_id) id: vec3<u32>, @builtin(local_invocation
     var rng = photon_seed(index);
     var ray = emit(&rng);
     var depth = 0u;
+    // Whether every surface the photon met stored none (`photon_caustic` past the first).
+    var caustic = true;
     let t_min = params.scene_sphere.w * 1e-6;
 #ifdef ABSORPTION
     // σ of the coloured glass the photon is in (lights are outside every medium).
@@ -333,8 +338,9 @@ fn trace(@builtin(global_invocation_id) id: vec3<u32>, @builtin(local_invocation
             }
 #endif
             if (indirect || direct_only) && stores_photons(m) {
-                store(x, ray, interpolated);
+                store(x, ray, interpolated, caustic && depth > 0u);
             }
+            caustic = caustic && !stores_photons(m);
             var s = scatter_photon(m, n, interpolated, -ray.direction, front, &rng);
 #ifdef NORMAL_MAP
             let bent = bent_scatter(n, interpolated, -ray.direction, s.direction);
@@ -365,6 +371,7 @@ fn trace(@builtin(global_invocation_id) id: vec3<u32>, @builtin(local_invocation
             rng = photon_seed(index);
             ray = emit(&rng);
             depth = 0u;
+            caustic = true;
 #ifdef ABSORPTION
             medium = vec3<f32>(0.0);
 #endif

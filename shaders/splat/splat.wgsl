@@ -12,7 +12,7 @@
 #import bevy_rppm::scene::{gbuffer_material, resolved_material, resolved_kernel_normal, kernel_normal}
 #import bevy_rppm::bsdf::{bsdf_from, bsdf_gathered, bent_cosine, glass_share, translucency, stores_photons}
 #import bevy_rppm::cubemap::cubemap
-#import bevy_rppm::photon_map::{photons, face_gather, gather_row_run, next_in_kernel, disc_point, kernel_scale, kernel_stats_after, kernel_count, disc_count, disc_shares}
+#import bevy_rppm::photon_map::{photons, photon_caustic, face_gather, gather_row_run, next_in_kernel, disc_point, kernel_scale, kernel_stats_after, kernel_count, disc_count, disc_shares}
 
 @group(1) @binding(0) var<uniform> params: IterationParams;
 
@@ -30,6 +30,9 @@
 // Photons a kernel held this iteration: all, and those within half its radius.
 var<private> held: vec2<f32>;
 #endif
+// The caustic photons a kernel gathered (`photon_caustic`), within `caustic_scale` of its
+// radius, where that is under 1 (`gather_run`'s sum holds the others then).
+var<private> caustics: vec3<f32>;
 
 // What one pixel's kernel needs of its G-buffer point.
 struct Kernel {
@@ -55,6 +58,8 @@ fn gather_run(k: Kernel, m: Material, out: Outgoing, shading: vec3<f32>, wo: vec
     var sum = vec3<f32>(0.0);
     let bent = any(k.plane != shading);
     let both_sides = translucency(m) > 0.0;
+    let narrow = params.caustic_scale < 1.0;
+    let caustic_r = k.radius * params.caustic_scale;
     var i = next_in_kernel(run.x, run.y, params, k.position, k.plane, k.radius, k.index, both_sides);
     while i < run.y {
         let p = photons[i];
@@ -71,18 +76,29 @@ fn gather_run(k: Kernel, m: Material, out: Outgoing, shading: vec3<f32>, wo: vec
             continue;
         }
 #endif
-#ifdef SUBSAMPLED
-        sum += p.flux;
-#else
 #ifdef ADAPTIVE_KERNEL
+#ifndef SUBSAMPLED
         held += kernel_count(p.position - k.position, k.radius);
 #endif
+#endif
+        let caustic = narrow && photon_caustic(p);
+        if caustic && distance(p.position, k.position) > caustic_r {
+            continue;
+        }
+#ifdef SUBSAMPLED
+        let light = p.flux;
+#else
         // The photons' density is irradiance on the kernel's plane; a normal map's bent
         // normal receives it by its own cosine instead (on either side: diffuse transmission).
         let incoming = unpack_normal(p.incoming);
         let bend = select(1.0, bent_cosine(shading, k.plane, incoming), bent);
-        sum += bsdf_gathered(m, out, shading, wo, incoming) * (bend * p.flux);
+        let light = bsdf_gathered(m, out, shading, wo, incoming) * (bend * p.flux);
 #endif
+        if caustic {
+            caustics += light;
+        } else {
+            sum += light;
+        }
     }
     return sum;
 }
@@ -328,5 +344,13 @@ fn gather(@builtin(global_invocation_id) id: vec3<u32>) {
     kernel_stats[index] = kernel_stats_after(params, stats, params.splat_radius * scale, held, share);
 #endif
     let density = splat_weight(params) / (PI * k.radius * k.radius * share.x);
-    textureStore(splats, texel, vec4<f32>(sum * density, 0.0));
+    var light = sum * density;
+    if params.caustic_scale < 1.0 {
+        // The caustic photons over their own disc's area on surface.
+        var narrow = k;
+        narrow.radius *= params.caustic_scale;
+        let area = PI * narrow.radius * narrow.radius * disc_on_surface(narrow).x;
+        light += caustics * (splat_weight(params) / area);
+    }
+    textureStore(splats, texel, vec4<f32>(light, 0.0));
 }

@@ -375,6 +375,9 @@ fn prepare_view(
         params.photon_capacity = key.photon_capacity;
         params.source_count = scene.data.light_cdf.len() as u32;
         params.splat_radius = state.radius2.sqrt() as f32;
+        params.caustic_scale = settings
+            .initial_radius
+            .caustic_scale(key.size, settings.photons_per_iteration.max());
         params.max_eye_depth = settings.max_eye_depth;
         params.splat_russian_roulette = settings.splat_russian_roulette as u32;
         params.direct_photons = (settings.debug_view == RppmDebugView::DirectPhotons) as u32;

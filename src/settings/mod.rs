@@ -41,8 +41,9 @@ pub struct PhotonMapping {
     pub alpha: f32,
     /// Initial gather radius, in pixels of the camera view: default
     /// [`InitialRadius::PhotonShare`] of 6 pixels (6 in a 256² view of 262 144 photons an
-    /// iteration, following the view's size and the photon count). At most a quarter of the
-    /// view's larger side.
+    /// iteration, following the view's size and the photon count; caustic photons over no
+    /// more than the 6: [`InitialRadius::caustic_scale`]). At most a quarter of the view's
+    /// larger side.
     pub initial_radius: InitialRadius,
     /// Each pixel's photon kernels shrink below the global radius where their bias outweighs
     /// their noise: where the photons' density curves (a caustic's rim, seen directly or by

@@ -12,8 +12,10 @@ pub enum InitialRadius {
     /// photons an iteration: `pixels · √(width · height / 256² · 262 144 / photons)`, photons
     /// the most [`crate::PhotonCount`] allows. A kernel's noise is set by the photons it
     /// holds, so a fixed size in pixels held 16 times fewer at 64² or with 16 384 photons,
-    /// and blurred a view of 1024² that holds 16 times more. Range 0.25..=256, default 6
-    /// (the suite measured at 4, 6 and 8 pixels; the README's *initial radius* sections).
+    /// and blurred a view of 1024² that holds 16 times more. Caustic photons are gathered
+    /// over no more than these pixels ([`InitialRadius::caustic_scale`]). Range 0.25..=256,
+    /// default 6 (the suite measured at 4, 6 and 8 pixels; the README's *initial radius*
+    /// sections).
     PhotonShare(f32),
 }
 
@@ -41,6 +43,21 @@ impl InitialRadius {
             }
         };
         radius.clamp(0.25, largest)
+    }
+
+    /// The share of the radius caustic photons (light that met only mirrors, glass and
+    /// smooth metal since it left its source) are gathered over, in (0, 1]: a photon share
+    /// grows past its pixels for them no further. Their density has detail a wide disc blurs
+    /// away, as Jensen's caustic map has a smaller radius than his global one; a still
+    /// estimate's radius shrinks over its iterations, but a moving one keeps its window's.
+    /// The `pool` example (1280 × 720, 131 072 photons) gathered its caustics over 32 pixels
+    /// and showed none.
+    pub fn caustic_scale(self, size: UVec2, photons: u32) -> f32 {
+        let pixels = self.pixels(size, photons);
+        match self {
+            Self::Pixels(_) => 1.0,
+            Self::PhotonShare(share) => (share.max(0.25) / pixels).min(1.0),
+        }
     }
 
     /// The value it is given in, in pixels.
@@ -72,6 +89,24 @@ mod tests {
         let at_256 = held(UVec2::splat(256), 262_144);
         let wide = held(UVec2::new(1280, 720), 1 << 20);
         assert!((wide / at_256 - 1.0).abs() < 1e-6, "{wide} vs {at_256}");
+    }
+
+    #[test]
+    fn caustics_take_no_share_wider_than_its_pixels() {
+        let share = InitialRadius::PhotonShare(6.0);
+        // Few photons a pixel: the share's 31.8 pixels, 6 for caustics.
+        let example = UVec2::new(1280, 720);
+        let pixels = share.pixels(example, 131_072);
+        assert!(pixels > 31.0);
+        let caustic = pixels * share.caustic_scale(example, 131_072);
+        assert!((caustic - 6.0).abs() < 1e-4, "{caustic}");
+        // Many: the share, smaller, for both.
+        assert_eq!(share.caustic_scale(UVec2::splat(128), 262_144), 1.0);
+        // A fixed radius is kept.
+        assert_eq!(
+            InitialRadius::Pixels(12.0).caustic_scale(example, 1024),
+            1.0
+        );
     }
 
     #[test]

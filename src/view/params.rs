@@ -78,7 +78,10 @@ pub struct IterationParams {
     /// camera move: the pixels' kernel statistics (`shaders/photons/map.wgsl`) start again (a
     /// scene change under `Reuse` keeps them within `history_cap`).
     pub radius_restart: u32,
-    pub pad: [u32; 2],
+    /// The share of the gather radius caustic photons are gathered over
+    /// (`InitialRadius::caustic_scale`; 1: all photons over the whole radius).
+    pub caustic_scale: f32,
+    pub pad: u32,
     /// Where last frame's camera was (w 1), or, orthographic, the direction toward it (w 0).
     pub previous_eye: [f32; 4],
 }
@@ -185,6 +188,7 @@ pub fn camera_params(
         kernel_flattening: 0.1,
         indirect_subsampling: 1,
         history_cap: u32::MAX,
+        caustic_scale: 1.0,
         jitter: jitter.into(),
         sky: {
             let [r, g, b, power] = data.sky;

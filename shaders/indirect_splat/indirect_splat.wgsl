@@ -9,7 +9,7 @@
 #import bevy_rppm::scene::{triangle_at, barycentrics, material_at}
 #import bevy_rppm::bsdf::{bsdf_from, bsdf_toward, glass_share, translucency}
 #import bevy_rppm::cubemap::{cubemap, trace_ray, NO_HIT}
-#import bevy_rppm::photon_map::{photons, photon_caustic, face_gather, gather_row_run, next_in_kernel, disc_point, kernel_scale, kernel_stats_after, kernel_count, disc_count, disc_share, disc_shares}
+#import bevy_rppm::photon_map::{photons, photon_disc, CAUSTIC_DISC, NO_DISC, face_gather, gather_row_run, next_in_kernel, disc_point, kernel_scale, kernel_stats_after, kernel_count, disc_count, disc_share, disc_shares}
 
 @group(1) @binding(0) var<uniform> params: IterationParams;
 
@@ -37,8 +37,6 @@ var<private> caustics: vec3<f32>;
 fn gather_run(imp: Importon, m: Material, out: Outgoing, pixel: u32, run: vec2<u32>, disc: Disc) -> vec3<f32> {
     var sum = vec3<f32>(0.0);
     let both_sides = translucency(m) > 0.0;
-    let narrow = params.caustic_scale < 1.0;
-    let caustic_r = imp.radius * params.caustic_scale;
     var i = next_in_kernel(run.x, run.y, params, imp.position, imp.normal, imp.radius, pixel, both_sides);
     while i < run.y {
         let p = photons[i];
@@ -49,12 +47,12 @@ fn gather_run(imp: Importon, m: Material, out: Outgoing, pixel: u32, run: vec2<u
 #ifdef ADAPTIVE_KERNEL
         held += kernel_count(p.position - imp.position, imp.radius);
 #endif
-        let caustic = narrow && photon_caustic(p);
-        if caustic && distance(p.position, imp.position) > caustic_r {
+        let in_disc = photon_disc(params, p, imp.position, imp.radius);
+        if in_disc == NO_DISC {
             continue;
         }
         let light = bsdf_toward(m, out, imp.normal, imp.outgoing, unpack_normal(p.incoming)) * p.flux;
-        if caustic {
+        if in_disc == CAUSTIC_DISC {
             caustics += light;
         } else {
             sum += light;

@@ -176,6 +176,20 @@ fn photon_caustic(p: Photon) -> bool {
     return (p.incoming & 1u) != 0u;
 }
 
+// Which of a kernel's discs photon `p`, inside the kernel of radius r about `centre`, counts
+// in (`photon_disc`): the whole disc; the caustic photons' own, `caustic_scale` of r, where
+// that is under 1; none, a caustic photon past its own.
+const WHOLE_DISC: u32 = 0u;
+const CAUSTIC_DISC: u32 = 1u;
+const NO_DISC: u32 = 2u;
+
+fn photon_disc(params: IterationParams, p: Photon, centre: vec3<f32>, r: f32) -> u32 {
+    if params.caustic_scale >= 1.0 || !photon_caustic(p) {
+        return WHOLE_DISC;
+    }
+    return select(NO_DISC, CAUSTIC_DISC, distance(p.position, centre) <= r * params.caustic_scale);
+}
+
 // Whether photon `photon` is inside the gather kernel of `pixel` (centre, plane normal,
 // radius r): within r of the centre, near its plane and facing the same way (either way on
 // a surface that lets diffuse light through, `both_sides`), and kept by the splat's

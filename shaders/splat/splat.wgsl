@@ -12,7 +12,7 @@
 #import bevy_rppm::scene::{gbuffer_material, resolved_material, resolved_kernel_normal, kernel_normal}
 #import bevy_rppm::bsdf::{bsdf_from, bsdf_gathered, bent_cosine, glass_share, translucency, stores_photons}
 #import bevy_rppm::cubemap::cubemap
-#import bevy_rppm::photon_map::{photons, photon_caustic, face_gather, gather_row_run, next_in_kernel, disc_point, kernel_scale, kernel_stats_after, kernel_count, disc_count, disc_shares}
+#import bevy_rppm::photon_map::{photons, photon_disc, CAUSTIC_DISC, NO_DISC, face_gather, gather_row_run, next_in_kernel, disc_point, kernel_scale, kernel_stats_after, kernel_count, disc_count, disc_shares}
 
 @group(1) @binding(0) var<uniform> params: IterationParams;
 
@@ -58,8 +58,6 @@ fn gather_run(k: Kernel, m: Material, out: Outgoing, shading: vec3<f32>, wo: vec
     var sum = vec3<f32>(0.0);
     let bent = any(k.plane != shading);
     let both_sides = translucency(m) > 0.0;
-    let narrow = params.caustic_scale < 1.0;
-    let caustic_r = k.radius * params.caustic_scale;
     var i = next_in_kernel(run.x, run.y, params, k.position, k.plane, k.radius, k.index, both_sides);
     while i < run.y {
         let p = photons[i];
@@ -81,8 +79,8 @@ fn gather_run(k: Kernel, m: Material, out: Outgoing, shading: vec3<f32>, wo: vec
         held += kernel_count(p.position - k.position, k.radius);
 #endif
 #endif
-        let caustic = narrow && photon_caustic(p);
-        if caustic && distance(p.position, k.position) > caustic_r {
+        let in_disc = photon_disc(params, p, k.position, k.radius);
+        if in_disc == NO_DISC {
             continue;
         }
 #ifdef SUBSAMPLED
@@ -94,7 +92,7 @@ fn gather_run(k: Kernel, m: Material, out: Outgoing, shading: vec3<f32>, wo: vec
         let bend = select(1.0, bent_cosine(shading, k.plane, incoming), bent);
         let light = bsdf_gathered(m, out, shading, wo, incoming) * (bend * p.flux);
 #endif
-        if caustic {
+        if in_disc == CAUSTIC_DISC {
             caustics += light;
         } else {
             sum += light;

@@ -228,10 +228,11 @@ fn prepare_view(
     // For the most photons the setting allows: `Auto` starts at fewer, and a radius that
     // followed it blurred the first iterations (`cornell_glass` at 72 iterations 0.00104 →
     // 0.00162).
-    let initial = || {
-        let photons = settings.photons_per_iteration.max();
-        (settings.initial_radius.pixels(key.size, photons) as f64).powi(2)
-    };
+    let most_photons = settings.photons_per_iteration.max();
+    let initial = || (settings.initial_radius.pixels(key.size, most_photons) as f64).powi(2);
+    let caustic_scale = settings
+        .initial_radius
+        .caustic_scale(key.size, most_photons);
     // A new start, or a change under `Reuse` (its held count is back at 0).
     let restarted = state.clock.begin_frame(changes, window);
     if restarted || changes.moved || changes.scene {
@@ -375,9 +376,7 @@ fn prepare_view(
         params.photon_capacity = key.photon_capacity;
         params.source_count = scene.data.light_cdf.len() as u32;
         params.splat_radius = state.radius2.sqrt() as f32;
-        params.caustic_scale = settings
-            .initial_radius
-            .caustic_scale(key.size, settings.photons_per_iteration.max());
+        params.caustic_scale = caustic_scale;
         params.max_eye_depth = settings.max_eye_depth;
         params.splat_russian_roulette = settings.splat_russian_roulette as u32;
         params.direct_photons = (settings.debug_view == RppmDebugView::DirectPhotons) as u32;

@@ -272,6 +272,12 @@ mod tests {
         use crate::photons::ellipse::{DISC_SHARE, MARGIN};
         assert_eq!(float("photons/map.wgsl", "MARGIN"), MARGIN);
         assert_eq!(float("photons/map.wgsl", "DISC_SHARE"), DISC_SHARE);
+        // An importon's disc and its tested mirror (src/indirect_splat/disc.rs).
+        use crate::indirect_splat::disc::{DISC_POINTS, GRAZING_COS, SHARE_POINTS};
+        let splat = "indirect_splat/indirect_splat.wgsl";
+        assert_eq!(value(splat, "DISC_POINTS"), DISC_POINTS as usize);
+        assert_eq!(value(splat, "SHARE_POINTS"), SHARE_POINTS as usize);
+        assert_eq!(float(splat, "GRAZING_COS"), GRAZING_COS);
         // Which surfaces are mirrors and which store photons (camera paths go on through the rest).
         use crate::bsdf::{DELTA_ROUGHNESS, GLOSSY_STORE_ROUGHNESS};
         assert_eq!(

@@ -61,18 +61,18 @@ fn gather_run(imp: Importon, m: Material, out: Outgoing, pixel: u32, run: vec2<u
     return sum;
 }
 
-// Points of an importon's disc checked for a surface (`disc_point`; the direct splat's
-// G-buffer test, shaders/splat/splat.wgsl, has no G-buffer here).
+// Directions along an importon's disc traced for a surface that ends it (`disc_of`; the
+// direct splat's G-buffer test, shaders/splat/splat.wgsl, has no G-buffer here).
 const DISC_POINTS: u32 = 8u;
+// Points its shares are counted on, each against the surface met along the traced direction
+// nearest its own: 8 points, one a direction, read a wall across the disc 1/8 at a time,
+// in steps a whole row of pixels along the wall shares (a bright line at a pool's floor).
+const SHARE_POINTS: u32 = 32u;
 // Glass surfaces met within a disc that are kept as its cuts.
 const CUTS: u32 = 2u;
 
-#ifdef GLASS
-// The points a disc's share past its cuts is counted on.
-const CUT_POINTS: u32 = 32u;
-
 // Of the traced points' directions (`disc_point`'s golden angle), the nearest to point j of
-// CUT_POINTS.
+// SHARE_POINTS.
 fn nearest_direction(j: u32) -> u32 {
     let turn = 2.3999632 / (2.0 * PI);
     var best = 0u;
@@ -87,10 +87,16 @@ fn nearest_direction(j: u32) -> u32 {
     return best;
 }
 
+// The plane of triangle `t`'s face.
+fn face_normal(t: u32) -> vec3<f32> {
+    let tri = triangle_at(t);
+    return normalize(cross(tri.position_b - tri.position_a, tri.position_c - tri.position_a));
+}
+
+#ifdef GLASS
 // The plane of glass triangle `t`, met at `hit`, turned to face `centre`.
 fn cut_plane(t: u32, hit: vec3<f32>, centre: vec3<f32>) -> vec4<f32> {
-    let tri = triangle_at(t);
-    var n = normalize(cross(tri.position_b - tri.position_a, tri.position_c - tri.position_a));
+    var n = face_normal(t);
     n = select(n, -n, dot(n, centre - hit) < 0.0);
     return vec4<f32>(n, -dot(n, hit));
 }
@@ -120,71 +126,67 @@ fn past_glass(disc: Disc, q: vec3<f32>) -> bool {
     return past;
 }
 
-// An importon's disc: a point of it does not count where a ray along the plane, just above
-// it, from the centre meets an opaque surface before it (a corner, an object standing on the
-// surface: no photon lands beyond), nor where it lies past glass or water met so (the
-// photons there are left out too). At least a quarter.
+// Where the opaque surface met along a traced direction `dir` at distance t ends the disc
+// (normal n): the line it cuts the disc's plane (normal `plane`) in, as (m, w) with the
+// offsets q past it where m · q > w. A surface nearly in the plane (a ramp), or met at a
+// grazing angle (whose line would pass by the centre, though it may end just before the
+// hit), ends it across the direction.
+const GRAZING_COS: f32 = 0.3;
+
+fn end_line(dir: vec3<f32>, t: f32, n: vec3<f32>, plane: vec3<f32>) -> vec4<f32> {
+    var m = n - dot(n, plane) * plane;
+    m = select(dir, normalize(m), dot(m, m) > 0.09);
+    m = select(m, -m, dot(m, dir) < 0.0);
+    m = select(dir, m, dot(m, dir) > GRAZING_COS);
+    return vec4<f32>(m, t * dot(m, dir));
+}
+
+// An importon's disc: a point of it does not count where the ray along the plane, just above
+// it, from the centre toward it, or the traced direction nearest it, meets an opaque
+// surface before it (a corner, an object standing on the surface: no photon lands beyond),
+// nor where it lies past glass or water met so (the photons there are left out too). At
+// least a quarter.
 fn disc_of(imp: Importon) -> Disc {
     let frame = basis_around(imp.normal);
     let r = imp.radius;
     let origin = imp.position + imp.normal * (0.5 * params.kernel_flattening * r);
     var disc = Disc(vec2<f32>(1.0), 1.0, 0u, array<vec4<f32>, CUTS>(vec4<f32>(0.0), vec4<f32>(0.0)));
-    // How far along each point's direction the plane is open (an opaque surface's distance).
-    var open: array<f32, DISC_POINTS>;
+    // Per traced direction, the line past which the disc is off surface (none: past 2r).
+    var ends: array<vec4<f32>, DISC_POINTS>;
     for (var i = 0u; i < DISC_POINTS; i += 1u) {
         let q = disc_point(frame, r, i, DISC_POINTS);
-        let rho = length(q);
-        open[i] = r;
-#ifdef GLASS
-        // To the rim, not to the point: glass met past the point still cuts the disc.
-        let reach = r;
-#else
-        let reach = rho;
-#endif
-        let hit = trace_ray(origin, q / rho, 0.0, reach, imp.triangle);
+        let dir = q / length(q);
+        ends[i] = vec4<f32>(dir, 2.0 * r);
+        // To the rim, not to the point: a surface met past it still ends the points beside.
+        let hit = trace_ray(origin, dir, 0.0, r, imp.triangle);
         if hit.triangle == NO_HIT {
             continue;
         }
 #ifdef GLASS
         if glass_share(material_at(hit.triangle, hit.uv, 0.0)) > 0.0 {
             if disc.cut_count < CUTS {
-                let at = origin + hit.t * q / rho;
+                let at = origin + hit.t * dir;
                 disc.cuts[disc.cut_count] = cut_plane(hit.triangle, at, imp.position);
                 disc.cut_count += 1u;
             }
             continue;
         }
 #endif
-        open[i] = hit.t;
+        ends[i] = end_line(dir, hit.t, face_normal(hit.triangle), imp.normal);
     }
-    var on = vec2<f32>(0.0);
     // The caustic disc's points lie along the same directions, nearer (`caustic_scale`).
     let scale = params.caustic_scale;
+    var on = vec2<f32>(0.0);
     var caustic_on = 0.0;
-    for (var i = 0u; i < DISC_POINTS; i += 1u) {
-        let rho = length(disc_point(frame, r, i, DISC_POINTS));
-        on += disc_count(rho <= open[i], i, DISC_POINTS);
-        caustic_on += select(0.0, 1.0, rho * scale <= open[i]);
+    for (var j = 0u; j < SHARE_POINTS; j += 1u) {
+        let q = disc_point(frame, r, j, SHARE_POINTS);
+        let end = ends[nearest_direction(j)];
+        on += disc_count(dot(end.xyz, q) <= end.w && !past_glass(disc, imp.position + q), j, SHARE_POINTS);
+        let near = q * scale;
+        caustic_on += select(0.0, 1.0, dot(end.xyz, near) <= end.w && !past_glass(disc, imp.position + near));
     }
-    disc.shares = disc_shares(on, DISC_POINTS);
-    disc.caustic_share = disc_share(caustic_on, DISC_POINTS);
-#ifdef GLASS
-    if disc.cut_count > 0u {
-        // A cut is a plane: its share is counted on finer points, each open as far as the
-        // traced direction nearest its own.
-        on = vec2<f32>(0.0);
-        caustic_on = 0.0;
-        for (var j = 0u; j < CUT_POINTS; j += 1u) {
-            let q = disc_point(frame, r, j, CUT_POINTS);
-            let k = nearest_direction(j);
-            on += disc_count(length(q) <= open[k] && !past_glass(disc, imp.position + q), j, CUT_POINTS);
-            let near = q * scale;
-            caustic_on += select(0.0, 1.0, length(near) <= open[k] && !past_glass(disc, imp.position + near));
-        }
-        disc.shares = disc_shares(on, CUT_POINTS);
-        disc.caustic_share = disc_share(caustic_on, CUT_POINTS);
-    }
-#endif
+    disc.shares = disc_shares(on, SHARE_POINTS);
+    disc.caustic_share = disc_share(caustic_on, SHARE_POINTS);
     return disc;
 }
 

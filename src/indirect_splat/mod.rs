@@ -4,6 +4,9 @@
 //! eye-path stage sets its workgroup count only when it makes an importon, so an iteration
 //! whose glass is off screen runs no workgroup.
 
+#[cfg(test)]
+pub(crate) mod disc;
+
 use bevy::prelude::*;
 use bevy::render::render_resource::binding_types::{
     storage_buffer_read_only_sized, storage_buffer_sized,

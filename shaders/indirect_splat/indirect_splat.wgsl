@@ -72,19 +72,11 @@ const SHARE_POINTS: u32 = 32u;
 const CUTS: u32 = 2u;
 
 // Of the traced points' directions (`disc_point`'s golden angle), the nearest to point j of
-// SHARE_POINTS.
+// SHARE_POINTS: four bits a point, eight points a word (src/indirect_splat/disc.rs finds
+// them by angle and checks these).
 fn nearest_direction(j: u32) -> u32 {
-    let turn = 2.3999632 / (2.0 * PI);
-    var best = 0u;
-    var gap = 1.0;
-    for (var i = 0u; i < DISC_POINTS; i += 1u) {
-        let d = fract(f32(j) * turn - f32(i) * turn + 0.5) - 0.5;
-        if abs(d) < gap {
-            gap = abs(d);
-            best = i;
-        }
-    }
-    return best;
+    let words = vec4<u32>(0x76543210u, 0x21043210u, 0x21076543u, 0x54376543u);
+    return (words[j / 8u] >> (4u * (j % 8u))) & 15u;
 }
 
 // The plane of triangle `t`'s face.
@@ -153,6 +145,7 @@ fn disc_of(imp: Importon) -> Disc {
     var disc = Disc(vec2<f32>(1.0), 1.0, 0u, array<vec4<f32>, CUTS>(vec4<f32>(0.0), vec4<f32>(0.0)));
     // Per traced direction, the line past which the disc is off surface (none: past 2r).
     var ends: array<vec4<f32>, DISC_POINTS>;
+    var ended = false;
     for (var i = 0u; i < DISC_POINTS; i += 1u) {
         let q = disc_point(frame, r, i, DISC_POINTS);
         let dir = q / length(q);
@@ -173,6 +166,10 @@ fn disc_of(imp: Importon) -> Disc {
         }
 #endif
         ends[i] = end_line(dir, hit.t, face_normal(hit.triangle), imp.normal);
+        ended = true;
+    }
+    if !ended && disc.cut_count == 0u {
+        return disc; // an open disc: most importons
     }
     // The caustic disc's points lie along the same directions, nearer (`caustic_scale`).
     let scale = params.caustic_scale;

@@ -22,7 +22,7 @@ pub(crate) fn disc_point(i: u32, count: u32) -> Vec2 {
     rho * Vec2::from_angle(i as f32 * GOLDEN_ANGLE)
 }
 
-/// The traced direction nearest point j's (`nearest_direction`).
+/// The traced direction nearest point j's (`nearest_direction`, which holds them packed).
 pub(crate) fn nearest_direction(j: u32) -> u32 {
     let turn = GOLDEN_ANGLE / std::f32::consts::TAU;
     (0..DISC_POINTS)
@@ -108,6 +108,25 @@ mod tests {
             worst < 0.15 && rms < 0.035,
             "worst {worst:.3}, rms {rms:.3}"
         );
+    }
+
+    /// The shader's table of each point's nearest direction is this mirror's.
+    #[test]
+    fn the_shaders_nearest_directions_are_the_nearest() {
+        let mut words = [0u32; 4];
+        for j in 0..SHARE_POINTS {
+            words[j as usize / 8] |= nearest_direction(j) << (4 * (j % 8));
+        }
+        let table = format!(
+            "vec4<u32>({:#x}u, {:#x}u, {:#x}u, {:#x}u)",
+            words[0], words[1], words[2], words[3]
+        );
+        let shader = std::fs::read_to_string(
+            std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+                .join("shaders/indirect_splat/indirect_splat.wgsl"),
+        )
+        .unwrap();
+        assert!(shader.contains(&table), "{table}");
     }
 
     /// Nothing met: the whole disc.

@@ -6,7 +6,7 @@
 // near importons, each importon's sum stays in registers (no atomics), and a large radius
 // elsewhere costs no one else.
 #import bevy_rppm::common::{Material, Outgoing, Photon, Importon, IterationParams, PI, NO_IMPORTON, basis_around, faces_reached, splat_weight, unpack_normal}
-#import bevy_rppm::scene::{triangle_at, barycentrics, material_at}
+#import bevy_rppm::scene::{triangle_at, face_normal, barycentrics, material_at}
 #import bevy_rppm::bsdf::{bsdf_from, bsdf_toward, glass_share, translucency}
 #import bevy_rppm::cubemap::{cubemap, trace_ray, NO_HIT}
 #import bevy_rppm::photon_map::{photons, photon_disc, CAUSTIC_DISC, NO_DISC, face_gather, gather_row_run, next_in_kernel, disc_point, kernel_scale, kernel_stats_after, kernel_count, disc_count, disc_share, disc_shares}
@@ -79,16 +79,10 @@ fn nearest_direction(j: u32) -> u32 {
     return (words[j / 8u] >> (4u * (j % 8u))) & 15u;
 }
 
-// The plane of triangle `t`'s face.
-fn face_normal(t: u32) -> vec3<f32> {
-    let tri = triangle_at(t);
-    return normalize(cross(tri.position_b - tri.position_a, tri.position_c - tri.position_a));
-}
-
 #ifdef GLASS
 // The plane of glass triangle `t`, met at `hit`, turned to face `centre`.
 fn cut_plane(t: u32, hit: vec3<f32>, centre: vec3<f32>) -> vec4<f32> {
-    var n = face_normal(t);
+    var n = face_normal(triangle_at(t));
     n = select(n, -n, dot(n, centre - hit) < 0.0);
     return vec4<f32>(n, -dot(n, hit));
 }
@@ -165,7 +159,7 @@ fn disc_of(imp: Importon) -> Disc {
             continue;
         }
 #endif
-        ends[i] = end_line(dir, hit.t, face_normal(hit.triangle), imp.normal);
+        ends[i] = end_line(dir, hit.t, face_normal(triangle_at(hit.triangle)), imp.normal);
         ended = true;
     }
     if !ended && disc.cut_count == 0u {
@@ -179,10 +173,13 @@ fn disc_of(imp: Importon) -> Disc {
         let q = disc_point(frame, r, j, SHARE_POINTS);
         let end = ends[nearest_direction(j)];
         on += disc_count(dot(end.xyz, q) <= end.w && !past_glass(disc, imp.position + q), j, SHARE_POINTS);
-        let near = q * scale;
-        caustic_on += select(0.0, 1.0, dot(end.xyz, near) <= end.w && !past_glass(disc, imp.position + near));
+        if scale < 1.0 {
+            let near = q * scale;
+            caustic_on += select(0.0, 1.0, dot(end.xyz, near) <= end.w && !past_glass(disc, imp.position + near));
+        }
     }
     disc.shares = disc_shares(on, SHARE_POINTS);
+    // Read only where the caustic disc is narrower (`gathered`).
     disc.caustic_share = disc_share(caustic_on, SHARE_POINTS);
     return disc;
 }

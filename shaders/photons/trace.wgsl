@@ -4,7 +4,7 @@
 // (bsdf.wgsl's scatter_photon: diffuse, GGX glossy, mirror, Fresnel glass) or absorbed.
 #import bevy_rppm::common::{Light, Emitter, Photon, IterationParams, PI, cubemap_tile, pack_normal, LIGHT_POINT, LIGHT_SPOT, LIGHT_DIRECTIONAL, basis_around, cosine_direction}
 #import bevy_rppm::sampling::{random, pcg_hash, sphere_cap, cone_local}
-#import bevy_rppm::scene::{triangle_at, material_at, as_seen_from, normal_at, interpolated_normal, triangle_point, uniform_barycentrics, part_barycentrics, lights, emitters, light_cdf, find_source}
+#import bevy_rppm::scene::{triangle_at, face_normal, material_at, as_seen_from, normal_at, interpolated_normal, triangle_point, uniform_barycentrics, part_barycentrics, lights, emitters, light_cdf, find_source}
 #import bevy_rppm::cubemap::{cubemap, trace_ray, NO_HIT}
 #import bevy_rppm::bsdf::{stores_photons, scatter_photon, bent_cosine}
 #ifdef ABSORPTION
@@ -161,7 +161,7 @@ fn emit(rng: ptr<function, u32>) -> Ray {
         let u = random(rng);
         let b = part_barycentrics(e.part, uniform_barycentrics(u, random(rng)));
         ray.origin = triangle_point(t, b);
-        let n = normalize(cross(t.position_b - t.position_a, t.position_c - t.position_a));
+        let n = face_normal(t);
         let leaving = emitted_direction(ray.origin, n, e, rng);
         ray.direction = leaving.xyz;
         let emitted = material_at(e.triangle, b, 0.0).emissive.rgb;
@@ -310,7 +310,7 @@ fn trace(@builtin(global_invocation_id) id: vec3<u32>, @builtin(local_invocation
         if reached {
             let t = triangle_at(hit.triangle);
             let x = ray.origin + ray.direction * hit.t;
-            let geometric = normalize(cross(t.position_b - t.position_a, t.position_c - t.position_a));
+            let geometric = face_normal(t);
             let front = dot(geometric, ray.direction) < 0.0;
             let m = as_seen_from(material_at(hit.triangle, hit.uv, 0.0), front);
             // Shading normal (normal map applied) and the kernel's (stored), on the side the

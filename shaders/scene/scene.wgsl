@@ -79,7 +79,6 @@ fn triangle_point(t: Triangle, b: vec2<f32>) -> vec3<f32> {
     return t.position_a * (1.0 - b.x - b.y) + t.position_b * b.x + t.position_c * b.y;
 }
 
-// The vertex normals of triangle t interpolated at barycentrics b.
 // Triangle `i` unpacked (src/scene/packed.rs): normals from octahedral snorm16 pairs.
 fn triangle_at(i: u32) -> Triangle {
     let p = triangles[i];
@@ -93,6 +92,12 @@ fn triangle_at(i: u32) -> Triangle {
     );
 }
 
+// The unit normal of a triangle's face, by its winding (not the interpolated vertex normals).
+fn face_normal(t: Triangle) -> vec3<f32> {
+    return normalize(cross(t.position_b - t.position_a, t.position_c - t.position_a));
+}
+
+// The vertex normals of triangle t interpolated at barycentrics b.
 fn interpolated_normal(t: Triangle, b: vec2<f32>) -> vec3<f32> {
     return normalize(t.normal_a * (1.0 - b.x - b.y) + t.normal_b * b.x + t.normal_c * b.y);
 }

@@ -14,7 +14,7 @@
 #import bevy_rppm::light_samples::sphere_met
 #import bevy_rppm::camera::camera_ray_at
 #endif
-#import bevy_rppm::scene::{shadow_views, lights, triangles, triangle_at, material_at, emitters, light_cdf, find_source, triangle_point, uniform_barycentrics, part_barycentrics}
+#import bevy_rppm::scene::{shadow_views, lights, triangles, triangle_at, face_normal, material_at, emitters, light_cdf, find_source, triangle_point, uniform_barycentrics, part_barycentrics}
 #ifdef TRACED_SHADOWS
 #import bevy_rppm::cubemap::occluded
 #ifdef PANES
@@ -178,7 +178,7 @@ fn emitter_sample(x: vec3<f32>, n: vec3<f32>, origin_triangle: u32, by_solid_ang
     let p = max(light_cdf[index] - previous, 1e-12) / share;
     let e = emitters[index - params.light_count];
     let t = triangle_at(e.triangle);
-    let normal = normalize(cross(t.position_b - t.position_a, t.position_c - t.position_a));
+    let normal = face_normal(t);
     let u = vec2<f32>(random(rng), random(rng));
     if dot(normal, x - t.position_a) <= 0.0 || e.triangle == origin_triangle {
         return no_light();
@@ -226,7 +226,7 @@ fn emitter_ray(x: vec3<f32>, n: vec3<f32>, origin_triangle: u32, rng: ptr<functi
         return no_light();
     }
     let t = triangle_at(hit.triangle);
-    let cos_y = -dot(normalize(cross(t.position_b - t.position_a, t.position_c - t.position_a)), wi);
+    let cos_y = -dot(face_normal(t), wi);
     let m = material_at(hit.triangle, hit.uv, 0.0);
     // An unlit surface shows its colour as emission but lights nothing (no emitter).
     if cos_y <= 0.0 || all(m.emissive.rgb <= vec3<f32>(0.0)) || (m.flags & MATERIAL_UNLIT) != 0u {

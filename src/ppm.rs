@@ -13,6 +13,18 @@ pub fn radius2_after(initial: f64, iterations: u32, alpha: f32) -> f64 {
     (0..iterations).fold(initial, |r2, i| next_radius2(r2, i, alpha))
 }
 
+/// An iteration's weight in a pixel's running mean: its `photons` over the count the radius
+/// is for (`radius_photons`), at most 1; 1 without photons. An iteration of n photons over a
+/// radius sized for m estimates with m/n times the variance, and the mean of least variance
+/// weighs each by the inverse.
+pub fn photon_weight(photons: u32, radius_photons: u32) -> f32 {
+    if photons == 0 || radius_photons == 0 {
+        1.0
+    } else {
+        (photons as f64 / radius_photons as f64).min(1.0) as f32
+    }
+}
+
 /// A deterministic hash of the iteration, the source of this iteration's random numbers.
 pub(crate) fn pcg(v: u32) -> u32 {
     let state = v.wrapping_mul(747_796_405).wrapping_add(2_891_336_453);
@@ -94,6 +106,33 @@ mod tests {
     fn radius_keeps_its_size_at_alpha_one() {
         assert_eq!(radius2_after(16.0, 1000, 1.0), 16.0);
         assert_eq!(radius2_after(16.0, 0, 0.7), 16.0);
+    }
+
+    #[test]
+    fn photons_weigh_a_mean_of_least_variance() {
+        // `Auto` probing at 16 384, 32 768, 65 536 and 131 072 photons, four iterations each,
+        // under a radius for 262 144, then 54 at 262 144: an iteration of n photons has
+        // variance 262 144 / n.
+        let counts: Vec<u32> = [16_384, 32_768, 65_536, 131_072]
+            .iter()
+            .flat_map(|&n| [n; 4])
+            .chain([262_144; 54])
+            .collect();
+        let variance = |weights: &dyn Fn(u32) -> f64| {
+            let sum: f64 = counts.iter().map(|&n| weights(n)).sum();
+            let spread: f64 = counts
+                .iter()
+                .map(|&n| weights(n).powi(2) * 262_144.0 / n as f64)
+                .sum();
+            spread / (sum * sum)
+        };
+        let equal = variance(&|_| 1.0);
+        let weighed = variance(&|n| photon_weight(n, 262_144) as f64);
+        // The probe's 16 iterations held two thirds of the equal mean's variance.
+        assert!(weighed < 0.5 * equal, "{weighed} vs {equal}");
+        assert!((weighed - 1.0 / 57.75).abs() < 1e-9, "{weighed}");
+        assert_eq!(photon_weight(0, 262_144), 1.0);
+        assert_eq!(photon_weight(131_072, 65_536), 1.0);
     }
 
     #[test]

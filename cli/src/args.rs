@@ -233,7 +233,7 @@ pub struct RenderArgs {
     /// Start from a measured preset; the flags below override it.
     #[arg(long, value_enum)]
     pub preset: Option<Preset>,
-    /// Photons per iteration, fixed (default: as many as keep the photon stages at twice the
+    /// Photons per iteration, fixed (default: as many as keep the photon stages at about the
     /// GPU time of the rest of an iteration, up to 262 144).
     #[arg(long)]
     pub photons: Option<u32>,

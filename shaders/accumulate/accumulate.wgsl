@@ -420,7 +420,9 @@ fn main(
     // An emitter's rim keeps all its samples: a window of them would leave the rim's
     // coverage as noisy as the window is short, and the clamp bounds what a change leaves.
     kept_direct.w = select(min(kept_direct.w, f32(params.history_cap)), kept_direct.w, near_emitter);
-    indirect += (indirect_sample - indirect) / (kept.w + 1.0);
+    // Weighed by its photons: a probing iteration's fewer photons are that much noisier.
+    let weight = params.photon_weight;
+    indirect += (indirect_sample - indirect) * weight / (kept.w + weight);
     direct += (direct_sample - direct) / (kept_direct.w + 1.0);
 #ifdef DEMODULATED
     // The mean albedo of the direct light's samples (`kept_a`). Each frame's reprojection
@@ -433,7 +435,7 @@ fn main(
     if reprojecting && checking && !view_dependent && !emitting(marks) && position.w != 0.0 {
         let area = footprint_albedo(id.xy, position, normal.w, a);
         direct *= texture_ratio(area, kept_a);
-        indirect *= texture_ratio(area, kept_albedo + (a - kept_albedo) / (kept.w + 1.0));
+        indirect *= texture_ratio(area, kept_albedo + (a - kept_albedo) * weight / (kept.w + weight));
         kept_a = area;
     }
     history[albedo_block() * pixels + index] = vec4<f32>(kept_a, 0.0);
@@ -447,10 +449,10 @@ fn main(
 #ifdef IMPORTONS
     history[3u * pixels + index] = shown_here;
 #endif
-    radiance[index] = vec4<f32>(direct + indirect, kept.w + 1.0);
+    radiance[index] = vec4<f32>(direct + indirect, kept.w + weight);
 #else
-    let previous = select(kept.rgb, vec3<f32>(0.0), params.iteration == 0u);
-    let n = f32(params.iteration);
-    radiance[index] = vec4<f32>(previous + (sample - previous) / (n + 1.0), n + 1.0);
+    // w: the weights' sum (`photon_weight`).
+    let weight = params.photon_weight;
+    radiance[index] = vec4<f32>(kept.rgb + (sample - kept.rgb) * weight / (kept.w + weight), kept.w + weight);
 #endif
 }

@@ -50,10 +50,8 @@ fn pack_normal(n: vec3<f32>) -> u32 {
 struct Triangle {
     position_a: vec3<f32>,
     material: u32,
-    position_b: vec3<f32>,
-    pad_b: u32,
-    position_c: vec3<f32>,
-    pad_c: u32,
+    position_b: vec3<f32>, pad_b: u32,
+    position_c: vec3<f32>, pad_c: u32,
     normal_a: vec3<f32>,
     pad_na: u32,
     normal_b: vec3<f32>,
@@ -234,6 +232,8 @@ struct IterationParams {
     radius_restart: u32,
     // The share of the radius caustic photons are gathered over (photon_map::photon_caustic).
     caustic_scale: f32,
+    // This iteration's weight in the running mean: its photons over the radius's, in (0, 1].
+    photon_weight: f32,
     // Where last frame's camera was (w 1), or, orthographic, the way toward it (w 0).
     previous_eye: vec4<f32>,
 }

@@ -15,7 +15,7 @@ use crate::cubemap::{self, BuildContext, CubemapConfig};
 use crate::importons::{extra_importons, importons_fit};
 use crate::output::output_key;
 use crate::photons::{device_photon_count, store_capacity};
-use crate::ppm::{next_radius2, radius2_after};
+use crate::ppm::{next_radius2, photon_weight, radius2_after};
 use crate::scene::{Lookups, ScatterPaths, SceneBuffers, SceneData};
 use crate::settings::{PhotonMapping, RppmDebugView, RppmMode};
 use crate::shadows::cube_views;
@@ -225,14 +225,21 @@ fn prepare_view(
     };
     state.view_epoch = frame.rppm.view_epoch;
     state.view_moves = frame.rppm.view_moves;
-    // For the most photons the setting allows: `Auto` starts at fewer, and a radius that
-    // followed it blurred the first iterations (`cornell_glass` at 72 iterations 0.00104 →
-    // 0.00162).
-    let most_photons = settings.photons_per_iteration.max();
-    let initial = || (settings.initial_radius.pixels(key.size, most_photons) as f64).powi(2);
+    // For the count timing chose, or the most there may be until it chose
+    // (`PhotonController::radius_count`); a new count scales the sequence's radius with it.
+    let setting = device_photon_count(settings.photons_per_iteration, device);
+    let radius_photons = state.photon_count.radius_count(setting);
+    let initial_for = |photons| (settings.initial_radius.pixels(key.size, photons) as f64).powi(2);
+    if state.radius_photons != radius_photons {
+        if state.radius_photons > 0 {
+            state.radius2 *= initial_for(radius_photons) / initial_for(state.radius_photons);
+        }
+        state.radius_photons = radius_photons;
+    }
+    let initial = || initial_for(radius_photons);
     let caustic_scale = settings
         .initial_radius
-        .caustic_scale(key.size, most_photons);
+        .caustic_scale(key.size, radius_photons);
     // A new start, or a change under `Reuse` (its held count is back at 0).
     let restarted = state.clock.begin_frame(changes, window);
     if restarted || changes.moved || changes.scene {
@@ -377,6 +384,7 @@ fn prepare_view(
         params.source_count = scene.data.light_cdf.len() as u32;
         params.splat_radius = state.radius2.sqrt() as f32;
         params.caustic_scale = caustic_scale;
+        params.photon_weight = photon_weight(state.photons, state.radius_photons);
         params.max_eye_depth = settings.max_eye_depth;
         params.splat_russian_roulette = settings.splat_russian_roulette as u32;
         params.direct_photons = (settings.debug_view == RppmDebugView::DirectPhotons) as u32;

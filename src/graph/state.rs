@@ -101,6 +101,8 @@ pub struct RppmViewState {
     pub frame: (u32, u32),
     /// Squared gather radius in pixels for the next iteration (Knaus–Zwicker sequence).
     pub radius2: f64,
+    /// The photons per iteration `radius2`'s sequence is sized for (0 before the first frame).
+    pub radius_photons: u32,
     /// The next iteration is the first of a radius sequence after a restart or a camera move
     /// (its pixels' kernel statistics start again).
     pub radius_restart: bool,
@@ -267,6 +269,7 @@ impl RppmViewState {
             clamps: false,
             frame: (0, 0),
             radius2: 0.0,
+            radius_photons: 0,
             radius_restart: true,
             kernels_restart: false,
             fast_forward: None,

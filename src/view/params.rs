@@ -81,7 +81,11 @@ pub struct IterationParams {
     /// The share of the gather radius caustic photons are gathered over
     /// (`InitialRadius::caustic_scale`; 1: all photons over the whole radius).
     pub caustic_scale: f32,
-    pub pad: u32,
+    /// This iteration's weight in each pixel's running mean, in (0, 1]: its photons over the
+    /// count its gather radius is sized for. While `Auto` probes (16 384 photons and up, the
+    /// radius for its `max`) an iteration is that much noisier, and a mean that weighed it
+    /// as one of the settled count's let a few probing iterations hold most of the variance.
+    pub photon_weight: f32,
     /// Where last frame's camera was (w 1), or, orthographic, the direction toward it (w 0).
     pub previous_eye: [f32; 4],
 }

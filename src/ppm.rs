@@ -17,7 +17,7 @@ pub fn radius2_after(initial: f64, iterations: u32, alpha: f32) -> f64 {
 /// is for (`radius_photons`), at most 1; 1 without photons. An iteration of n photons over a
 /// radius sized for m estimates with m/n times the variance, and the mean of least variance
 /// weighs each by the inverse.
-pub fn photon_weight(photons: u32, radius_photons: u32) -> f32 {
+pub(crate) fn photon_weight(photons: u32, radius_photons: u32) -> f32 {
     if photons == 0 || radius_photons == 0 {
         1.0
     } else {

@@ -307,6 +307,9 @@ fn main(
     let sample = iteration_sample(id.xy);
 #endif
     var kept = select(radiance[index], vec4<f32>(0.0), params.iteration == 0u);
+    // The iteration's weight in the estimate, whose w is the weights' sum: a probing
+    // iteration's fewer photons are that much noisier (`photon_weight`).
+    let weight = params.photon_weight;
 #ifdef HISTORY
     let pixels = params.size.x * params.size.y;
     let position = textureLoad(gbuffer_position, vec2<i32>(id.xy), 0);
@@ -420,8 +423,6 @@ fn main(
     // An emitter's rim keeps all its samples: a window of them would leave the rim's
     // coverage as noisy as the window is short, and the clamp bounds what a change leaves.
     kept_direct.w = select(min(kept_direct.w, f32(params.history_cap)), kept_direct.w, near_emitter);
-    // Weighed by its photons: a probing iteration's fewer photons are that much noisier.
-    let weight = params.photon_weight;
     indirect += (indirect_sample - indirect) * weight / (kept.w + weight);
     direct += (direct_sample - direct) / (kept_direct.w + 1.0);
 #ifdef DEMODULATED
@@ -451,8 +452,6 @@ fn main(
 #endif
     radiance[index] = vec4<f32>(direct + indirect, kept.w + weight);
 #else
-    // w: the weights' sum (`photon_weight`).
-    let weight = params.photon_weight;
     radiance[index] = vec4<f32>(kept.rgb + (sample - kept.rgb) * weight / (kept.w + weight), kept.w + weight);
 #endif
 }

@@ -17,7 +17,7 @@ use crate::output::output_key;
 use crate::photons::{device_photon_count, store_capacity};
 use crate::ppm::{next_radius2, photon_weight, radius2_after};
 use crate::scene::{Lookups, ScatterPaths, SceneBuffers, SceneData};
-use crate::settings::{PhotonMapping, RppmDebugView, RppmMode};
+use crate::settings::{PhotonCount, PhotonMapping, RppmDebugView, RppmMode};
 use crate::shadows::cube_views;
 use crate::stats::timing::StageTimer;
 use crate::view::params::{camera_params, eye_of, halton_jitter, unjittered_clip_from_world};
@@ -99,8 +99,8 @@ pub(crate) fn prepare_views(
             .as_deref()
             .map(RppmViewState::kept)
             .unwrap_or_default();
-        let photons =
-            photon_count.count(device_photon_count(settings.photons_per_iteration, &device));
+        let photon_setting = device_photon_count(settings.photons_per_iteration, &device);
+        let photons = photon_count.count(photon_setting);
         let importons = makes_importons(settings, &scene.data) && importons_fit(&device, size);
         let textured = scene.lookups.contains(Lookups::TEXTURED);
         let key = ResourceKey {
@@ -181,6 +181,7 @@ pub(crate) fn prepare_views(
             view,
             camera,
             rppm,
+            photon_setting,
             output,
             ready,
             error: error.clone(),
@@ -200,6 +201,8 @@ struct Frame<'a> {
     view: &'a ExtractedView,
     camera: &'a ExtractedCamera,
     rppm: &'a ExtractedRppm,
+    /// The photon count setting as this device takes it.
+    photon_setting: PhotonCount,
     output: Option<crate::output::OutputKey>,
     /// Whether the pipelines every view shares are compiled.
     ready: bool,
@@ -227,8 +230,7 @@ fn prepare_view(
     state.view_moves = frame.rppm.view_moves;
     // For the count timing chose, or the most there may be until it chose
     // (`PhotonController::radius_count`); a new count scales the sequence's radius with it.
-    let setting = device_photon_count(settings.photons_per_iteration, device);
-    let radius_photons = state.photon_count.radius_count(setting);
+    let radius_photons = state.photon_count.radius_count(frame.photon_setting);
     let initial_for = |photons| (settings.initial_radius.pixels(key.size, photons) as f64).powi(2);
     if state.radius_photons != radius_photons {
         if state.radius_photons > 0 {

@@ -11,8 +11,9 @@ pub enum PhotonCount {
     /// As many as the device affords (default, `max` 262 144): the photon stages (tracing,
     /// splatting, indirect splatting) are kept at about the GPU time of the rest of the
     /// iteration, measured by timestamps, so a CPU rasteriser and a big GPU both run many
-    /// iterations a minute. The count starts at 16 384 (or `max`) and moves in powers of two
-    /// between 1024 and `max` (range 1024..=2^24); a change of count keeps the estimate, and
+    /// iterations a minute. The count starts at 16 384 (or `max`), probes up two octaves at a
+    /// time (two iterations each) until photons cost measurably more, then moves in powers of
+    /// two between 1024 and `max` (range 1024..=2^24); a change of count keeps the estimate, and
     /// the gather radius is for `max` until the timing chose a count, then for that count
     /// (the iterations before weigh by their photons).
     /// Without timestamp queries it stays at its start.

@@ -27,10 +27,9 @@ const OCTAVES: f64 = 0.75;
 const SMOOTHING: f64 = 0.2;
 /// Readings taken at a count before it may move again.
 const SETTLE: u32 = 4;
-/// Readings at each count `Auto` probes before timing chose one, and how many times the
-/// count grows from one probe to the next. A probing iteration's photons are fewer than its
-/// radius is sized for, so its weight in the estimate is small (`ppm::photon_weight`): on
-/// llvmpipe four readings at each octave from 16 384 took 7–11 s of `water_pool`'s first minute.
+/// Readings at each count `Auto` probes before timing chose one, and the count's growth per
+/// probe. Probing iterations weigh little in the estimate (`ppm::photon_weight`); four
+/// readings an octave from 16 384 took 7–11 s of `water_pool`'s first minute on llvmpipe.
 const PROBE_SETTLE: u32 = 2;
 const PROBE_STEP: u32 = 4;
 
@@ -53,7 +52,7 @@ pub struct PhotonController {
     /// Readings since the count last moved (`GpuMilliseconds`).
     readings: u32,
     /// Whether timing chose the count yet (`Auto`'s first fit, `GpuMilliseconds`' first
-    /// settled readings): until then `Auto` doubles to probe.
+    /// settled readings): until then `Auto` probes ([`PROBE_STEP`], [`PROBE_SETTLE`]).
     fitted: bool,
     /// Smoothed GPU ms per photon of the photon stages, and of the other stages per
     /// iteration (`GpuMilliseconds`).
@@ -187,8 +186,13 @@ impl PhotonController {
                 ..Timing::default()
             };
         }
+        let (settle, step) = if self.fitted {
+            (SETTLE, 2)
+        } else {
+            (PROBE_SETTLE, PROBE_STEP)
+        };
         here.add(iteration_ms);
-        if here.readings < if self.fitted { SETTLE } else { PROBE_SETTLE } {
+        if here.readings < settle {
             return self.count;
         }
         let timed = || self.timings.iter().filter(|t| t.readings >= PROBE_SETTLE);
@@ -199,7 +203,6 @@ impl PhotonController {
         // through two nearby counts' times (16 384 and 32 768 photons, both 310 ms on
         // llvmpipe) sent the count to 32 768 or 262 144 from run to run.
         let measured = slowest >= SPAN * fastest;
-        let step = if self.fitted { 2 } else { PROBE_STEP };
         let up = self.count.saturating_mul(step).min(max);
         let Some((fixed, per_photon)) = fit(timed()) else {
             return if up != self.count {
